@@ -1,0 +1,210 @@
+//! Membrane energy of scheme S (MODEL.md §4, AUDIT.md §3.3): stretch `G11`, `G22` on grid edges by compact
+//! differences (the quadratic patch at `t = ±½`), shear `G12` at cell centres from the bilinear tangents.
+//!
+//! Each cell owns its two `u1`-edges, two `u2`-edges and its centre; per cell
+//! `W = ½ w [C11 mean(E11²) + C22 mean(E22²) + (cross and shear terms of the averaged strains)]` with the
+//! 3×3 stiffness `C` of `(E11, E22, γ)`, so an interior edge gets full weight from its two cells and a free
+//! boundary edge half, exactly as scheme S, and Poisson coupling stays positive definite.
+
+use super::{local_blocks, local_pairs, Energy, Operator, Sink};
+use crate::grid::Grid;
+use crate::material::Stiffness;
+use crate::math::{diag, Mat3, Vec3};
+use crate::ops::CellOps;
+use crate::sparse::BlockPattern;
+
+/// Strains per cell: bottom/top `E11`, left/right `E22`, centre engineering shear `γ`.
+const NS: usize = 5;
+
+/// One cell's quadrature data.
+#[derive(Debug, Clone)]
+struct Cell {
+    nodes: [usize; 4],
+    /// Strain `s = ½ scale (α·x)·(β·x) − rest`.
+    alpha: [[f64; 4]; NS],
+    beta: [[f64; 4]; NS],
+    scale: [f64; NS],
+    rest: [f64; NS],
+    /// Weighted stiffness of the 5 strains (PSD).
+    q: [[f64; NS]; NS],
+    blocks: Vec<u32>,
+}
+
+/// Membrane (stretch and shear) energy of the whole grid.
+#[derive(Debug, Clone)]
+pub struct Membrane {
+    cells: Vec<Cell>,
+}
+
+impl Membrane {
+    /// Builds the cells of `grid` with rest state `rest` (stress-free by construction) and stiffness `s`.
+    pub fn new(grid: &Grid, rest: &[Vec3], s: &Stiffness) -> Self {
+        let cells = grid
+            .cells()
+            .map(|(i, j)| {
+                let ops = CellOps::new(grid, i, j);
+                let alpha = [ops.e1[0], ops.e1[1], ops.e2[0], ops.e2[1], ops.c1];
+                let beta = [ops.e1[0], ops.e1[1], ops.e2[0], ops.e2[1], ops.c2];
+                let scale = [1.0, 1.0, 1.0, 1.0, 2.0];
+                let x0: [Vec3; 4] = ops.nodes.map(|k| rest[k]);
+                let comb = |c: &[f64; 4]| (0..4).fold(Vec3::ZERO, |acc, k| acc + x0[k] * c[k]);
+                let mut restv = [0.0; NS];
+                for a in 0..NS {
+                    restv[a] = 0.5 * scale[a] * comb(&alpha[a]).dot(comb(&beta[a]));
+                }
+                // Strain stiffness in the grid's (E11, E22, γ); arc-length rest grid with warp along u1
+                // (J = I). A non-orthonormal rest parametrisation enters here as C' = Tᵀ C T.
+                let c = [[s.a11, s.a12, 0.0], [s.a12, s.a22, 0.0], [0.0, 0.0, s.a66]];
+                let w = grid.h1 * grid.h2;
+                // Averaging map A (3×5) from the 5 strains to the cell's (E11, E22, γ).
+                let avg = [[0.5, 0.5, 0.0, 0.0, 0.0], [0.0, 0.0, 0.5, 0.5, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]];
+                let mut q = [[0.0; NS]; NS];
+                for a in 0..NS {
+                    for b in 0..NS {
+                        let mut v = 0.0;
+                        for r in 0..3 {
+                            for t in 0..3 {
+                                v += avg[r][a] * c[r][t] * avg[t][b];
+                            }
+                        }
+                        q[a][b] = w * v;
+                    }
+                }
+                // mean(E²) − mean(E)² = ¼ (E_b − E_t)²: restores the edge-wise stretch energy.
+                for (p, m, cc) in [(0, 1, c[0][0]), (2, 3, c[1][1])] {
+                    let k = 0.25 * w * cc;
+                    q[p][p] += k;
+                    q[m][m] += k;
+                    q[p][m] -= k;
+                    q[m][p] -= k;
+                }
+                Cell { nodes: ops.nodes, alpha, beta, scale, rest: restv, q, blocks: Vec::new() }
+            })
+            .collect();
+        Self { cells }
+    }
+}
+
+impl Energy for Membrane {
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        self.cells.iter().flat_map(|c| local_pairs(&c.nodes).collect::<Vec<_>>()).collect()
+    }
+
+    fn bind(&mut self, pattern: &BlockPattern) {
+        for c in &mut self.cells {
+            c.blocks = local_blocks(pattern, &c.nodes);
+        }
+    }
+
+    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+        let mut energy = 0.0;
+        for cell in &self.cells {
+            energy += cell.evaluate(x, sink);
+        }
+        energy
+    }
+}
+
+impl Cell {
+    #[inline]
+    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+        let xl: [Vec3; 4] = self.nodes.map(|k| x[k]);
+        let comb = |c: &[f64; 4]| xl[0] * c[0] + xl[1] * c[1] + xl[2] * c[2] + xl[3] * c[3];
+        let mut p = [Vec3::ZERO; NS];
+        let mut r = [Vec3::ZERO; NS];
+        let mut s = [0.0; NS];
+        for a in 0..NS {
+            p[a] = comb(&self.alpha[a]);
+            r[a] = comb(&self.beta[a]);
+            s[a] = 0.5 * self.scale[a] * p[a].dot(r[a]) - self.rest[a];
+        }
+        let mut sigma = [0.0; NS];
+        let mut energy = 0.0;
+        for a in 0..NS {
+            for b in 0..NS {
+                sigma[a] += self.q[a][b] * s[b];
+            }
+            energy += 0.5 * s[a] * sigma[a];
+        }
+        if sink.grad.is_none() && sink.hess.is_none() {
+            return energy;
+        }
+        // ∇_k s_a = ½ scale (α_ak r_a + β_ak p_a).
+        let mut ds = [[Vec3::ZERO; 4]; NS];
+        for a in 0..NS {
+            for k in 0..4 {
+                ds[a][k] = (r[a] * self.alpha[a][k] + p[a] * self.beta[a][k]) * (0.5 * self.scale[a]);
+            }
+        }
+        if let Some(g) = sink.grad.as_deref_mut() {
+            for k in 0..4 {
+                let mut f = Vec3::ZERO;
+                for a in 0..NS {
+                    f += ds[a][k] * sigma[a];
+                }
+                g[self.nodes[k]] += f;
+            }
+        }
+        if let Some((h, op)) = sink.hess.as_mut() {
+            // Scalar (⊗ I3) geometric part, 4×4.
+            let mut geo = [[0.0; 4]; 4];
+            for a in 0..NS {
+                let (al, be, sc, sg) = (&self.alpha[a], &self.beta[a], self.scale[a], sigma[a]);
+                match op {
+                    Operator::Exact => {
+                        for k in 0..4 {
+                            for l in 0..4 {
+                                geo[k][l] += sg * 0.5 * sc * (al[k] * be[l] + be[k] * al[l]);
+                            }
+                        }
+                    }
+                    Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
+                }
+            }
+            let mut id = 0;
+            for k in 0..4 {
+                for l in k..4 {
+                    let mut m = diag(geo[k][l]);
+                    if *op != Operator::Secant {
+                        m += material_block(&self.q, &ds, k, l);
+                    }
+                    h.add(self.blocks[id], self.nodes[k], self.nodes[l], m);
+                    id += 1;
+                }
+            }
+        }
+        energy
+    }
+}
+
+/// `Σ_ab Q_ab ∇_k s_a ∇_l s_bᵀ` (the Gauss–Newton, material part).
+#[inline]
+fn material_block(q: &[[f64; NS]; NS], ds: &[[Vec3; 4]; NS], k: usize, l: usize) -> Mat3 {
+    let mut m = Mat3::ZERO;
+    for a in 0..NS {
+        let mut col = Vec3::ZERO;
+        for b in 0..NS {
+            col += ds[b][l] * q[a][b];
+        }
+        m += crate::math::outer(ds[a][k], col);
+    }
+    m
+}
+
+/// Adds the positive part of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`, written as
+/// `c|α||β|/2 [(â+b̂)(â+b̂)ᵀ − (â−b̂)(â−b̂)ᵀ]` and keeping the term whose sign is positive.
+fn positive_part(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
+    let na = al.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let nb = be.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if na == 0.0 || nb == 0.0 || c == 0.0 {
+        return;
+    }
+    let sign = if c > 0.0 { 1.0 } else { -1.0 };
+    let u: [f64; 4] = std::array::from_fn(|k| al[k] / na + sign * be[k] / nb);
+    let coef = c.abs() * na * nb * 0.5;
+    for k in 0..4 {
+        for l in 0..4 {
+            geo[k][l] += coef * u[k] * u[l];
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! The Terzopoulos–Fleischer model the paper corrects (MODEL.md §3): the same grid, quadrature and membrane as
+//! [`super::membrane`], but bending enters as `∂_ij(β_ij x_ij)` with `β = P` (the moment of the same
+//! calibrated coefficients): the unit normal `n` is replaced by `x_ij` and the variation of `n` (the paper's H)
+//! is dropped. Its force is not the gradient of an energy; its operator is the lagged secant
+//! `Σ D_ijᵀ diag(β⁺) D_ij`, the same for x, y and z.
+
+use super::bending::Bending;
+use super::Sink;
+use crate::math::{diag, Vec3};
+
+/// Adds the Terzopoulos bending force (as a "gradient", i.e. minus the force) and its lagged operator into
+/// `sink`; returns the bending energy of the same curvatures (a diagnostic: the force is not its gradient).
+pub fn bending(bend: &Bending, x: &[Vec3], sink: &mut Sink) -> f64 {
+    let mut energy = 0.0;
+    for p in &bend.points {
+        let (_a, _b, _nc, vs, kappa) = p.kernels(x);
+        let (mom, e) = p.moments(&kappa);
+        energy += e;
+        let len = p.support.len;
+        if let Some(g) = sink.grad.as_deref_mut() {
+            for k in 0..len {
+                let mut f = Vec3::ZERO;
+                for m in 0..p.count {
+                    f += vs[m] * (mom[m] * p.v[m][k]);
+                }
+                g[p.support.nodes[k]] += f;
+            }
+        }
+        if let Some((h, _op)) = sink.hess.as_mut() {
+            let mut id = 0;
+            for k in 0..len {
+                for l in k..len {
+                    let mut s = 0.0;
+                    for m in 0..p.count {
+                        s += mom[m].max(0.0) * p.v[m][k] * p.v[m][l];
+                    }
+                    h.add(p.blocks[id], p.support.nodes[k], p.support.nodes[l], diag(s));
+                    id += 1;
+                }
+            }
+        }
+    }
+    energy
+}

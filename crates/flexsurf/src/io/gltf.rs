@@ -1,0 +1,166 @@
+//! Minimal glTF 2.0 output of a [`TriMesh`]: one `.gltf` JSON file with the binary buffer embedded as a base64
+//! data URI, one mesh with one triangle primitive (`POSITION` with `min`/`max`, `NORMAL`, `uint32` indices) and
+//! a double-sided material, so the file opens in any glTF viewer without side files.
+
+use super::atomic::write_atomic;
+use super::invalid;
+use crate::math::Vec3;
+use crate::surface::mesh::TriMesh;
+use serde_json::json;
+use std::io;
+use std::path::Path;
+
+const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+/// Standard base64 (RFC 4648, with `=` padding).
+pub fn base64_encode(bytes: &[u8]) -> String {
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [chunk[0], chunk.get(1).copied().unwrap_or(0), chunk.get(2).copied().unwrap_or(0)];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(B64[((n >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// The glTF JSON document for `mesh`, with an RGBA base colour (linear, 0–1).
+pub fn gltf_json(mesh: &TriMesh, base_color: [f64; 4]) -> io::Result<serde_json::Value> {
+    mesh.validate().map_err(invalid)?;
+    let nv = mesh.vertex_count();
+    let normals: Vec<Vec3> = if mesh.has_normals() {
+        mesh.normals.iter().map(|n| n.try_normalize().unwrap_or(Vec3::Z)).collect()
+    } else {
+        mesh.face_averaged_normals()
+    };
+    let f32s = |v: Vec3| [v.x as f32, v.y as f32, v.z as f32];
+    let mut buf: Vec<u8> = Vec::with_capacity(24 * nv + 12 * mesh.triangle_count());
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for &p in &mesh.positions {
+        let p = f32s(p);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+            buf.extend_from_slice(&p[c].to_le_bytes());
+        }
+    }
+    if nv == 0 {
+        (lo, hi) = ([0.0; 3], [0.0; 3]);
+    }
+    for &n in &normals {
+        f32s(n).iter().for_each(|c| buf.extend_from_slice(&c.to_le_bytes()));
+    }
+    for t in &mesh.triangles {
+        t.iter().for_each(|v| buf.extend_from_slice(&v.to_le_bytes()));
+    }
+    let (pos_len, idx_len) = (12 * nv, 12 * mesh.triangle_count());
+    let uri = format!("data:application/octet-stream;base64,{}", base64_encode(&buf));
+    let mut primitive = json!({
+        "attributes": { "POSITION": 0, "NORMAL": 1 },
+        "mode": 4,
+        "material": 0
+    });
+    let mut buffer_views = vec![
+        json!({ "buffer": 0, "byteOffset": 0, "byteLength": pos_len, "target": 34962 }),
+        json!({ "buffer": 0, "byteOffset": pos_len, "byteLength": pos_len, "target": 34962 }),
+    ];
+    let mut accessors = vec![
+        json!({ "bufferView": 0, "componentType": 5126, "count": nv, "type": "VEC3",
+                "min": lo.map(f64::from), "max": hi.map(f64::from) }),
+        json!({ "bufferView": 1, "componentType": 5126, "count": nv, "type": "VEC3" }),
+    ];
+    if idx_len > 0 {
+        buffer_views.push(json!({ "buffer": 0, "byteOffset": 2 * pos_len, "byteLength": idx_len, "target": 34963 }));
+        accessors.push(json!({ "bufferView": 2, "componentType": 5125, "count": 3 * mesh.triangle_count(),
+                               "type": "SCALAR" }));
+        primitive["indices"] = json!(2);
+    }
+    Ok(json!({
+        "asset": { "version": "2.0", "generator": "flexsurf" },
+        "scene": 0,
+        "scenes": [ { "nodes": [0] } ],
+        "nodes": [ { "mesh": 0, "name": "surface" } ],
+        "meshes": [ { "name": "surface", "primitives": [primitive] } ],
+        "materials": [ {
+            "name": "cloth",
+            "doubleSided": true,
+            "pbrMetallicRoughness": { "baseColorFactor": base_color, "metallicFactor": 0.0, "roughnessFactor": 0.9 }
+        } ],
+        "buffers": [ { "byteLength": buf.len(), "uri": uri } ],
+        "bufferViews": buffer_views,
+        "accessors": accessors
+    }))
+}
+
+/// Writes `mesh` as a self-contained `.gltf` file at `path`, atomically.
+pub fn write_gltf(path: impl AsRef<Path>, mesh: &TriMesh, base_color: [f64; 4]) -> io::Result<()> {
+    let doc = gltf_json(mesh, base_color)?;
+    let text = serde_json::to_string(&doc).map_err(io::Error::other)?;
+    write_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{scratch_dir, test_mesh};
+
+    fn base64_decode(s: &str) -> Vec<u8> {
+        let val = |c: u8| B64.iter().position(|&b| b == c).unwrap() as u32;
+        let bytes: Vec<u8> = s.bytes().collect();
+        let mut out = Vec::new();
+        for q in bytes.chunks(4) {
+            let pad = q.iter().filter(|&&c| c == b'=').count();
+            let n = q.iter().fold(0u32, |acc, &c| (acc << 6) | if c == b'=' { 0 } else { val(c) });
+            out.extend_from_slice(&n.to_be_bytes()[1..4 - pad]);
+        }
+        out
+    }
+
+    #[test]
+    fn base64_known_vectors() {
+        for (raw, enc) in
+            [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("foobar", "Zm9vYmFy")]
+        {
+            assert_eq!(base64_encode(raw.as_bytes()), enc);
+            assert_eq!(base64_decode(enc), raw.as_bytes());
+        }
+        let all: Vec<u8> = (0..=255).collect();
+        assert_eq!(base64_decode(&base64_encode(&all)), all);
+    }
+
+    #[test]
+    fn round_trip() {
+        let mesh = test_mesh();
+        let d = scratch_dir("gltf");
+        let p = d.join("m.gltf");
+        write_gltf(&p, &mesh, [0.8, 0.2, 0.2, 1.0]).unwrap();
+        let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        assert_eq!(doc["asset"]["version"], "2.0");
+        let acc = doc["accessors"].as_array().unwrap();
+        assert_eq!(acc[0]["count"], mesh.vertex_count());
+        assert_eq!(acc[2]["count"], 3 * mesh.triangle_count());
+        let bb = mesh.bbox().unwrap();
+        assert_eq!(acc[0]["max"][2].as_f64().unwrap(), f64::from(bb.max.z as f32));
+        assert_eq!(acc[0]["min"][0].as_f64().unwrap(), f64::from(bb.min.x as f32));
+        let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+        let bin = base64_decode(uri.strip_prefix("data:application/octet-stream;base64,").unwrap());
+        assert_eq!(bin.len() as u64, doc["buffers"][0]["byteLength"].as_u64().unwrap());
+        let views = doc["bufferViews"].as_array().unwrap();
+        let f = |at: usize| f32::from_le_bytes(bin[at..at + 4].try_into().unwrap());
+        let u = |at: usize| u32::from_le_bytes(bin[at..at + 4].try_into().unwrap());
+        let (pos, nrm, idx) = (0, views[1]["byteOffset"].as_u64().unwrap() as usize, views[2]["byteOffset"].as_u64());
+        let idx = idx.unwrap() as usize;
+        let k = 3;
+        assert_eq!(f(pos + 12 * k + 4), mesh.positions[k].y as f32);
+        assert_eq!(f(nrm + 12 * k + 8), mesh.normals[k].z as f32);
+        let t = mesh.triangle_count() - 1;
+        assert_eq!(u(idx + 12 * t + 8), mesh.triangles[t][2]);
+        assert_eq!(idx + 12 * mesh.triangle_count(), bin.len());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+}

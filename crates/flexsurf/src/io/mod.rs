@@ -1,0 +1,46 @@
+//! Output: the last stage of the pipeline, after [`crate::surface`] has turned the node positions into a
+//! [`TriMesh`](crate::surface::mesh::TriMesh).
+//!
+//! - [`atomic`]: every file is written to a temporary sibling and renamed into place, so an interrupted run
+//!   never leaves a half-written output.
+//! - [`obj`], [`ply`], [`gltf`]: mesh files for external viewers.
+//! - [`render`]: a deterministic software rasteriser that draws cloth meshes and analytic obstacles (sphere,
+//!   ground plane) to PNG, and tiles several views into a captioned panel.
+
+pub mod atomic;
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+pub mod render;
+
+pub use atomic::{write_atomic, write_atomic_with};
+pub use gltf::write_gltf;
+pub use obj::write_obj;
+pub use ply::{write_ply, PlyFormat};
+
+/// Wraps a structural error (an invalid mesh) as an `InvalidInput` I/O error.
+pub(crate) fn invalid<E: std::fmt::Display>(e: E) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string())
+}
+
+/// A fresh empty directory under the system temp dir, for tests.
+#[cfg(test)]
+pub(crate) fn scratch_dir(tag: &str) -> std::path::PathBuf {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static N: AtomicU64 = AtomicU64::new(0);
+    let n = N.fetch_add(1, Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!("flexsurf-test-{tag}-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create scratch dir");
+    d
+}
+
+/// A small curved test mesh with normals, for the writer tests.
+#[cfg(test)]
+pub(crate) fn test_mesh() -> crate::surface::mesh::TriMesh {
+    use crate::grid::Grid;
+    use crate::math::Vec3;
+    let g = Grid::sheet(4, 3, 0.9, 0.6).expect("grid");
+    let x: Vec<Vec3> = g.flat_positions(0.0).into_iter().map(|p| p + Vec3::Z * (0.3 * p.x * p.x - 0.1 * p.y)).collect();
+    crate::surface::coons::CoonsSurface::new(&g, &x).tessellate(2)
+}

@@ -1,0 +1,29 @@
+//! # flexsurf
+//!
+//! A simulator of thin flexible surfaces (cloth, paper, non-wovens) implementing the variational deformation
+//! model of Wang, Wu, Sun and Yuen, "A deformation model of thin flexible surfaces", in the corrected form of
+//! `shared/spec/MODEL.md`.
+//!
+//! The modules follow the model's pipeline: [`grid`] (the `M × N` parametric grid) → [`ops`] (difference
+//! operators of the quadratic patch, fundamental forms) → [`material`] (measured fabric constants and their
+//! calibration) → [`energy`] (membrane and bending energy of scheme S with exact gradient and Hessian, and the
+//! Terzopoulos force) → [`contact`] (obstacles, penalty contact) → [`integrate`] (the linearised implicit step and
+//! the paper's lagged step, sparse solvers) → [`surface`] (the Coons display surface) → [`scene`] (TOML scenes)
+//! → [`io`] (meshes, pictures, summaries). [`model::Model`] holds what is fixed during a run, [`state::State`]
+//! what changes, and [`sim`] drives the time loop.
+#![warn(missing_docs)]
+
+pub mod contact;
+pub mod energy;
+pub mod grid;
+pub mod integrate;
+pub mod io;
+pub mod material;
+pub mod math;
+pub mod model;
+pub mod ops;
+// pub mod scene;
+pub mod sim;
+pub mod sparse;
+pub mod state;
+pub mod surface;

@@ -1,0 +1,177 @@
+//! What stays fixed during a run: the grid, the elastic model (paper or Terzopoulos), lumped masses and
+//! damping, gravity, obstacles, pins and springs. A [`Model`] is built once (by `scene` or by hand) and read
+//! by the integrators.
+
+use crate::contact::{ContactParams, Obstacle};
+use crate::energy::{bending::Bending, membrane::Membrane, terzopoulos, Energy, Sink};
+use crate::grid::Grid;
+use crate::material::{Fabric, Stiffness};
+use crate::math::Vec3;
+use crate::sparse::BlockPattern;
+use serde::{Deserialize, Serialize};
+
+/// Which deformation model computes the elastic force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelKind {
+    /// The paper's model: the exact gradient of the discrete energy (default).
+    #[default]
+    Tfs,
+    /// Terzopoulos & Fleischer: bending through `x_ij` instead of `n`, no H term.
+    Terzopoulos,
+}
+
+impl ModelKind {
+    /// Name as used in scene files and summaries.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ModelKind::Tfs => "tfs",
+            ModelKind::Terzopoulos => "terzopoulos",
+        }
+    }
+}
+
+/// Energies of a configuration, by term.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Energies {
+    /// Membrane (stretch and shear), J.
+    pub membrane: f64,
+    /// Bending and twist, J.
+    pub bending: f64,
+}
+
+/// Elastic part of a model: membrane and bending on one sparsity pattern.
+#[derive(Debug, Clone)]
+pub struct Elastic {
+    /// Which model.
+    pub kind: ModelKind,
+    /// Membrane term.
+    pub membrane: Membrane,
+    /// Bending term.
+    pub bending: Bending,
+    /// Block pattern of the Hessian (all stencils).
+    pub pattern: BlockPattern,
+}
+
+impl Elastic {
+    /// Builds both terms on `grid` with rest shape `rest`.
+    pub fn new(grid: &Grid, rest: &[Vec3], stiffness: &Stiffness, kind: ModelKind) -> Self {
+        let mut membrane = Membrane::new(grid, rest, stiffness);
+        let mut bending = Bending::new(grid, rest, stiffness);
+        let pairs = membrane.pairs().into_iter().chain(bending.pairs());
+        let pattern = BlockPattern::from_pairs(grid.len(), pairs);
+        membrane.bind(&pattern);
+        bending.bind(&pattern);
+        Self { kind, membrane, bending, pattern }
+    }
+
+    /// Adds `∂E/∂x` (for Terzopoulos: minus its force) and the requested operator; returns the energies.
+    pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> Energies {
+        let membrane = self.membrane.evaluate(x, sink);
+        let bending = match self.kind {
+            ModelKind::Tfs => self.bending.evaluate(x, sink),
+            ModelKind::Terzopoulos => terzopoulos::bending(&self.bending, x, sink),
+        };
+        Energies { membrane, bending }
+    }
+}
+
+/// A spring holding a node near a target (the skirt's waist): force `k (target − x)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Spring {
+    /// Node.
+    pub node: usize,
+    /// Target point.
+    pub target: Vec3,
+    /// Stiffness (N/m).
+    pub stiffness: f64,
+}
+
+/// Everything that stays fixed during a run.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// The parametric grid.
+    pub grid: Grid,
+    /// Rest shape (also the initial shape unless a scene says otherwise).
+    pub rest: Vec<Vec3>,
+    /// The fabric.
+    pub fabric: Fabric,
+    /// Calibrated coefficients.
+    pub stiffness: Stiffness,
+    /// Elastic model.
+    pub elastic: Elastic,
+    /// Lumped node masses ρ·area (kg).
+    pub mass: Vec<f64>,
+    /// Lumped node damping γ·area (kg/s).
+    pub damping: Vec<f64>,
+    /// Rest area per node (m²).
+    pub area: Vec<f64>,
+    /// Gravity (m/s²).
+    pub gravity: Vec3,
+    /// Obstacles.
+    pub obstacles: Vec<Obstacle>,
+    /// Contact parameters.
+    pub contact: ContactParams,
+    /// Pinned nodes, held exactly at their position.
+    pub pinned: Vec<bool>,
+    /// Constraint springs.
+    pub springs: Vec<Spring>,
+}
+
+impl Model {
+    /// A model with no obstacles, pins or springs; the rest shape is `rest`.
+    pub fn new(grid: Grid, rest: Vec<Vec3>, fabric: Fabric, stiffness: Stiffness, kind: ModelKind, gravity: Vec3) -> Self {
+        let elastic = Elastic::new(&grid, &rest, &stiffness, kind);
+        let area: Vec<f64> = (0..grid.len()).map(|k| grid.node_area(k)).collect();
+        let mass = area.iter().map(|a| a * fabric.density).collect();
+        let damping = area.iter().map(|a| a * fabric.damping).collect();
+        let n = grid.len();
+        Self {
+            grid,
+            rest,
+            fabric,
+            stiffness,
+            elastic,
+            mass,
+            damping,
+            area,
+            gravity,
+            obstacles: Vec::new(),
+            contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0 },
+            pinned: vec![false; n],
+            springs: Vec::new(),
+        }
+    }
+
+    /// Total mass (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+
+    /// Gravitational potential energy `−Σ m g·x` (J).
+    pub fn potential(&self, x: &[Vec3]) -> f64 {
+        -x.iter().zip(&self.mass).map(|(p, m)| m * self.gravity.dot(*p)).sum::<f64>()
+    }
+
+    /// A length scale of the sheet (diagonal of the rest pattern), for bounds and tolerances.
+    pub fn length_scale(&self) -> f64 {
+        let l1 = self.grid.h1 * self.grid.spans(0) as f64;
+        let l2 = self.grid.h2 * self.grid.spans(1) as f64;
+        (l1 * l1 + l2 * l2).sqrt()
+    }
+
+    /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges.
+    pub fn max_strain(&self, x: &[Vec3]) -> f64 {
+        let g = &self.grid;
+        let mut worst: f64 = 0.0;
+        for (i, j) in g.cells() {
+            let c = g.cell(i, j);
+            for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
+                let l0 = (self.rest[b] - self.rest[a]).length();
+                let l = (x[b] - x[a]).length();
+                worst = worst.max((l / l0 - 1.0).abs());
+            }
+        }
+        worst
+    }
+}

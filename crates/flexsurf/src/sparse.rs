@@ -1,0 +1,170 @@
+//! Node-block sparse symmetric matrices. The pattern (which node pairs couple) is fixed once per grid from the
+//! stencils of every term; values are `3×3` blocks for node pairs `i ≤ j`, added in place through block ids
+//! that each term precomputes. [`BlockMatrix::to_csc_upper`] writes the scalar upper triangle for the solver.
+
+use crate::math::{Mat3, Vec3};
+
+/// Block sparsity: for each column node `j`, the sorted row nodes `i ≤ j` it couples to (`j` itself last).
+#[derive(Debug, Clone)]
+pub struct BlockPattern {
+    n: usize,
+    col_start: Vec<usize>,
+    rows: Vec<usize>,
+}
+
+impl BlockPattern {
+    /// The pattern with every `(i, i)` and the given pairs (either order).
+    pub fn from_pairs(n: usize, pairs: impl IntoIterator<Item = (usize, usize)>) -> Self {
+        let mut cols: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        for (a, b) in pairs {
+            let (i, j) = if a <= b { (a, b) } else { (b, a) };
+            cols[j].push(i);
+        }
+        let mut col_start = Vec::with_capacity(n + 1);
+        let mut rows = Vec::new();
+        col_start.push(0);
+        for mut c in cols {
+            c.sort_unstable();
+            c.dedup();
+            rows.extend(c);
+            col_start.push(rows.len());
+        }
+        Self { n, col_start, rows }
+    }
+
+    /// Number of nodes.
+    pub fn nodes(&self) -> usize {
+        self.n
+    }
+
+    /// Number of stored blocks.
+    pub fn blocks(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Block id of `(i, j)` with `i ≤ j`. Panics if the pair is not in the pattern (a programming error).
+    pub fn find(&self, i: usize, j: usize) -> usize {
+        let (i, j) = if i <= j { (i, j) } else { (j, i) };
+        let r = &self.rows[self.col_start[j]..self.col_start[j + 1]];
+        self.col_start[j] + r.binary_search(&i).expect("node pair outside the sparsity pattern")
+    }
+
+    /// Scalar CSC structure of the upper triangle of the `3n × 3n` matrix, plus, for each scalar entry, the
+    /// block id and the entry inside the block.
+    pub fn csc_upper(&self) -> (Vec<usize>, Vec<usize>, Vec<(u32, u8)>) {
+        let mut col_ptr = vec![0usize];
+        let mut row_idx = Vec::new();
+        let mut src = Vec::new();
+        for j in 0..self.n {
+            for b in 0..3 {
+                for blk in self.col_start[j]..self.col_start[j + 1] {
+                    let i = self.rows[blk];
+                    let amax = if i == j { b + 1 } else { 3 };
+                    for a in 0..amax {
+                        row_idx.push(3 * i + a);
+                        src.push((blk as u32, (3 * b + a) as u8));
+                    }
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        (col_ptr, row_idx, src)
+    }
+
+    /// Row node of each block (same order as block ids).
+    pub fn block_rows(&self) -> &[usize] {
+        &self.rows
+    }
+
+    /// Column node of every block.
+    pub fn block_cols(&self) -> Vec<usize> {
+        let mut out = vec![0; self.rows.len()];
+        for j in 0..self.n {
+            out[self.col_start[j]..self.col_start[j + 1]].fill(j);
+        }
+        out
+    }
+}
+
+/// Symmetric matrix stored as upper `3×3` node blocks on a [`BlockPattern`].
+#[derive(Debug, Clone)]
+pub struct BlockMatrix {
+    /// Blocks, indexed by block id; block `(i, j)`, `i ≤ j`, holds rows of node `i`, columns of node `j`.
+    pub blocks: Vec<Mat3>,
+}
+
+impl BlockMatrix {
+    /// Zero matrix on a pattern.
+    pub fn zeros(pattern: &BlockPattern) -> Self {
+        Self { blocks: vec![Mat3::ZERO; pattern.blocks()] }
+    }
+
+    /// Sets every block to zero.
+    pub fn clear(&mut self) {
+        self.blocks.fill(Mat3::ZERO);
+    }
+
+    /// Adds local block `h` = ∂²/∂x_a∂x_b for global nodes `(a, b)` to block id `id`.
+    #[inline]
+    pub fn add(&mut self, id: u32, a: usize, b: usize, h: Mat3) {
+        let blk = &mut self.blocks[id as usize];
+        if a <= b {
+            *blk += h;
+        } else {
+            *blk += h.transpose();
+        }
+    }
+
+    /// `y += A x` (symmetric product).
+    pub fn mul_add(&self, pattern: &BlockPattern, x: &[Vec3], y: &mut [Vec3]) {
+        for j in 0..pattern.n {
+            for blk in pattern.col_start[j]..pattern.col_start[j + 1] {
+                let i = pattern.rows[blk];
+                let m = self.blocks[blk];
+                y[i] += m * x[j];
+                if i != j {
+                    y[j] += m.transpose() * x[i];
+                }
+            }
+        }
+    }
+
+    /// Dense copy (tests and small diagnostics only).
+    pub fn to_dense(&self, pattern: &BlockPattern) -> Vec<Vec<f64>> {
+        let n = 3 * pattern.n;
+        let mut d = vec![vec![0.0; n]; n];
+        for j in 0..pattern.n {
+            for blk in pattern.col_start[j]..pattern.col_start[j + 1] {
+                let i = pattern.rows[blk];
+                let m = self.blocks[blk];
+                for a in 0..3 {
+                    for b in 0..3 {
+                        let v = m.col(b)[a];
+                        d[3 * i + a][3 * j + b] = v;
+                        d[3 * j + b][3 * i + a] = v;
+                    }
+                }
+            }
+        }
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csc_layout_matches_blocks() {
+        let p = BlockPattern::from_pairs(3, [(0, 1), (2, 1), (1, 0)]);
+        assert_eq!(p.blocks(), 5);
+        let (cp, ri, src) = p.csc_upper();
+        assert_eq!(cp.len(), 10);
+        // Column 0 (node 0, comp 0): only (0,0).
+        assert_eq!(&ri[cp[0]..cp[1]], &[0]);
+        // Column 4 (node 1, comp 1): rows of node 0 (3) then node 1 comps 0..=1.
+        assert_eq!(&ri[cp[4]..cp[5]], &[0, 1, 2, 3, 4]);
+        assert_eq!(src.len(), ri.len());
+        assert_eq!(p.find(1, 2), p.find(2, 1));
+    }
+}
