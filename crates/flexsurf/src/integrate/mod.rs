@@ -10,6 +10,7 @@
 //!   divergence.
 
 pub mod linsolve;
+pub mod statics;
 
 use crate::contact::{self, Contact};
 use crate::energy::{Operator, Sink};
