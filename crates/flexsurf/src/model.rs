@@ -116,6 +116,8 @@ pub struct Model {
     pub pinned: Vec<bool>,
     /// Constraint springs.
     pub springs: Vec<Spring>,
+    /// Constant external nodal loads (N), beyond gravity (the paper's `p`).
+    pub loads: Vec<Vec3>,
 }
 
 impl Model {
@@ -140,6 +142,7 @@ impl Model {
             contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0 },
             pinned: vec![false; n],
             springs: Vec::new(),
+            loads: vec![Vec3::ZERO; n],
         }
     }
 
@@ -148,9 +151,15 @@ impl Model {
         self.mass.iter().sum()
     }
 
-    /// Gravitational potential energy `−Σ m g·x` (J).
+    /// Potential energy of gravity and the constant loads, `−Σ (m g + p)·x` (J).
     pub fn potential(&self, x: &[Vec3]) -> f64 {
-        -x.iter().zip(&self.mass).map(|(p, m)| m * self.gravity.dot(*p)).sum::<f64>()
+        -(0..x.len()).map(|k| self.external_force(k).dot(x[k])).sum::<f64>()
+    }
+
+    /// Constant external force on node `k`: gravity plus load (N).
+    #[inline]
+    pub fn external_force(&self, k: usize) -> Vec3 {
+        self.gravity * self.mass[k] + self.loads[k]
     }
 
     /// A length scale of the sheet (diagonal of the rest pattern), for bounds and tolerances.

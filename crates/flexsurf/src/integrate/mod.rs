@@ -148,9 +148,10 @@ impl Stepper {
         })
     }
 
-    /// Advances `state` by `dt`.
-    pub fn step(&mut self, model: &Model, state: &mut State, dt: f64) -> Result<StepInfo, StepError> {
-        let t0 = Instant::now();
+    /// Assembles the step system at `state` without solving: afterwards [`Stepper::matrix`] is `A_t` (before
+    /// pinned unknowns are eliminated) and [`Stepper::rhs`] the right-hand side for the increment `x⁺ − x_t`.
+    /// Returns the energies, the number of contacts and the penalty energy at `x_t`.
+    pub fn assemble(&mut self, model: &Model, state: &State, dt: f64) -> (Energies, usize, f64) {
         let n = model.grid.len();
         self.grad.fill(Vec3::ZERO);
         self.matrix.clear();
@@ -158,13 +159,14 @@ impl Stepper {
             IntegratorKind::Linearized => Operator::Projected,
             IntegratorKind::Lagged => Operator::Secant,
         };
-        let energies =
-            model.elastic.evaluate(&state.x, &mut Sink { grad: Some(&mut self.grad), hess: Some((&mut self.matrix, op)) });
+        let energies = model
+            .elastic
+            .evaluate(&state.x, &mut Sink { grad: Some(&mut self.grad), hess: Some((&mut self.matrix, op)) });
         let (idt, idt2) = (1.0 / dt, 1.0 / (dt * dt));
         for k in 0..n {
             let (m, c) = (model.mass[k], model.damping[k]);
             let dx = state.x[k] - state.x_prev[k];
-            self.rhs[k] = model.gravity * m - self.grad[k] + dx * (m * idt2) - dx * (0.5 * c * idt);
+            self.rhs[k] = model.external_force(k) - self.grad[k] + dx * (m * idt2) - dx * (0.5 * c * idt);
             self.matrix.blocks[self.diag[k] as usize] += diag(m * idt2 + 0.5 * c * idt);
         }
         for s in &model.springs {
@@ -186,8 +188,30 @@ impl Stepper {
                 self.rhs[k] = Vec3::ZERO;
             }
         }
-        let t2 = Instant::now();
-        let (tf, ts) = self
+        self.counters.contact += t1.elapsed().as_secs_f64();
+        (energies, self.contacts.len(), contact_energy)
+    }
+
+    /// The step matrix of the last [`Stepper::assemble`].
+    pub fn matrix(&self) -> &BlockMatrix {
+        &self.matrix
+    }
+
+    /// The right-hand side of the last [`Stepper::assemble`] (overwritten by the increment after a step).
+    pub fn rhs(&self) -> &[Vec3] {
+        &self.rhs
+    }
+
+    /// Advances `state` by `dt`.
+    pub fn step(&mut self, model: &Model, state: &mut State, dt: f64) -> Result<StepInfo, StepError> {
+        let t0 = Instant::now();
+        let n = model.grid.len();
+        let idt = 1.0 / dt;
+        let contact_before = self.counters.contact;
+        let (energies, contacts, contact_energy) = self.assemble(model, state, dt);
+        let t1 = Instant::now();
+        let t2 = t1;
+        let (tf, _ts) = self
             .solver
             .solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut self.rhs)
             .map_err(|source| StepError::Linear { step: state.step + 1, source })?;
@@ -221,18 +245,21 @@ impl Stepper {
         if strain > self.bounds.max_strain {
             return Err(StepError::Diverged {
                 step,
-                what: format!("edge strain {:.1}% exceeds the bound {:.0}%", 100.0 * strain, 100.0 * self.bounds.max_strain),
+                what: format!(
+                    "edge strain {:.1}% exceeds the bound {:.0}%",
+                    100.0 * strain,
+                    100.0 * self.bounds.max_strain
+                ),
                 hint: self.hint(),
             });
         }
         let max_penetration = max_penetration(model, &state.x);
         let t3 = Instant::now();
-        self.counters.assembly += t1.duration_since(t0).as_secs_f64();
-        self.counters.contact += t2.duration_since(t1).as_secs_f64();
+        self.counters.assembly += t1.duration_since(t0).as_secs_f64() - (self.counters.contact - contact_before);
         self.counters.factorization += tf;
-        self.counters.solve += ts + (t3 - t2).as_secs_f64() - tf - ts;
+        self.counters.solve += (t3 - t2).as_secs_f64() - tf;
         self.counters.steps += 1;
-        Ok(StepInfo { energies, contacts: self.contacts.len(), contact_energy, max_penetration })
+        Ok(StepInfo { energies, contacts, contact_energy, max_penetration })
     }
 
     fn hint(&self) -> &'static str {

@@ -92,8 +92,8 @@ impl StaticSolver {
         }
         if has_grad {
             let gr = g.expect("gradient buffer");
-            for (k, m) in model.mass.iter().enumerate() {
-                gr[k] -= model.gravity * *m;
+            for k in 0..gr.len() {
+                gr[k] -= model.external_force(k);
             }
             for c in &contacts {
                 gr[c.node] -= c.force_vector();
@@ -113,10 +113,8 @@ impl StaticSolver {
     /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
         let n = x.len();
-        let load = model
-            .mass
-            .iter()
-            .map(|m| m * model.gravity.length())
+        let load = (0..n)
+            .map(|k| model.external_force(k).length())
             .chain(model.springs.iter().map(|s| s.stiffness * model.length_scale() * 1e-3))
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
@@ -171,6 +169,10 @@ impl StaticSolver {
             }
             // Armijo backtracking on Π along the Newton direction.
             let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
+            // Newton decrement at round-off of Π: no further progress is representable.
+            if -slope <= 1e-13 * pi.abs().max(f64::MIN_POSITIVE) && res <= opts.tolerance.sqrt() {
+                return Ok(StaticReport { iterations: it, residual: res, potential: pi });
+            }
             let mut alpha = 1.0;
             let mut accepted = false;
             for _ in 0..30 {
