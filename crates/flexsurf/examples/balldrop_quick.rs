@@ -10,9 +10,14 @@ use flexsurf::state::State;
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(21);
-    let kind = if args.get(2).map(|s| s.as_str()) == Some("lagged") { IntegratorKind::Lagged } else { IntegratorKind::Linearized };
+    let kind = if args.get(2).map(|s| s.as_str()) == Some("lagged") {
+        IntegratorKind::Lagged
+    } else {
+        IntegratorKind::Linearized
+    };
     let solver = if args.get(3).map(|s| s.as_str()) == Some("pcg") { SolverKind::Pcg } else { SolverKind::Cholesky };
-    let model_kind = if args.get(4).map(|s| s.as_str()) == Some("terz") { ModelKind::Terzopoulos } else { ModelKind::Tfs };
+    let model_kind =
+        if args.get(4).map(|s| s.as_str()) == Some("terz") { ModelKind::Terzopoulos } else { ModelKind::Tfs };
     let grid = Grid::sheet(n, n, 1.0, 1.0).unwrap();
     let fabric = Fabric::paper_cotton();
     let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();

@@ -22,7 +22,7 @@ pub mod material;
 pub mod math;
 pub mod model;
 pub mod ops;
-// pub mod scene;
+pub mod scene;
 pub mod sim;
 pub mod sparse;
 pub mod state;

@@ -122,7 +122,14 @@ pub struct Model {
 
 impl Model {
     /// A model with no obstacles, pins or springs; the rest shape is `rest`.
-    pub fn new(grid: Grid, rest: Vec<Vec3>, fabric: Fabric, stiffness: Stiffness, kind: ModelKind, gravity: Vec3) -> Self {
+    pub fn new(
+        grid: Grid,
+        rest: Vec<Vec3>,
+        fabric: Fabric,
+        stiffness: Stiffness,
+        kind: ModelKind,
+        gravity: Vec3,
+    ) -> Self {
         let elastic = Elastic::new(&grid, &rest, &stiffness, kind);
         let area: Vec<f64> = (0..grid.len()).map(|k| grid.node_area(k)).collect();
         let mass = area.iter().map(|a| a * fabric.density).collect();

@@ -45,7 +45,9 @@ impl Obstacle {
     pub fn scaled(&self, lambda: f64) -> Self {
         match *self {
             Obstacle::Plane { point, normal } => Obstacle::Plane { point: point * lambda, normal },
-            Obstacle::Sphere { center, radius } => Obstacle::Sphere { center: center * lambda, radius: radius * lambda },
+            Obstacle::Sphere { center, radius } => {
+                Obstacle::Sphere { center: center * lambda, radius: radius * lambda }
+            }
         }
     }
 }

@@ -168,15 +168,14 @@ impl Point {
                             }
                             blk += match op {
                                 // Frozen normal: κ_m ≈ n·v_m, linear in x.
-                                Operator::Secant => outer(nc[m].normal, nc[q].normal) * (dmq * self.v[m][k] * self.v[q][l]),
+                                Operator::Secant => {
+                                    outer(nc[m].normal, nc[q].normal) * (dmq * self.v[m][k] * self.v[q][l])
+                                }
                                 _ => outer(g[m][k], g[q][l]) * dmq,
                             };
                         }
                         if *op == Operator::Exact && mom[m] != 0.0 {
-                            let c = [
-                                [self.a[k], self.b[k], self.v[m][k]],
-                                [self.a[l], self.b[l], self.v[m][l]],
-                            ];
+                            let c = [[self.a[k], self.b[k], self.v[m][k]], [self.a[l], self.b[l], self.v[m][l]]];
                             for p in 0..3 {
                                 for r in 0..3 {
                                     let f = c[0][p] * c[1][r];

@@ -29,7 +29,15 @@ impl NormalCurvature {
         let nt = a.cross(b);
         let len = nt.length();
         if len <= f64::MIN_POSITIVE {
-            return Self { value: 0.0, normal: Vec3::ZERO, da: Vec3::ZERO, db: Vec3::ZERO, dv: Vec3::ZERO, g: Vec3::ZERO, len: 0.0 };
+            return Self {
+                value: 0.0,
+                normal: Vec3::ZERO,
+                da: Vec3::ZERO,
+                db: Vec3::ZERO,
+                dv: Vec3::ZERO,
+                g: Vec3::ZERO,
+                len: 0.0,
+            };
         }
         let n = nt / len;
         let value = n.dot(v);
@@ -60,11 +68,7 @@ impl NormalCurvature {
         let hab = ja.transpose() * hnn * jb - skew(self.g);
         let hav = ja.transpose() * hnv;
         let hbv = jb.transpose() * hnv;
-        [
-            [haa, hab, hav],
-            [hab.transpose(), hbb, hbv],
-            [hav.transpose(), hbv.transpose(), Mat3::ZERO],
-        ]
+        [[haa, hab, hav], [hab.transpose(), hbb, hbv], [hav.transpose(), hbv.transpose(), Mat3::ZERO]]
     }
 }
 
@@ -82,7 +86,8 @@ mod tests {
     #[test]
     fn gradient_and_hessian_match_finite_differences() {
         let z0 = [1.1, 0.2, -0.3, 0.1, 0.9, 0.4, 0.5, -0.7, 2.0];
-        let (a, b, v) = (Vec3::new(z0[0], z0[1], z0[2]), Vec3::new(z0[3], z0[4], z0[5]), Vec3::new(z0[6], z0[7], z0[8]));
+        let (a, b, v) =
+            (Vec3::new(z0[0], z0[1], z0[2]), Vec3::new(z0[3], z0[4], z0[5]), Vec3::new(z0[6], z0[7], z0[8]));
         let k = NormalCurvature::new(a, b, v);
         let grad: Vec<f64> = [k.da, k.db, k.dv].iter().flat_map(|g| [g.x, g.y, g.z]).collect();
         let h = k.hessian(a, b);
@@ -94,8 +99,16 @@ mod tests {
             zm[i] -= eps;
             let fd = (b_of(&zp) - b_of(&zm)) / (2.0 * eps);
             assert!((fd - grad[i]).abs() < 1e-8, "gradient {i}: {fd} vs {}", grad[i]);
-            let gp = NormalCurvature::new(Vec3::new(zp[0], zp[1], zp[2]), Vec3::new(zp[3], zp[4], zp[5]), Vec3::new(zp[6], zp[7], zp[8]));
-            let gm = NormalCurvature::new(Vec3::new(zm[0], zm[1], zm[2]), Vec3::new(zm[3], zm[4], zm[5]), Vec3::new(zm[6], zm[7], zm[8]));
+            let gp = NormalCurvature::new(
+                Vec3::new(zp[0], zp[1], zp[2]),
+                Vec3::new(zp[3], zp[4], zp[5]),
+                Vec3::new(zp[6], zp[7], zp[8]),
+            );
+            let gm = NormalCurvature::new(
+                Vec3::new(zm[0], zm[1], zm[2]),
+                Vec3::new(zm[3], zm[4], zm[5]),
+                Vec3::new(zm[6], zm[7], zm[8]),
+            );
             let dp: Vec<f64> = [gp.da, gp.db, gp.dv].iter().flat_map(|g| [g.x, g.y, g.z]).collect();
             let dm: Vec<f64> = [gm.da, gm.db, gm.dv].iter().flat_map(|g| [g.x, g.y, g.z]).collect();
             for j in 0..9 {

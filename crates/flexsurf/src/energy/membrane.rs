@@ -9,7 +9,7 @@
 use super::{local_blocks, local_pairs, Energy, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
-use crate::math::{diag, Mat3, Vec3};
+use crate::math::{diag, outer, Vec3};
 use crate::ops::CellOps;
 use crate::sparse::BlockPattern;
 
@@ -161,12 +161,28 @@ impl Cell {
                     Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
                 }
             }
+            // t[a][l] = Σ_b Q_ab ∇_l s_b, so the material block (k, l) is Σ_a ∇_k s_a t[a][l]ᵀ.
+            let material = *op != Operator::Secant;
+            let mut t = [[Vec3::ZERO; 4]; NS];
+            if material {
+                for a in 0..NS {
+                    for l in 0..4 {
+                        let mut acc = Vec3::ZERO;
+                        for b in 0..NS {
+                            acc += ds[b][l] * self.q[a][b];
+                        }
+                        t[a][l] = acc;
+                    }
+                }
+            }
             let mut id = 0;
             for k in 0..4 {
                 for l in k..4 {
                     let mut m = diag(geo[k][l]);
-                    if *op != Operator::Secant {
-                        m += material_block(&self.q, &ds, k, l);
+                    if material {
+                        for a in 0..NS {
+                            m += outer(ds[a][k], t[a][l]);
+                        }
                     }
                     h.add(self.blocks[id], self.nodes[k], self.nodes[l], m);
                     id += 1;
@@ -175,20 +191,6 @@ impl Cell {
         }
         energy
     }
-}
-
-/// `Σ_ab Q_ab ∇_k s_a ∇_l s_bᵀ` (the Gauss–Newton, material part).
-#[inline]
-fn material_block(q: &[[f64; NS]; NS], ds: &[[Vec3; 4]; NS], k: usize, l: usize) -> Mat3 {
-    let mut m = Mat3::ZERO;
-    for a in 0..NS {
-        let mut col = Vec3::ZERO;
-        for b in 0..NS {
-            col += ds[b][l] * q[a][b];
-        }
-        m += crate::math::outer(ds[a][k], col);
-    }
-    m
 }
 
 /// Adds the positive part of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`, written as

@@ -71,7 +71,7 @@ pub fn gltf_json(mesh: &TriMesh, base_color: [f64; 4]) -> io::Result<serde_json:
     ];
     let mut accessors = vec![
         json!({ "bufferView": 0, "componentType": 5126, "count": nv, "type": "VEC3",
-                "min": lo.map(f64::from), "max": hi.map(f64::from) }),
+                "min": lo, "max": hi }),
         json!({ "bufferView": 1, "componentType": 5126, "count": nv, "type": "VEC3" }),
     ];
     if idx_len > 0 {
@@ -145,8 +145,8 @@ mod tests {
         assert_eq!(acc[0]["count"], mesh.vertex_count());
         assert_eq!(acc[2]["count"], 3 * mesh.triangle_count());
         let bb = mesh.bbox().unwrap();
-        assert_eq!(acc[0]["max"][2].as_f64().unwrap(), f64::from(bb.max.z as f32));
-        assert_eq!(acc[0]["min"][0].as_f64().unwrap(), f64::from(bb.min.x as f32));
+        assert_eq!(acc[0]["max"][2].as_f64().unwrap() as f32, bb.max.z as f32);
+        assert_eq!(acc[0]["min"][0].as_f64().unwrap() as f32, bb.min.x as f32);
         let uri = doc["buffers"][0]["uri"].as_str().unwrap();
         let bin = base64_decode(uri.strip_prefix("data:application/octet-stream;base64,").unwrap());
         assert_eq!(bin.len() as u64, doc["buffers"][0]["byteLength"].as_u64().unwrap());

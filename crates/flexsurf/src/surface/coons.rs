@@ -349,9 +349,9 @@ mod tests {
         m.triangles.iter().flatten().for_each(|&v| used[v as usize] = true);
         assert!(used.iter().all(|&u| u));
         assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
-        assert_eq!(CoonsSurface::try_new(&g, &x[1..]).unwrap_err(), SurfaceError::PositionCount {
-            expected: 48,
-            got: 47
-        });
+        assert_eq!(
+            CoonsSurface::try_new(&g, &x[1..]).unwrap_err(),
+            SurfaceError::PositionCount { expected: 48, got: 47 }
+        );
     }
 }

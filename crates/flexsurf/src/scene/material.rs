@@ -1,0 +1,202 @@
+//! Fabric constants in scenes and material files: a `[material]` table (or a whole material file) names a
+//! preset, a file, or gives the constants inline, in SI or in native KES-F units. Inline constants override the
+//! preset's or the file's. Everything is converted to an SI [`Fabric`] here; the model never sees units.
+
+use super::SceneError;
+use crate::material::{units, Fabric};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Built-in fabrics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub enum Preset {
+    /// The paper's non-woven cotton ([`Fabric::paper_cotton`]).
+    #[serde(rename = "paper-cotton")]
+    PaperCotton,
+}
+
+impl Preset {
+    /// Name as written in scene files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Preset::PaperCotton => "paper-cotton",
+        }
+    }
+
+    /// The preset's constants.
+    pub fn fabric(&self) -> Fabric {
+        match self {
+            Preset::PaperCotton => Fabric::paper_cotton(),
+        }
+    }
+}
+
+/// Units of the constants in one `[material]` table or material file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// SI: density kg/m², tensile N/m, shear N/m per radian, bending and twist N·m, damping kg/(m²·s).
+    #[default]
+    Si,
+    /// KES-F: weight mg/cm², tensile gf/cm, shear gf/(cm·deg), bending and twist gf·cm²/cm; damping stays
+    /// kg/(m²·s) (KES measures none).
+    Kes,
+}
+
+/// A fabric as written in a scene's `[material]` table or in a material file (same keys; a material file may not
+/// use `preset` or `file`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// A built-in fabric to start from.
+    pub preset: Option<Preset>,
+    /// A material file to start from, relative to the file that names it.
+    pub file: Option<PathBuf>,
+    /// A name for summaries.
+    pub name: Option<String>,
+    /// Where the numbers come from (free text).
+    pub source: Option<String>,
+    /// Units of the constants given here (default `si`).
+    #[serde(default)]
+    pub units: Units,
+    /// Areal density ρ: kg/m² (`kes`: weight W, mg/cm²).
+    pub density: Option<f64>,
+    /// Damping γ, force per area per velocity: kg/(m²·s) in both unit systems.
+    pub damping: Option<f64>,
+    /// Tensile stiffness along warp (u1), E1·h: N/m (`kes`: gf/cm).
+    pub tensile_warp: Option<f64>,
+    /// Tensile stiffness along weft (u2), E2·h: N/m (`kes`: gf/cm).
+    pub tensile_weft: Option<f64>,
+    /// In-plane shear stiffness G: N/m per radian (`kes`: gf/(cm·deg)).
+    pub shear: Option<f64>,
+    /// Bending rigidity along warp K1: N·m (`kes`: B, gf·cm²/cm).
+    pub bending_warp: Option<f64>,
+    /// Bending rigidity along weft K2: N·m (`kes`: B, gf·cm²/cm).
+    pub bending_weft: Option<f64>,
+    /// Poisson's ratio ν12 (default 0).
+    pub poisson: Option<f64>,
+    /// Bending Poisson coupling νb (default 0).
+    pub bending_poisson: Option<f64>,
+    /// Twist rigidity D66: N·m (`kes`: gf·cm²/cm); default Huber's `2 D66 = √(D11 D22) − D12`.
+    pub twist: Option<f64>,
+}
+
+/// A resolved fabric and where it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResolvedMaterial {
+    /// SI constants.
+    pub fabric: Fabric,
+    /// Display name (the spec's `name`, else the preset's or the file's name).
+    pub name: String,
+}
+
+type Setter = fn(&mut Fabric, f64);
+/// A key, its value as written, its conversion from KES units, and where it goes.
+type Field = (&'static str, Option<f64>, fn(f64) -> f64, Setter);
+
+impl MaterialSpec {
+    /// The constants given in this table: (key, value converted to SI, setter).
+    fn given(&self) -> Vec<(&'static str, f64, Setter)> {
+        let kes = self.units == Units::Kes;
+        let conv = |f: fn(f64) -> f64, v: f64| if kes { f(v) } else { v };
+        let id = |v: f64| v;
+        let fields: [Field; 10] = [
+            ("density", self.density, units::density_from_kes, |f, v| f.density = v),
+            ("damping", self.damping, id, |f, v| f.damping = v),
+            ("tensile_warp", self.tensile_warp, units::tension_from_kes, |f, v| f.tensile_warp = v),
+            ("tensile_weft", self.tensile_weft, units::tension_from_kes, |f, v| f.tensile_weft = v),
+            ("shear", self.shear, units::shear_from_kes, |f, v| f.shear = v),
+            ("bending_warp", self.bending_warp, units::bending_from_kes, |f, v| f.bending_warp = v),
+            ("bending_weft", self.bending_weft, units::bending_from_kes, |f, v| f.bending_weft = v),
+            ("poisson", self.poisson, id, |f, v| f.poisson = v),
+            ("bending_poisson", self.bending_poisson, id, |f, v| f.bending_poisson = v),
+            ("twist", self.twist, units::bending_from_kes, |f, v| f.twist = Some(v)),
+        ];
+        fields.into_iter().filter_map(|(k, v, c, s)| v.map(|v| (k, conv(c, v), s))).collect()
+    }
+
+    /// Resolves to SI constants. `file` is the file this table was read from (for relative paths and messages),
+    /// `prefix` the dotted key of the table in it (`material` in a scene, empty in a material file).
+    pub fn resolve(&self, file: &Path, prefix: &str) -> Result<ResolvedMaterial, SceneError> {
+        let key = |k: &str| if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+        let invalid = |k: &str, message: String| SceneError::invalid(file, key(k), message);
+        let (base, base_file, base_name) = match (&self.preset, &self.file) {
+            (Some(_), Some(_)) => {
+                return Err(invalid("file", "give either `preset` or `file`, not both".into()));
+            }
+            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string())),
+            (None, Some(rel)) => {
+                let path = relative_to(file, rel);
+                let m = load_material_file(&path).map_err(|e| match e {
+                    SceneError::Io { source, .. } => {
+                        invalid("file", format!("cannot read material file {}: {source}", path.display()))
+                    }
+                    other => other,
+                })?;
+                (Some(m.fabric), Some(path), Some(m.name))
+            }
+            (None, None) => (None, None, None),
+        };
+        let given = self.given();
+        let fabric = match base {
+            Some(mut f) => {
+                for (_, v, set) in &given {
+                    set(&mut f, *v);
+                }
+                f
+            }
+            None => {
+                let required = ["density", "tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"];
+                if let Some(missing) = required.iter().find(|r| !given.iter().any(|(k, _, _)| k == *r)) {
+                    return Err(invalid(
+                        missing,
+                        "missing value: give `preset`, `file`, or all of density, tensile_warp, tensile_weft, \
+                         shear, bending_warp and bending_weft"
+                            .into(),
+                    ));
+                }
+                let mut f =
+                    Fabric { damping: 0.0, poisson: 0.0, bending_poisson: 0.0, twist: None, ..Fabric::paper_cotton() };
+                for (_, v, set) in &given {
+                    set(&mut f, *v);
+                }
+                f
+            }
+        };
+        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) = fabric.validate() {
+            // Blame the table that set the value: this one if it gave the key, else the file it extends.
+            let here = given.iter().any(|(k, _, _)| *k == bad);
+            return Err(match (&base_file, here) {
+                (Some(bf), false) => SceneError::invalid(bf, bad.to_string(), format!("{value}: {what}")),
+                _ => invalid(bad, format!("{value}: {what}")),
+            });
+        }
+        let name = self.name.clone().or(base_name).unwrap_or_else(|| "inline".to_string());
+        Ok(ResolvedMaterial { fabric, name })
+    }
+}
+
+/// Reads and resolves a material file (`materials/*.toml`).
+pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
+    let spec: MaterialSpec = super::parse_toml(&text, path)?;
+    if spec.preset.is_some() || spec.file.is_some() {
+        let k = if spec.preset.is_some() { "preset" } else { "file" };
+        return Err(SceneError::invalid(
+            path,
+            k.into(),
+            "a material file gives constants; it cannot extend another".into(),
+        ));
+    }
+    let mut m = spec.resolve(path, "")?;
+    if spec.name.is_none() {
+        m.name = path.file_stem().map_or_else(|| "material".into(), |s| s.to_string_lossy().into_owned());
+    }
+    Ok(m)
+}
+
+/// Where a material file path points when given relative to `file`.
+pub fn relative_to(file: &Path, rel: &Path) -> PathBuf {
+    file.parent().unwrap_or(Path::new("")).join(rel)
+}
