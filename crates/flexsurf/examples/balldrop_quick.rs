@@ -24,12 +24,16 @@ fn main() {
     let rest = grid.flat_positions(0.0);
     let mut model = Model::new(grid, rest.clone(), fabric, s, model_kind, Vec3::new(0.0, 0.0, -9.81));
     model.obstacles.push(Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 });
-    model.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3 };
+    let c: f64 = std::env::var("C").ok().and_then(|v| v.parse().ok()).unwrap_or(1e4);
+    let off: f64 = std::env::var("OFF").ok().and_then(|v| v.parse().ok()).unwrap_or(0.005);
+    model.contact = ContactParams { stiffness: c, offset: off, friction: 0.3 };
     let start: Vec<Vec3> = rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.35)).collect();
     let mut state = State::at_rest(start);
     let mut stepper = Stepper::new(&model, kind, solver).unwrap();
     let t = std::time::Instant::now();
     let r = flexsurf::sim::run(&model, &mut state, &mut stepper, 0.01, 300, |st, info| {
+        let ms = model.max_strain(&st.x);
+        if ms > 0.02 { println!("step {} strain {ms}", st.step); }
         if st.step % 50 == 0 {
             let d = flexsurf::sim::diagnose(&model, st, 0.01, info.contacts);
             println!("{:?}", d);

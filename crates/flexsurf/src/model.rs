@@ -54,10 +54,15 @@ pub struct Elastic {
 }
 
 impl Elastic {
-    /// Builds both terms on `grid` with rest shape `rest`.
+    /// Builds both terms on `grid` with rest shape `rest`, warp along `u1`.
     pub fn new(grid: &Grid, rest: &[Vec3], stiffness: &Stiffness, kind: ModelKind) -> Self {
-        let mut membrane = Membrane::new(grid, rest, stiffness);
-        let mut bending = Bending::new(grid, rest, stiffness);
+        Self::with_warp_angle(grid, rest, stiffness, kind, 0.0)
+    }
+
+    /// Both terms with the warp at `warp_angle` (radians) from the `u1` tangent of the rest shape.
+    pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], stiffness: &Stiffness, kind: ModelKind, warp_angle: f64) -> Self {
+        let mut membrane = Membrane::with_warp_angle(grid, rest, stiffness, warp_angle);
+        let mut bending = Bending::with_warp_angle(grid, rest, stiffness, warp_angle);
         let pairs = membrane.pairs().into_iter().chain(bending.pairs());
         let pattern = BlockPattern::from_pairs(grid.len(), pairs);
         membrane.bind(&pattern);

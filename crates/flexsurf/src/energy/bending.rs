@@ -6,6 +6,7 @@
 //! Per quadrature point `W = ½ κᵀ D κ` over its one or two curvature changes `κ = B − B⁰`.
 
 use super::curvature::NormalCurvature;
+use super::frame::Frame;
 use super::{local_blocks, local_pairs, Energy, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
@@ -33,12 +34,25 @@ pub(crate) struct Point {
 #[derive(Debug, Clone)]
 pub struct Bending {
     pub(crate) points: Vec<Point>,
+    aligned: bool,
 }
 
 impl Bending {
-    /// Builds the quadrature points of `grid` with rest shape `rest` and stiffness `s`.
+    /// Builds the quadrature points of `grid` with rest shape `rest` and stiffness `s`, warp along `u1`.
     pub fn new(grid: &Grid, rest: &[Vec3], s: &Stiffness) -> Self {
+        Self::with_warp_angle(grid, rest, s, 0.0)
+    }
+
+    /// As [`Bending::new`] with the warp at `warp_angle` from the `u1` tangent. Curvatures are measured in the
+    /// material frame, `K = J⁻ᵀ κ J⁻¹`; the bending stiffness is pulled back to the parametric curvatures. The
+    /// normal curvatures live at nodes and the twist at cells, so the pull-back is exact when the frame is
+    /// aligned with the grid (`J` diagonal: arc-length, polar or conical grids with the warp along a grid
+    /// direction); otherwise the coupling between twist and normal curvatures is not represented, which
+    /// [`Bending::aligned`] reports so that callers can refuse such a set-up.
+    pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
+        let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
         let mut points = Vec::new();
+        let mut aligned = true;
         let w = grid.h1 * grid.h2;
         for k in 0..grid.len() {
             let (i, j) = grid.coords(k);
@@ -46,29 +60,30 @@ impl Bending {
             sup.slot(k);
             let a = sup.scatter(&tangent(grid, 0, i, j));
             let b = sup.scatter(&tangent(grid, 1, i, j));
+            let frame = Frame::new(combine(&sup, &a, rest), combine(&sup, &b, rest), warp_angle);
+            aligned &= frame.is_aligned();
+            let c = frame.pull_back(&dv);
             let mut v = [[0.0; MAX_SUPPORT]; 2];
-            let mut stiff = Vec::new();
-            // B11 with trapezoid weight across u2, B22 across u1.
+            // (measure kind 0 = κ11 or 1 = κ22, quadrature weight): B11 with trapezoid weight across u2,
+            // B22 across u1.
+            let mut kinds: Vec<(usize, f64)> = Vec::new();
             if let Some(st) = second(grid, 0, i, j) {
-                v[stiff.len()] = sup.scatter(&st);
-                stiff.push((s.d11, w * grid.trapezoid(1, j)));
+                v[kinds.len()] = sup.scatter(&st);
+                kinds.push((0, w * frame.area * grid.trapezoid(1, j)));
             }
             if let Some(st) = second(grid, 1, i, j) {
-                v[stiff.len()] = sup.scatter(&st);
-                stiff.push((s.d22, w * grid.trapezoid(0, i)));
+                v[kinds.len()] = sup.scatter(&st);
+                kinds.push((1, w * frame.area * grid.trapezoid(0, i)));
             }
-            let count = stiff.len();
+            let count = kinds.len();
             if count == 0 {
                 continue;
             }
             let mut d = [[0.0; 2]; 2];
-            for (m, &(dm, wm)) in stiff.iter().enumerate() {
-                d[m][m] = dm * wm;
-            }
-            if count == 2 {
-                let c = s.d12 * (stiff[0].1 * stiff[1].1).sqrt();
-                d[0][1] = c;
-                d[1][0] = c;
+            for (m, &(km, wm)) in kinds.iter().enumerate() {
+                for (q, &(kq, wq)) in kinds.iter().enumerate() {
+                    d[m][q] = c[km][kq] * (wm * wq).sqrt();
+                }
             }
             points.push(Point::new(sup, a, b, v, count, d, rest));
         }
@@ -79,11 +94,19 @@ impl Bending {
             let a = sup.scatter(&st(&ops.c1));
             let b = sup.scatter(&st(&ops.c2));
             let tw = sup.scatter(&st(&ops.twist));
-            // F ⊃ ½ D66 (2K12)² = ½ (4 D66) K12².
-            let d = [[4.0 * s.d66 * w, 0.0], [0.0, 0.0]];
+            let frame = Frame::new(combine(&sup, &a, rest), combine(&sup, &b, rest), warp_angle);
+            aligned &= frame.is_aligned();
+            // F ⊃ ½ C'₃₃ (2κ12)² = ½ (4 C'₃₃) κ12²; C'₃₃ = D66 for J = I.
+            let d = [[4.0 * frame.pull_back(&dv)[2][2] * w * frame.area, 0.0], [0.0, 0.0]];
             points.push(Point::new(sup, a, b, [tw, [0.0; MAX_SUPPORT]], 1, d, rest));
         }
-        Self { points }
+        Self { points, aligned }
+    }
+
+    /// True when every quadrature point's material frame is aligned with the grid (see
+    /// [`Bending::with_warp_angle`]).
+    pub fn aligned(&self) -> bool {
+        self.aligned
     }
 }
 

@@ -6,6 +6,7 @@
 //! 3×3 stiffness `C` of `(E11, E22, γ)`, so an interior edge gets full weight from its two cells and a free
 //! boundary edge half, exactly as scheme S, and Poisson coupling stays positive definite.
 
+use super::frame::Frame;
 use super::{local_blocks, local_pairs, Energy, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
@@ -37,8 +38,16 @@ pub struct Membrane {
 }
 
 impl Membrane {
-    /// Builds the cells of `grid` with rest state `rest` (stress-free by construction) and stiffness `s`.
+    /// Builds the cells of `grid` with rest state `rest` (stress-free by construction) and stiffness `s`, warp
+    /// along `u1`.
     pub fn new(grid: &Grid, rest: &[Vec3], s: &Stiffness) -> Self {
+        Self::with_warp_angle(grid, rest, s, 0.0)
+    }
+
+    /// As [`Membrane::new`] with the warp at `warp_angle` (radians) from the `u1` tangent of the rest shape.
+    /// Strains are measured in the material frame of the rest shape (`E = J⁻ᵀ ε J⁻¹`), so any smooth
+    /// parametrisation of the pattern (polar, conical, rotated) gives the same physics.
+    pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
         let cells = grid
             .cells()
             .map(|(i, j)| {
@@ -52,10 +61,10 @@ impl Membrane {
                 for a in 0..NS {
                     restv[a] = 0.5 * scale[a] * comb(&alpha[a]).dot(comb(&beta[a]));
                 }
-                // Strain stiffness in the grid's (E11, E22, γ); arc-length rest grid with warp along u1
-                // (J = I). A non-orthonormal rest parametrisation enters here as C' = Tᵀ C T.
-                let c = [[s.a11, s.a12, 0.0], [s.a12, s.a22, 0.0], [0.0, 0.0, s.a66]];
-                let w = grid.h1 * grid.h2;
+                // Material stiffness on (E11, E22, γ), pulled back to the parametric strains: C' = Tᵀ C T.
+                let frame = Frame::new(comb(&ops.c1), comb(&ops.c2), warp_angle);
+                let c = frame.pull_back(&[[s.a11, s.a12, 0.0], [s.a12, s.a22, 0.0], [0.0, 0.0, s.a66]]);
+                let w = grid.h1 * grid.h2 * frame.area;
                 // Averaging map A (3×5) from the 5 strains to the cell's (E11, E22, γ).
                 let avg = [[0.5, 0.5, 0.0, 0.0, 0.0], [0.0, 0.0, 0.5, 0.5, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]];
                 let mut q = [[0.0; NS]; NS];

@@ -7,6 +7,7 @@
 
 pub mod bending;
 pub mod curvature;
+pub mod frame;
 pub mod membrane;
 pub mod terzopoulos;
 

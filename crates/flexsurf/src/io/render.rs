@@ -338,7 +338,7 @@ struct ShadowMap {
 }
 
 impl ShadowMap {
-    fn build(tris: &[Tri], light: Vec3, size: usize) -> Option<Self> {
+    fn build(tris: &[Tri], light: Vec3, size: usize, mut depth: Vec<f32>) -> Option<Self> {
         let az = -light;
         let (ax, ay) = plane_basis(az);
         let pts =
@@ -347,7 +347,9 @@ impl ShadowMap {
         let extent = b.size().x.max(b.size().y).max(1e-9) * 1.04;
         let (x0, y0) = (b.center().x - 0.5 * extent, b.center().y - 0.5 * extent);
         let scale = size as f64 / extent;
-        let mut sm = Self { ax, ay, az, x0, y0, scale, size, depth: vec![f32::INFINITY; size * size] };
+        depth.clear();
+        depth.resize(size * size, f32::INFINITY);
+        let mut sm = Self { ax, ay, az, x0, y0, scale, size, depth };
         for t in tris.iter().filter(|t| t.casts_shadow) {
             let s = t.p.map(|p| sm.project(p));
             raster_triangle([[s[0].x, s[0].y], [s[1].x, s[1].y], [s[2].x, s[2].y]], size, size, |k, w| {
@@ -397,7 +399,7 @@ impl ShadowMap {
 /// triangle `s` (pixel `(x, y)` has centre `(x + ½, y + ½)`, index `x + w y`).
 fn raster_triangle(s: [[f64; 2]; 3], w: usize, h: usize, mut pixel: impl FnMut(usize, [f64; 3])) {
     let area = (s[1][0] - s[0][0]) * (s[2][1] - s[0][1]) - (s[1][1] - s[0][1]) * (s[2][0] - s[0][0]);
-    if !(area.abs() > 1e-12) {
+    if !area.is_finite() || area.abs() <= 1e-12 {
         return;
     }
     let inv = 1.0 / area;
@@ -431,7 +433,7 @@ fn raster_triangle(s: [[f64; 2]; 3], w: usize, h: usize, mut pixel: impl FnMut(u
                 xb = f64::NEG_INFINITY;
             }
         }
-        if !(xa <= xb) {
+        if xa.is_nan() || xb.is_nan() || xa > xb {
             continue;
         }
         let sa = ((xa - 0.5).ceil() as usize).max(x0);
@@ -462,8 +464,29 @@ struct ClipVert {
     n: Vec3,
 }
 
+/// Per-thread buffers reused between renders (a fresh multi-megabyte buffer per frame costs more in page faults
+/// than the rasterisation itself).
+#[derive(Default)]
+struct Scratch {
+    inv_z: Vec<f64>,
+    prim_id: Vec<u32>,
+    weights: Vec<[f32; 2]>,
+    shadow: Vec<f32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
 /// Renders the drawables as a `width × height` image.
 pub fn render(view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) -> RgbImage {
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut scratch) => render_with(&mut scratch, view, drawables, width, height),
+        Err(_) => render_with(&mut Scratch::default(), view, drawables, width, height),
+    })
+}
+
+fn render_with(scratch: &mut Scratch, view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) -> RgbImage {
     let mut img = RgbImage::from_pixel(width, height, Rgb(view.background));
     if width == 0 || height == 0 {
         return img;
@@ -478,9 +501,13 @@ pub fn render(view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) 
     let near = 1e-3 * (view.target - view.eye).length().max(1e-6);
     let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
 
-    let mut inv_z = vec![0.0f64; w * h];
-    let mut prim_id = vec![u32::MAX; w * h];
-    let mut weights = vec![[0.0f32; 2]; w * h];
+    let Scratch { inv_z, prim_id, weights, shadow: shadow_buf } = scratch;
+    inv_z.clear();
+    inv_z.resize(w * h, 0.0);
+    prim_id.clear();
+    prim_id.resize(w * h, u32::MAX);
+    // Weights are only read where a primitive was written, so stale values need no clearing.
+    weights.resize(w * h, [0.0; 2]);
     let mut prims: Vec<Prim> = Vec::with_capacity(tris.len());
     for t in &tris {
         let verts: [ClipVert; 3] = std::array::from_fn(|k| {
@@ -509,7 +536,11 @@ pub fn render(view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) 
         }
     }
 
-    let shadow = if view.shadows { ShadowMap::build(&tris, light, w.max(h).clamp(256, SHADOW_MAX)) } else { None };
+    let shadow = if view.shadows {
+        ShadowMap::build(&tris, light, w.max(h).clamp(256, SHADOW_MAX), std::mem::take(shadow_buf))
+    } else {
+        None
+    };
     let bg = linear_rgb(view.background);
     let (ambient, diffuse) = (view.ambient.clamp(0.0, 1.0), view.diffuse.clamp(0.0, 1.0));
     let shade = |id: u32, b: [f64; 3]| -> [f64; 3] {
@@ -535,7 +566,7 @@ pub fn render(view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) 
         p.color.map(|c| c * i)
     };
     let norm = 1.0 / (ss * ss) as f64;
-    let encode = SrgbTable::new();
+    let encode = SrgbTable::get_or_init();
     let mut samples = Vec::with_capacity(ss * ss);
     let bary = |k: usize| {
         let [b0, b1] = weights[k].map(f64::from);
@@ -560,6 +591,9 @@ pub fn render(view: &View, drawables: &[Drawable<'_>], width: u32, height: u32) 
         };
         *px = Rgb(color.map(|c| encode.get(c)));
     }
+    if let Some(sm) = shadow {
+        *shadow_buf = sm.depth;
+    }
     img
 }
 
@@ -569,8 +603,9 @@ struct SrgbTable(Vec<u8>);
 impl SrgbTable {
     const N: usize = 1 << 14;
 
-    fn new() -> Self {
-        Self((0..=Self::N).map(|i| linear_to_srgb(i as f64 / Self::N as f64)).collect())
+    fn get_or_init() -> &'static Self {
+        static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
+        TABLE.get_or_init(|| Self((0..=Self::N).map(|i| linear_to_srgb(i as f64 / Self::N as f64)).collect()))
     }
 
     fn get(&self, v: f64) -> u8 {
@@ -924,8 +959,7 @@ mod tests {
         let cloth = CoonsSurface::new(&g, &x).tessellate(1);
         assert_eq!(cloth.triangle_count(), 20_000);
         let scene = [Drawable::mesh(&cloth, CLOTH_COLOR), Drawable::plane(Vec3::ZERO, Vec3::Z, GROUND_COLOR)];
-        let mut view = default_view_for(&bbox_of(&scene).unwrap());
-        view.shadows = false; view.supersample = 1;
+        let view = default_view_for(&bbox_of(&scene).unwrap());
         for _ in 0..20 {
             let _ = render(&view, &scene, 400, 300);
         }

@@ -1,0 +1,177 @@
+//! The subcommands: thin wrappers over `flexsurf::scene` that add file context, progress and printed tables.
+
+use crate::progress;
+use crate::{FormatArg, IntegratorArg, ModelArg, Overrides, SolverArg};
+use anyhow::{bail, Context, Result};
+use flexsurf::integrate::{linsolve::SolverKind, IntegratorKind};
+use flexsurf::io::render;
+use flexsurf::model::ModelKind;
+use flexsurf::scene::run::{self as scene_run, RunOutput};
+use flexsurf::scene::{FrameFormat, Scene, SceneSpec};
+use std::path::Path;
+
+/// The canonical ball drop, embedded so `flexsurf demo` works from any directory.
+const BALL_DROP: &str = include_str!("../../../scenes/ball_drop.toml");
+
+impl Overrides {
+    fn apply(&self, spec: &mut SceneSpec) {
+        if let Some(m) = self.model {
+            spec.model.kind = match m {
+                ModelArg::Tfs => ModelKind::Tfs,
+                ModelArg::Terzopoulos => ModelKind::Terzopoulos,
+            };
+        }
+        if let Some(s) = self.steps {
+            spec.time.steps = s;
+        }
+        if let Some(i) = self.integrator {
+            spec.integrator.kind = match i {
+                IntegratorArg::Linearized => IntegratorKind::Linearized,
+                IntegratorArg::Lagged => IntegratorKind::Lagged,
+            };
+        }
+        if let Some(s) = self.solver {
+            spec.integrator.solver = match s {
+                SolverArg::Cholesky => SolverKind::Cholesky,
+                SolverArg::Pcg => SolverKind::Pcg,
+            };
+        }
+        if let Some(f) = self.format {
+            spec.output.format = match f {
+                FormatArg::Obj => FrameFormat::Obj,
+                FormatArg::Ply => FrameFormat::Ply,
+                FormatArg::Gltf => FrameFormat::Gltf,
+            };
+        }
+    }
+}
+
+/// Runs one built scene into `out` with a progress bar.
+fn run_built(scene: &Scene, out: &Path, label: &str) -> Result<RunOutput> {
+    let bar = progress::bar(scene.steps, label);
+    let result = scene_run::run_scene(scene, out, |step| bar.set_position(step as u64));
+    bar.finish_and_clear();
+    result.with_context(|| format!("running {} ({} model) into {}", scene.file.display(), label, out.display()))
+}
+
+/// `flexsurf run`.
+pub fn run(scene_path: &Path, out: &Path, overrides: &Overrides) -> Result<()> {
+    let mut spec = SceneSpec::load(scene_path)?;
+    overrides.apply(&mut spec);
+    let scene = spec.build(scene_path)?;
+    let label = scene.model.elastic.kind.name();
+    let output = run_built(&scene, out, label)?;
+    print_table(&[(label, &output)]);
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+/// `flexsurf check`.
+pub fn check(scene_path: &Path) -> Result<()> {
+    let scene = flexsurf::scene::load(scene_path)?;
+    let g = &scene.model.grid;
+    println!(
+        "{}: ok — {} × {} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \
+         {} spring(s), material {}",
+        scene_path.display(),
+        g.m,
+        g.n,
+        scene.model.elastic.kind.name(),
+        scene.integrator.name(),
+        scene.dt,
+        scene.steps,
+        scene.model.obstacles.len(),
+        scene.model.pinned.iter().filter(|p| **p).count(),
+        scene.model.springs.len(),
+        scene.material,
+    );
+    Ok(())
+}
+
+/// `flexsurf schema`.
+pub fn schema() -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(&SceneSpec::json_schema())?);
+    Ok(())
+}
+
+/// `flexsurf demo`: the ball drop with both models, each into `out/<model>`, and `out/comparison.png`.
+pub fn demo(out: &Path, steps: Option<usize>) -> Result<()> {
+    let file = Path::new("ball_drop.toml (embedded)");
+    let base = SceneSpec::from_toml(BALL_DROP, file)?;
+    let mut runs = Vec::new();
+    for kind in [ModelKind::Tfs, ModelKind::Terzopoulos] {
+        let mut spec = base.clone();
+        spec.model.kind = kind;
+        if let Some(s) = steps {
+            spec.time.steps = s;
+        }
+        let scene = spec.build(file)?;
+        let dir = out.join(kind.name());
+        eprintln!("running the ball drop with the {} model into {}", kind.name(), dir.display());
+        let output = run_built(&scene, &dir, kind.name())?;
+        runs.push((kind, scene, output));
+    }
+    // One camera for every picture, so the two rows compare directly.
+    let first = &runs[0].1;
+    let view = scene_run::view_for(&first.model, runs.iter().flat_map(|r| r.2.snapshots.iter().map(|s| &s.mesh)));
+    let [w, h] = first.output.image_size;
+    let mut images = Vec::new();
+    let mut labels = Vec::new();
+    for (kind, scene, output) in &runs {
+        let name = match kind {
+            ModelKind::Tfs => "this model (TFS)",
+            ModelKind::Terzopoulos => "Terzopoulos",
+        };
+        for s in &output.snapshots {
+            images.push(scene_run::render_frame(&scene.model, &s.mesh, &view, w, h));
+            labels.push(format!("{name}, step {}", s.step));
+        }
+    }
+    let columns = runs[0].2.snapshots.len().max(1);
+    if runs.iter().any(|r| r.2.snapshots.len() != columns) {
+        bail!("the two runs recorded different numbers of snapshots");
+    }
+    let path = out.join("comparison.png");
+    render::save_png(&path, &render::panel(&images, &labels, columns))
+        .with_context(|| format!("writing {}", path.display()))?;
+    let rows: Vec<(&str, &RunOutput)> = runs.iter().map(|(k, _, o)| (k.name(), o)).collect();
+    print_table(&rows);
+    println!("wrote {} (rows: models; columns: steps) and {}/{{tfs,terzopoulos}}", path.display(), out.display());
+    Ok(())
+}
+
+/// A short table of the numbers that tell runs apart.
+fn print_table(rows: &[(&str, &RunOutput)]) {
+    println!(
+        "{:<12} {:>6} {:>9} {:>9} {:>8} {:>8} {:>10} {:>9} {:>10} {:>11} {:>11}",
+        "model",
+        "steps",
+        "wall s",
+        "steps/s",
+        "min z",
+        "max z",
+        "area xy",
+        "strain",
+        "penetr.",
+        "membrane J",
+        "bending J"
+    );
+    for (name, o) in rows {
+        let s = &o.summary;
+        let f = &s.final_state;
+        println!(
+            "{:<12} {:>6} {:>9.3} {:>9.1} {:>8.4} {:>8.4} {:>10.4} {:>9.2e} {:>10.2e} {:>11.3e} {:>11.3e}",
+            name,
+            s.steps,
+            s.wall_seconds,
+            s.steps_per_second,
+            f.min_z,
+            f.max_z,
+            f.projected_area_xy,
+            f.max_strain,
+            s.max_penetration_seen,
+            f.membrane_energy,
+            f.bending_energy
+        );
+    }
+}

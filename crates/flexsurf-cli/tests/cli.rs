@@ -1,0 +1,40 @@
+//! The `flexsurf` command on good and bad input: exit codes and one-line error messages, never a panic.
+
+use std::path::Path;
+use std::process::Command;
+
+fn flexsurf(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flexsurf")).args(args).output().expect("run flexsurf");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (out.status.code().unwrap_or(-1), text(&out.stdout), text(&out.stderr))
+}
+
+#[test]
+fn check_schema_and_errors() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/ball_drop.toml");
+    let (code, stdout, _) = flexsurf(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(stdout.contains("21 × 21"), "{stdout}");
+
+    let (code, stdout, _) = flexsurf(&["schema"]);
+    assert_eq!(code, 0);
+    let schema: serde_json::Value = serde_json::from_str(&stdout).expect("schema is JSON");
+    assert!(schema["properties"].get("sheet").is_some());
+
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad_dt.toml");
+    std::fs::write(&bad, "[sheet]\nsize = [1.0, 1.0]\nnodes = [5, 5]\n[time]\ndt = -0.01\nsteps = 3\n").unwrap();
+    for args in [vec!["check", bad.to_str().unwrap()], vec!["run", bad.to_str().unwrap(), "--out", "unused"]] {
+        let (code, _, stderr) = flexsurf(&args);
+        assert_ne!(code, 0);
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains("bad_dt.toml") && stderr.contains("`time.dt`"), "{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let (code, _, stderr) = flexsurf(&["check", dir.join("absent.toml").to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("absent.toml") && !stderr.contains("panicked"), "{stderr}");
+    assert!(!dir.join("unused").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,97 @@
+//! The material frame of the rest state (MODEL.md §1): with `J` the 2×2 Jacobian from parameters to the
+//! orthonormal warp/weft axes of the flat pattern, strains and curvatures in physical units are
+//! `E = J⁻ᵀ ε J⁻¹`, `K = J⁻ᵀ κ J⁻¹`. For an arc-length grid with the warp along `u1`, `J = I`.
+
+use crate::math::Vec3;
+
+/// `J⁻¹` and `|det J|` at one quadrature point of the rest shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// `P = J⁻¹`, rows: parameter directions, columns: material axes (warp, weft).
+    pub p: [[f64; 2]; 2],
+    /// `|det J|`: rest area per unit parameter area.
+    pub area: f64,
+}
+
+impl Frame {
+    /// Frame from the rest tangents `∂X/∂u1`, `∂X/∂u2`, with the warp at `warp_angle` (radians) from the
+    /// `u1` tangent, measured towards `u2` in the tangent plane.
+    pub fn new(c1: Vec3, c2: Vec3, warp_angle: f64) -> Self {
+        let t1 = c1.normalize_or_zero();
+        let nrm = c1.cross(c2).normalize_or_zero();
+        let t2 = nrm.cross(t1);
+        let (s, c) = warp_angle.sin_cos();
+        let warp = t1 * c + t2 * s;
+        let weft = nrm.cross(warp);
+        let j = [[warp.dot(c1), warp.dot(c2)], [weft.dot(c1), weft.dot(c2)]];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        let p = [[j[1][1] / det, -j[0][1] / det], [-j[1][0] / det, j[0][0] / det]];
+        Self { p, area: det.abs() }
+    }
+
+    /// Voigt map `T`: `(E11, E22, γ) = T (ε11, ε22, 2ε12)` for `E = Pᵀ ε P`.
+    pub fn voigt(&self) -> [[f64; 3]; 3] {
+        let p = &self.p;
+        // Columns: images of ε11 = 1, ε22 = 1, and 2ε12 = 1.
+        let cols = [
+            [p[0][0] * p[0][0], p[0][1] * p[0][1], 2.0 * p[0][0] * p[0][1]],
+            [p[1][0] * p[1][0], p[1][1] * p[1][1], 2.0 * p[1][0] * p[1][1]],
+            [p[0][0] * p[1][0], p[0][1] * p[1][1], p[0][0] * p[1][1] + p[1][0] * p[0][1]],
+        ];
+        let mut t = [[0.0; 3]; 3];
+        for (c, col) in cols.iter().enumerate() {
+            for r in 0..3 {
+                t[r][c] = col[r];
+            }
+        }
+        t
+    }
+
+    /// `Tᵀ C T`: a stiffness on `(E11, E22, γ)` expressed on the parametric strains.
+    pub fn pull_back(&self, c: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+        let t = self.voigt();
+        let mut out = [[0.0; 3]; 3];
+        for a in 0..3 {
+            for b in 0..3 {
+                let mut v = 0.0;
+                for r in 0..3 {
+                    for s in 0..3 {
+                        v += t[r][a] * c[r][s] * t[s][b];
+                    }
+                }
+                out[a][b] = v;
+            }
+        }
+        out
+    }
+
+    /// True when the parametrisation is orthogonal and aligned with the warp (`J` diagonal).
+    pub fn is_aligned(&self) -> bool {
+        let off = self.p[0][1].abs() + self.p[1][0].abs();
+        off <= 1e-9 * (self.p[0][0].abs() + self.p[1][1].abs())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_rotation_and_scaling() {
+        let f = Frame::new(Vec3::X, Vec3::Y, 0.0);
+        assert_eq!(f.voigt(), [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+        assert!(f.is_aligned() && (f.area - 1.0).abs() < 1e-15);
+        // Polar-like scaling: u2 is an angle, |∂X/∂u2| = r.
+        let f = Frame::new(Vec3::X, Vec3::Y * 0.25, 0.0);
+        assert!((f.area - 0.25).abs() < 1e-15 && (f.voigt()[1][1] - 16.0).abs() < 1e-12);
+        // Warp at 90°: the u1 strain is the weft strain.
+        let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_2);
+        let t = f.voigt();
+        assert!((t[1][0] - 1.0).abs() < 1e-12 && t[0][0].abs() < 1e-12);
+        // Warp at 45°: uniaxial u1 strain ε has warp and weft strain ε/2 and shear ∓ε.
+        let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4);
+        let t = f.voigt();
+        assert!((t[0][0] - 0.5).abs() < 1e-12 && (t[1][0] - 0.5).abs() < 1e-12 && (t[2][0].abs() - 1.0).abs() < 1e-12);
+        assert!(!f.is_aligned());
+    }
+}

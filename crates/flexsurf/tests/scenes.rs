@@ -1,0 +1,345 @@
+//! Scene files end to end: parsing the shipped scenes and materials, one test per error class (each message
+//! must name the file and the dotted key), KES-unit material files, and a short run written through the
+//! library (atomic outputs, no temporary leftovers, no summary after a diverging run).
+
+use flexsurf::contact::Obstacle;
+use flexsurf::integrate::IntegratorKind;
+use flexsurf::material::Fabric;
+use flexsurf::math::Vec3;
+use flexsurf::model::ModelKind;
+use flexsurf::scene::material::load_material_file;
+use flexsurf::scene::run::run_scene;
+use flexsurf::scene::{self, SceneError, SceneSpec};
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A fresh empty directory for one test.
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("flexsurf-scenes-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The smallest valid scene; tests splice a fault into it.
+const MINIMAL: &str = r#"
+[sheet]
+size = [1.0, 1.0]
+nodes = [5, 5]
+center = [0.0, 0.0, 0.35]
+
+[time]
+dt = 0.01
+steps = 10
+"#;
+
+/// Writes `text` to `dir/name` and loads it as a scene, expecting an error.
+fn error_of(dir: &Path, name: &str, text: &str) -> SceneError {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    match scene::load(&path) {
+        Ok(_) => panic!("{name}: expected an error"),
+        Err(e) => e,
+    }
+}
+
+/// The message names the file and the key, and the error reports that key.
+fn assert_names(e: &SceneError, file: &str, key: &str) {
+    let msg = e.to_string();
+    assert!(msg.contains(file), "message should name the file {file}: {msg}");
+    assert!(msg.contains(&format!("`{key}`")), "message should name the key `{key}`: {msg}");
+    assert_eq!(e.key(), key, "{msg}");
+}
+
+#[test]
+fn ball_drop_builds_the_canonical_scene() {
+    let path = repo().join("scenes/ball_drop.toml");
+    let s = scene::load(&path).unwrap();
+    let g = &s.model.grid;
+    assert_eq!((g.m, g.n), (21, 21));
+    assert!((g.h1 - 0.05).abs() < 1e-15 && (g.h2 - 0.05).abs() < 1e-15);
+    assert_eq!((s.dt, s.steps, s.output_every), (0.01, 300, 100));
+    assert_eq!(s.integrator, IntegratorKind::Linearized);
+    assert_eq!(s.model.elastic.kind, ModelKind::Tfs);
+    assert_eq!(s.model.fabric, Fabric::paper_cotton());
+    assert_eq!(s.model.obstacles, vec![Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }]);
+    assert_eq!((s.model.contact.stiffness, s.model.contact.offset, s.model.contact.friction), (1e4, 0.005, 0.3));
+    assert_eq!(s.model.gravity, Vec3::new(0.0, 0.0, -9.81));
+    assert!(s.state.x.iter().all(|p| (p.z - 0.35).abs() < 1e-15));
+    let (lo, hi) = s.state.x.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.x), b.max(p.x)));
+    assert!((lo + 0.5).abs() < 1e-15 && (hi - 0.5).abs() < 1e-15);
+    assert!(!s.model.pinned.iter().any(|p| *p) && s.model.springs.is_empty());
+
+    let t = scene::load(&repo().join("scenes/ball_drop_terzopoulos.toml")).unwrap();
+    assert_eq!(t.model.elastic.kind, ModelKind::Terzopoulos);
+    assert_eq!(t.state.x, s.state.x);
+
+    let schema = SceneSpec::json_schema().to_string();
+    for key in ["sheet", "output_every", "obstacle", "paper-cotton", "terzopoulos", "edge_u1_0"] {
+        assert!(schema.contains(key), "schema lacks {key}");
+    }
+}
+
+#[test]
+fn pins_springs_materials_and_topology() {
+    let d = scratch("features");
+    std::fs::write(d.join("cloth.toml"), "density = 0.1\ntensile_warp = 1000\ntensile_weft = 500\nshear = 10\nbending_warp = 1e-5\nbending_weft = 2e-5\n").unwrap();
+    let text = format!(
+        "{MINIMAL}\n[material]\nfile = \"cloth.toml\"\ndamping = 0.5\n\n[[pin]]\nset = \"corners\"\n\n[[pin]]\nnodes = [[2, 2]]\n\n\
+         [[spring]]\nset = \"edge_u2_1\"\nstiffness = 80.0\n\n[[spring]]\nnodes = [[1, 0]]\ntarget = [0.0, 0.0, 1.0]\nstiffness = 5.0\n\n\
+         [[obstacle]]\nplane = {{ point = [0.0, 0.0, -1.0], normal = [0.0, 0.0, 2.0] }}\n"
+    );
+    let path = d.join("features.toml");
+    std::fs::write(&path, text).unwrap();
+    let s = scene::load(&path).unwrap();
+    assert_eq!(s.model.pinned.iter().filter(|p| **p).count(), 5);
+    assert!(s.model.pinned[s.model.grid.index(4, 4)] && s.model.pinned[s.model.grid.index(2, 2)]);
+    assert_eq!(s.model.springs.len(), 6);
+    let top = s.model.grid.index(3, 4);
+    let spring = s.model.springs.iter().find(|sp| sp.node == top).unwrap();
+    assert_eq!((spring.target, spring.stiffness), (s.state.x[top], 80.0));
+    assert_eq!(s.model.springs[5].target, Vec3::Z);
+    assert_eq!((s.model.fabric.density, s.model.fabric.damping, s.model.fabric.shear), (0.1, 0.5, 10.0));
+    assert_eq!(s.material, "cloth");
+    assert_eq!(s.model.obstacles[0], Obstacle::Plane { point: Vec3::new(0.0, 0.0, -1.0), normal: Vec3::Z });
+
+    // One periodic direction: a cylinder of circumference L1 about z, stress-free at rest.
+    let cyl = format!("{}\n", MINIMAL.replace("nodes = [5, 5]", "nodes = [8, 4]\ntopology = [\"periodic\", \"free\"]"));
+    std::fs::write(d.join("cylinder.toml"), cyl).unwrap();
+    let c = scene::load(&d.join("cylinder.toml")).unwrap();
+    let r = 1.0 / std::f64::consts::TAU;
+    assert!(c.state.x.iter().all(|p| ((p.x.powi(2) + p.y.powi(2)).sqrt() - r).abs() < 1e-12));
+    assert!((c.model.grid.h1 - 1.0 / 8.0).abs() < 1e-15);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn every_error_names_the_file_and_the_key() {
+    let d = scratch("errors");
+    let with = |section: &str, old: &str, new: &str| -> String {
+        assert!(MINIMAL.contains(old));
+        format!("{}{section}", MINIMAL.replace(old, new))
+    };
+    let cases: Vec<(&str, String, &str)> = vec![
+        // Malformed TOML.
+        ("malformed.toml", with("", "dt = 0.01", "dt = 0.01.5"), "time.dt"),
+        // Unknown keys.
+        ("unknown_key.toml", with("", "steps = 10", "steps = 10\ndtt = 0.1"), "time.dtt"),
+        ("unknown_table.toml", with("\n[solver]\nkind = \"pcg\"\n", "", ""), "solver"),
+        (
+            "unknown_obstacle_key.toml",
+            with("\n[[obstacle]]\nsphere = { centre = [0, 0, 0], radius = 0.3 }\n", "", ""),
+            "obstacle[0].sphere.centre",
+        ),
+        // Missing values.
+        ("missing_steps.toml", with("", "steps = 10\n", ""), "time.steps"),
+        (
+            "missing_sheet.toml",
+            MINIMAL.replace("[sheet]\nsize = [1.0, 1.0]\nnodes = [5, 5]\ncenter = [0.0, 0.0, 0.35]\n", ""),
+            "sheet",
+        ),
+        (
+            "missing_radius.toml",
+            with("\n[[obstacle]]\nsphere = { center = [0, 0, 0] }\n", "", ""),
+            "obstacle[0].sphere.radius",
+        ),
+        ("missing_constant.toml", with("\n[material]\ndensity = 0.1\n", "", ""), "material.tensile_warp"),
+        // Non-finite and non-positive numbers.
+        ("nan_dt.toml", with("", "dt = 0.01", "dt = nan"), "time.dt"),
+        ("inf_dt.toml", with("", "dt = 0.01", "dt = inf"), "time.dt"),
+        ("negative_dt.toml", with("", "dt = 0.01", "dt = -0.01"), "time.dt"),
+        ("zero_steps.toml", with("", "steps = 10", "steps = 0"), "time.steps"),
+        (
+            "zero_density.toml",
+            with("\n[material]\npreset = \"paper-cotton\"\ndensity = 0.0\n", "", ""),
+            "material.density",
+        ),
+        (
+            "nan_bending.toml",
+            with("\n[material]\npreset = \"paper-cotton\"\nbending_warp = nan\n", "", ""),
+            "material.bending_warp",
+        ),
+        ("negative_contact.toml", with("\n[contact]\nstiffness = -1e4\n", "", ""), "contact.stiffness"),
+        (
+            "negative_radius.toml",
+            with("\n[[obstacle]]\nsphere = { center = [0, 0, 0], radius = -0.3 }\n", "", ""),
+            "obstacle[0].sphere.radius",
+        ),
+        ("zero_spring.toml", with("\n[[spring]]\nset = \"corners\"\nstiffness = 0.0\n", "", ""), "spring[0].stiffness"),
+        ("inf_gravity.toml", format!("gravity = [0.0, 0.0, -inf]\n{MINIMAL}"), "gravity"),
+        ("bad_size.toml", with("", "size = [1.0, 1.0]", "size = [1.0, 0.0]"), "sheet.size"),
+        // Too few nodes.
+        ("two_nodes.toml", with("", "nodes = [5, 5]", "nodes = [2, 5]"), "sheet.nodes"),
+        // Unknown names.
+        ("unknown_preset.toml", with("\n[material]\npreset = \"silk\"\n", "", ""), "material.preset"),
+        ("unknown_model.toml", with("\n[model]\nkind = \"mass-spring\"\n", "", ""), "model.kind"),
+        ("unknown_integrator.toml", with("\n[integrator]\nkind = \"rk4\"\n", "", ""), "integrator.kind"),
+        ("unknown_solver.toml", with("\n[integrator]\nsolver = \"lu\"\n", "", ""), "integrator.solver"),
+        (
+            "unknown_units.toml",
+            with("\n[material]\npreset = \"paper-cotton\"\nunits = \"imperial\"\n", "", ""),
+            "material.units",
+        ),
+        ("unknown_set.toml", with("\n[[pin]]\nset = \"middle\"\n", "", ""), "pin[0].set"),
+        ("unknown_calibration.toml", format!("calibration = \"fast\"\n{MINIMAL}"), "calibration"),
+        // Inconsistent or out of range.
+        ("pin_outside.toml", with("\n[[pin]]\nnodes = [[5, 0]]\n", "", ""), "pin[0].nodes"),
+        ("empty_pin.toml", with("\n[[pin]]\n", "", ""), "pin[0]"),
+        (
+            "preset_and_file.toml",
+            with("\n[material]\npreset = \"paper-cotton\"\nfile = \"x.toml\"\n", "", ""),
+            "material.file",
+        ),
+        (
+            "missing_material_file.toml",
+            with("\n[material]\nfile = \"no-such-material.toml\"\n", "", ""),
+            "material.file",
+        ),
+        ("wrong_type.toml", with("", "steps = 10", "steps = \"ten\""), "time.steps"),
+    ];
+    for (name, text, key) in &cases {
+        let e = error_of(&d, name, text);
+        assert_names(&e, name, key);
+    }
+
+    // A bad value inside a material file names that file and its key.
+    std::fs::write(d.join("bad-cloth.toml"), "units = \"kes\"\ndensity = 7.45\ntensile_warp = 100\ntensile_weft = 100\nshear = -1\nbending_warp = 1\nbending_weft = 1\n").unwrap();
+    let e = error_of(&d, "uses_bad_material.toml", &with("\n[material]\nfile = \"bad-cloth.toml\"\n", "", ""));
+    assert_names(&e, "bad-cloth.toml", "shear");
+    std::fs::write(d.join("typo-cloth.toml"), "density = 0.1\nbendng_warp = 1e-5\n").unwrap();
+    let e = error_of(&d, "uses_typo_material.toml", &with("\n[material]\nfile = \"typo-cloth.toml\"\n", "", ""));
+    assert_names(&e, "typo-cloth.toml", "bendng_warp");
+    // A parse error carries the line.
+    let e = error_of(&d, "malformed.toml", &with("", "dt = 0.01", "dt = 0.01.5"));
+    assert!(e.to_string().contains("malformed.toml:8:"), "{e}");
+    // An unreadable file.
+    let e = scene::load(&d.join("absent.toml")).unwrap_err();
+    assert!(e.to_string().contains("absent.toml"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn kes_material_file_equals_the_si_one() {
+    let si = load_material_file(&repo().join("materials/paper-cotton.toml")).unwrap().fabric;
+    let kes = load_material_file(&repo().join("materials/paper-cotton-kes.toml")).unwrap().fabric;
+    assert_eq!(si, Fabric::paper_cotton());
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+    let pairs = [
+        ("density", si.density, kes.density),
+        ("damping", si.damping, kes.damping),
+        ("tensile_warp", si.tensile_warp, kes.tensile_warp),
+        ("tensile_weft", si.tensile_weft, kes.tensile_weft),
+        ("shear", si.shear, kes.shear),
+        ("bending_warp", si.bending_warp, kes.bending_warp),
+        ("bending_weft", si.bending_weft, kes.bending_weft),
+        ("poisson", si.poisson, kes.poisson),
+        ("bending_poisson", si.bending_poisson, kes.bending_poisson),
+    ];
+    for (key, a, b) in pairs {
+        assert!(close(a, b), "{key}: SI {a} vs KES {b}");
+    }
+    assert_eq!(si.twist, kes.twist);
+}
+
+/// All file names under `dir`, recursively, relative to it.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let e = e.unwrap();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if e.file_type().unwrap().is_dir() {
+            out.extend(listing(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
+        } else {
+            out.push(name);
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
+    let path = repo().join("scenes/ball_drop.toml");
+    let mut spec = SceneSpec::load(&path).unwrap();
+    spec.sheet.nodes = [9, 9];
+    spec.time.steps = 20;
+    spec.time.output_every = Some(8);
+    spec.output.image_size = [64, 48];
+    let s = spec.build(&path).unwrap();
+    let d = scratch("run");
+    let mut seen = 0;
+    let out = run_scene(&s, &d, |step| seen = step).unwrap();
+    assert_eq!(seen, 20);
+    assert_eq!(
+        listing(&d),
+        [
+            "energy.csv",
+            "frames/frame_00000.obj",
+            "frames/frame_00008.obj",
+            "frames/frame_00016.obj",
+            "frames/frame_00020.obj",
+            "snapshots.png",
+            "summary.json"
+        ]
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "model",
+        "integrator",
+        "calibration",
+        "grid",
+        "dt",
+        "steps",
+        "simulated_seconds",
+        "wall_seconds",
+        "steps_per_second",
+        "timings",
+        "max_penetration_seen",
+        "max_contacts",
+    ] {
+        assert!(json.get(key).is_some(), "summary.json lacks {key}");
+    }
+    for key in [
+        "min_z",
+        "max_z",
+        "centroid",
+        "bbox_min",
+        "bbox_max",
+        "projected_area_xy",
+        "kinetic_energy",
+        "membrane_energy",
+        "bending_energy",
+        "max_penetration",
+        "max_strain",
+    ] {
+        assert!(json["final"].get(key).is_some(), "summary.json lacks final.{key}");
+    }
+    assert_eq!(json["grid"], serde_json::json!([9, 9]));
+    assert_eq!(json["steps"], 20);
+    // After 0.2 s the sheet has fallen onto the ball (top at 0.3 m) and starts to drape: its footprint shrinks.
+    let f = &out.summary.final_state;
+    assert!(f.max_z < 0.31 && f.max_z > 0.29, "{}", f.max_z);
+    assert!(f.projected_area_xy > 0.5 && f.projected_area_xy < 1.0, "{}", f.projected_area_xy);
+    let csv = std::fs::read_to_string(d.join("energy.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 22);
+    assert!(csv.starts_with("step,time,kinetic,membrane,bending,potential\n"));
+    let obj = std::fs::read_to_string(d.join("frames/frame_00020.obj")).unwrap();
+    assert!(obj.lines().any(|l| l.starts_with("vn ")));
+
+    // The paper's lagged step at Δt = 0.01 s diverges (MODEL.md §5): the error names the step, the directory
+    // holds no summary (not even the earlier run's) and no temporary file.
+    spec.integrator.kind = IntegratorKind::Lagged;
+    spec.time.steps = 200;
+    let s = spec.build(&path).unwrap();
+    let err = run_scene(&s, &d, |_| {}).unwrap_err().to_string();
+    assert!(err.contains("diverged at step"), "{err}");
+    let files = listing(&d);
+    assert!(!files.iter().any(|f| f.ends_with("summary.json")), "{files:?}");
+    assert!(!files.iter().any(|f| f.contains(".tmp")), "{files:?}");
+    assert!(files.contains(&"energy.csv".to_string()));
+    std::fs::remove_dir_all(&d).unwrap();
+}
