@@ -31,14 +31,17 @@ fn main() {
     let mut state = State::at_rest(start);
     let mut stepper = Stepper::new(&model, kind, solver).unwrap();
     let t = std::time::Instant::now();
+    let mut worst = (0.0, 0);
     let r = flexsurf::sim::run(&model, &mut state, &mut stepper, 0.01, 300, |st, info| {
         let ms = model.max_strain(&st.x);
-        if ms > 0.02 { println!("step {} strain {ms}", st.step); }
+        let ms = model.max_strain(&st.x);
+        if ms > worst.0 { worst = (ms, st.step); }
         if st.step % 50 == 0 {
             let d = flexsurf::sim::diagnose(&model, st, 0.01, info.contacts);
             println!("{:?}", d);
         }
         std::ops::ControlFlow::Continue(())
     });
+    println!("worst strain {:?}", worst);
     println!("{:?} wall {:?} counters {:?}", r, t.elapsed(), stepper.counters);
 }

@@ -60,7 +60,13 @@ impl Elastic {
     }
 
     /// Both terms with the warp at `warp_angle` (radians) from the `u1` tangent of the rest shape.
-    pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], stiffness: &Stiffness, kind: ModelKind, warp_angle: f64) -> Self {
+    pub fn with_warp_angle(
+        grid: &Grid,
+        rest: &[Vec3],
+        stiffness: &Stiffness,
+        kind: ModelKind,
+        warp_angle: f64,
+    ) -> Self {
         let mut membrane = Membrane::with_warp_angle(grid, rest, stiffness, warp_angle);
         let mut bending = Bending::with_warp_angle(grid, rest, stiffness, warp_angle);
         let pairs = membrane.pairs().into_iter().chain(bending.pairs());

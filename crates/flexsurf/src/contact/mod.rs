@@ -6,6 +6,7 @@
 use crate::math::{outer, Mat3, Vec3};
 use serde::Serialize;
 
+
 /// A rigid obstacle with a signed distance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
@@ -63,22 +64,39 @@ pub struct ContactParams {
     pub friction: f64,
 }
 
-/// One node's active contact at the start of a step.
+/// One node's contact, with the signed distance linearised about a reference point:
+/// `d(x) ≈ distance + normal·(x − reference)`.
 #[derive(Debug, Clone, Copy)]
 pub struct Contact {
     /// Node index.
     pub node: usize,
     /// Outward normal.
     pub normal: Vec3,
-    /// Penalty force magnitude `c a (δ − d)` (N).
+    /// Penalty force magnitude at the node's current position, `c a (δ − d)` (N); negative for a contact
+    /// predicted from the node's motion that is not yet touching.
     pub force: f64,
     /// Stiffness `c a` along the normal (N/m).
     pub stiffness: f64,
-    /// Signed distance.
+    /// Signed distance at the reference point.
     pub distance: f64,
+    /// Where the distance was evaluated.
+    pub reference: Vec3,
 }
 
 impl Contact {
+    /// Contact of `node` at position `x`, with the distance `d` and normal `n` evaluated at `reference`.
+    pub fn new(node: usize, x: Vec3, reference: Vec3, d: f64, n: Vec3, params: &ContactParams, area: f64) -> Self {
+        let stiffness = params.stiffness * area;
+        let force = stiffness * (params.offset - d - n.dot(x - reference));
+        Self { node, normal: n, force, stiffness, distance: d, reference }
+    }
+
+    /// Linearised signed distance at `x`.
+    #[inline]
+    pub fn gap(&self, x: Vec3) -> f64 {
+        self.distance + self.normal.dot(x - self.reference)
+    }
+
     /// Force vector on the node.
     #[inline]
     pub fn force_vector(&self) -> Vec3 {
@@ -91,11 +109,18 @@ impl Contact {
         outer(self.normal, self.normal) * self.stiffness
     }
 
-    /// Penalty energy `½ c a (δ − d)²`.
+    /// Penalty energy `½ c a (δ − d)²` (zero while not touching).
     #[inline]
     pub fn energy(&self) -> f64 {
-        0.5 * self.force * self.force / self.stiffness
+        let f = self.force.max(0.0);
+        0.5 * f * f / self.stiffness
     }
+}
+
+/// Deepest obstacle at `p`: signed distance and outward normal (`None` without obstacles).
+#[inline]
+pub fn closest(obstacles: &[Obstacle], p: Vec3) -> Option<(f64, Vec3)> {
+    obstacles.iter().map(|o| o.distance(p)).min_by(|a, b| a.0.total_cmp(&b.0))
 }
 
 /// Active contacts of positions `x` (node areas `area`), deepest obstacle per node.
@@ -105,19 +130,37 @@ pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &
         return;
     }
     for (k, &p) in x.iter().enumerate() {
-        let mut best: Option<Contact> = None;
-        for o in obstacles {
-            let (d, n) = o.distance(p);
+        if let Some((d, n)) = closest(obstacles, p) {
             if d < params.offset {
-                let stiffness = params.stiffness * area[k];
-                let c = Contact { node: k, normal: n, force: stiffness * (params.offset - d), stiffness, distance: d };
-                if best.is_none_or(|b| d < b.distance) {
-                    best = Some(c);
-                }
+                out.push(Contact::new(k, p, p, d, n, params, area[k]));
             }
         }
-        if let Some(c) = best {
-            out.push(c);
+    }
+}
+
+/// Contact candidates for a step from `x` whose motion is predicted to reach `predicted`: nodes already inside
+/// the contact layer (linearised at `x`), and nodes whose predicted position is inside it (linearised there),
+/// so that a node fast enough to cross the whole layer in one step is caught.
+pub fn detect_predicted(
+    obstacles: &[Obstacle],
+    params: &ContactParams,
+    area: &[f64],
+    x: &[Vec3],
+    predicted: &[Vec3],
+    out: &mut Vec<Contact>,
+) {
+    out.clear();
+    if params.stiffness <= 0.0 {
+        return;
+    }
+    for (k, (&p, &q)) in x.iter().zip(predicted).enumerate() {
+        let Some((d, n)) = closest(obstacles, p) else { continue };
+        if d < params.offset {
+            out.push(Contact::new(k, p, p, d, n, params, area[k]));
+        } else if let Some((dq, nq)) = closest(obstacles, q) {
+            if dq < params.offset {
+                out.push(Contact::new(k, p, q, dq, nq, params, area[k]));
+            }
         }
     }
 }
@@ -134,7 +177,7 @@ pub fn friction(contact: &Contact, mu: f64, v: Vec3, m: f64, dt: f64) -> Vec3 {
     if speed == 0.0 {
         return Vec3::ZERO;
     }
-    let mag = (mu * contact.force).min(m * speed / dt);
+    let mag = (mu * contact.force.max(0.0)).min(m * speed / dt);
     -vt / speed * mag
 }
 

@@ -210,7 +210,7 @@ impl Pcg {
         }
     }
 
-    fn apply(&mut self, pattern: &BlockPattern, a: &BlockMatrix, fixed: &[bool], x: &[Vec3], out: &mut Vec<Vec3>) {
+    fn apply(&mut self, pattern: &BlockPattern, a: &BlockMatrix, fixed: &[bool], x: &[Vec3], out: &mut [Vec3]) {
         out.iter_mut().for_each(|v| *v = Vec3::ZERO);
         let xm: Vec<Vec3> = x.iter().zip(fixed).map(|(v, &f)| if f { Vec3::ZERO } else { *v }).collect();
         a.mul_add(pattern, &xm, out);
