@@ -12,6 +12,8 @@
 //! → [`io`] (meshes, pictures, summaries). [`model::Model`] holds what is fixed during a run, [`state::State`]
 //! what changes, and [`sim`] drives the time loop.
 #![warn(missing_docs)]
+// Index loops over small fixed-size stencil arrays mirror the formulas (Σ_ab Q_ab …) they implement.
+#![allow(clippy::needless_range_loop)]
 
 pub mod contact;
 pub mod energy;

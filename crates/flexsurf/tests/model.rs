@@ -1,6 +1,8 @@
 //! Physics of the discrete model itself: derivatives (finite differences), zero modes, patch tests, pure
 //! bending, rest curvature, and the algebra of the step. Scenario tests live in `scenarios.rs`.
 
+#![allow(clippy::needless_range_loop)]
+
 use flexsurf::energy::{bending::Bending, membrane::Membrane, Energy, Operator, Sink};
 use flexsurf::grid::{Grid, Topology};
 use flexsurf::integrate::linsolve::SolverKind;
