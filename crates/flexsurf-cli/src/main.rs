@@ -29,6 +29,25 @@ enum Command {
     },
     /// Print the JSON schema of the scene format.
     Schema,
+    /// Time the ball drop at several grid sizes, with the per-step breakdown (assembly, contact,
+    /// factorisation, solve).
+    Bench(BenchArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct BenchArgs {
+    /// Nodes per side of the sheet (one run each).
+    #[arg(long, value_delimiter = ',', default_values_t = vec![21, 41, 81, 161, 321])]
+    sizes: Vec<usize>,
+    /// Steps per size (default: 300 for up to 41², fewer for larger grids so each size takes seconds).
+    #[arg(long)]
+    steps: Option<usize>,
+    /// Repetitions of each size; the row with the median wall time is reported.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Overrides of a scene's settings from the command line.
@@ -104,6 +123,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => commands::demo(&args.out, args.steps),
         Command::Check { scene } => commands::check(&scene),
         Command::Schema => commands::schema(),
+        Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

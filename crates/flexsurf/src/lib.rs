@@ -15,6 +15,7 @@
 // Index loops over small fixed-size stencil arrays mirror the formulas (Σ_ab Q_ab …) they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bench;
 pub mod contact;
 pub mod energy;
 pub mod grid;

@@ -67,6 +67,9 @@ impl LinearSolver {
 
     /// Solves `A x = b` in place (`b` becomes `x`) for the unknowns not fixed; fixed unknowns keep the value in
     /// `b` (their prescribed increment), and their columns are moved to the right-hand side.
+    /// With `nearby`, `A` differs little from the last factorised matrix (a few diagonal blocks: a contact
+    /// active-set change); the Cholesky solver then first tries conjugate gradients preconditioned by the
+    /// existing factor and refactorises only if that does not converge quickly.
     /// Returns (factor seconds, solve seconds).
     pub fn solve(
         &mut self,
@@ -74,9 +77,10 @@ impl LinearSolver {
         a: &BlockMatrix,
         fixed: &[bool],
         b: &mut [Vec3],
+        nearby: bool,
     ) -> Result<(f64, f64), LinearError> {
         match self {
-            LinearSolver::Cholesky(c) => c.solve(a, fixed, b),
+            LinearSolver::Cholesky(c) => c.solve(a, fixed, b, nearby),
             LinearSolver::Pcg(p) => p.solve(pattern, a, fixed, b),
         }
     }
@@ -92,6 +96,8 @@ pub struct Cholesky {
     l_values: Vec<f64>,
     mem: MemBuffer,
     rhs: Vec<f64>,
+    factored: bool,
+    work: [Vec<f64>; 4],
 }
 
 impl Cholesky {
@@ -109,7 +115,18 @@ impl Cholesky {
         ]);
         let l_values = vec![0.0; symbolic.len_val()];
         let values = vec![0.0; row_idx.len()];
-        Ok(Self { col_ptr, row_idx, src, values, symbolic, l_values, mem: MemBuffer::new(req), rhs: vec![0.0; n] })
+        Ok(Self {
+            col_ptr,
+            row_idx,
+            src,
+            values,
+            symbolic,
+            l_values,
+            mem: MemBuffer::new(req),
+            rhs: vec![0.0; n],
+            factored: false,
+            work: std::array::from_fn(|_| vec![0.0; n]),
+        })
     }
 
     /// Non-zeros of the factor `L`.
@@ -117,7 +134,7 @@ impl Cholesky {
         self.symbolic.len_val()
     }
 
-    fn solve(&mut self, a: &BlockMatrix, fixed: &[bool], b: &mut [Vec3]) -> Result<(f64, f64), LinearError> {
+    fn solve(&mut self, a: &BlockMatrix, fixed: &[bool], b: &mut [Vec3], nearby: bool) -> Result<(f64, f64), LinearError> {
         let t0 = std::time::Instant::now();
         let n = self.rhs.len();
         for (k, v) in b.iter().enumerate() {
@@ -149,11 +166,37 @@ impl Cholesky {
                 };
             }
         }
+        if nearby && self.factored && self.preconditioned_cg() {
+            for (k, v) in b.iter_mut().enumerate() {
+                *v = Vec3::new(self.rhs[3 * k], self.rhs[3 * k + 1], self.rhs[3 * k + 2]);
+            }
+            return Ok((0.0, t0.elapsed().as_secs_f64()));
+        }
+        self.factor()?;
+        let t1 = std::time::Instant::now();
+        let mut rhs = std::mem::take(&mut self.rhs);
+        self.apply_factor(&mut rhs);
+        self.rhs = rhs;
+        for (k, v) in b.iter_mut().enumerate() {
+            *v = Vec3::new(self.rhs[3 * k], self.rhs[3 * k + 1], self.rhs[3 * k + 2]);
+        }
+        Ok((t1.duration_since(t0).as_secs_f64(), t1.elapsed().as_secs_f64()))
+    }
+}
+
+impl Cholesky {
+    /// Relative residual a preconditioned re-solve must reach.
+    pub const NEARBY_TOLERANCE: f64 = 1e-11;
+    /// Conjugate-gradient iterations allowed before refactorising.
+    pub const NEARBY_ITERATIONS: usize = 30;
+
+    fn factor(&mut self) -> Result<(), LinearError> {
+        let n = self.rhs.len();
         let mat = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx),
             &self.values,
         );
-        let stack = MemStack::new(&mut self.mem);
+        self.factored = false;
         self.symbolic
             .factorize_numeric_llt::<f64>(
                 &mut self.l_values,
@@ -161,7 +204,7 @@ impl Cholesky {
                 Side::Upper,
                 LltRegularization::default(),
                 Par::Seq,
-                stack,
+                MemStack::new(&mut self.mem),
                 Default::default(),
             )
             .map_err(|e| match e {
@@ -169,14 +212,85 @@ impl Cholesky {
                     LinearError::NotPositiveDefinite { index }
                 }
             })?;
-        let t1 = std::time::Instant::now();
+        self.factored = true;
+        Ok(())
+    }
+
+    /// `v ← (L Lᵀ)⁻¹ v` with the current factor.
+    fn apply_factor(&mut self, v: &mut [f64]) {
+        let n = v.len();
         let llt = LltRef::new(&self.symbolic, &self.l_values);
-        let rhs = MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1);
+        let rhs = MatMut::from_column_major_slice_mut(v, n, 1);
         llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
-        for (k, v) in b.iter_mut().enumerate() {
-            *v = Vec3::new(self.rhs[3 * k], self.rhs[3 * k + 1], self.rhs[3 * k + 2]);
+    }
+
+    /// `y = A x` with the symmetric upper CSC values.
+    fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        y.fill(0.0);
+        for c in 0..x.len() {
+            let xc = x[c];
+            let mut acc = 0.0;
+            for p in self.col_ptr[c]..self.col_ptr[c + 1] {
+                let (r, v) = (self.row_idx[p], self.values[p]);
+                acc += v * x[r];
+                if r != c {
+                    y[r] += v * xc;
+                }
+            }
+            y[c] += acc;
         }
-        Ok((t1.duration_since(t0).as_secs_f64(), t1.elapsed().as_secs_f64()))
+    }
+
+    /// Conjugate gradients on the current values, preconditioned by the last factor; on success `self.rhs`
+    /// holds the solution.
+    fn preconditioned_cg(&mut self) -> bool {
+        let n = self.rhs.len();
+        let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+        let [mut x, mut r, mut z, mut q] = std::mem::take(&mut self.work);
+        let b = self.rhs.clone();
+        let tol = Self::NEARBY_TOLERANCE * dot(&b, &b).sqrt();
+        x.copy_from_slice(&b);
+        self.apply_factor(&mut x);
+        self.matvec(&x, &mut q);
+        for i in 0..n {
+            r[i] = b[i] - q[i];
+        }
+        let mut ok = dot(&r, &r).sqrt() <= tol;
+        if !ok {
+            z.copy_from_slice(&r);
+            self.apply_factor(&mut z);
+            let mut p = z.clone();
+            let mut rz = dot(&r, &z);
+            for _ in 0..Self::NEARBY_ITERATIONS {
+                self.matvec(&p, &mut q);
+                let pq = dot(&p, &q);
+                if !(pq > 0.0 && pq.is_finite()) {
+                    break;
+                }
+                let alpha = rz / pq;
+                for i in 0..n {
+                    x[i] += alpha * p[i];
+                    r[i] -= alpha * q[i];
+                }
+                if dot(&r, &r).sqrt() <= tol {
+                    ok = true;
+                    break;
+                }
+                z.copy_from_slice(&r);
+                self.apply_factor(&mut z);
+                let rz_new = dot(&r, &z);
+                let beta = rz_new / rz;
+                rz = rz_new;
+                for i in 0..n {
+                    p[i] = z[i] + beta * p[i];
+                }
+            }
+        }
+        if ok {
+            self.rhs.copy_from_slice(&x);
+        }
+        self.work = [x, r, z, q];
+        ok
     }
 }
 

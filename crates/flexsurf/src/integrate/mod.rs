@@ -58,12 +58,12 @@ pub enum StepError {
         hint: &'static str,
     },
     /// The linear solve failed.
-    #[error("linear solve failed at step {step}: {source}")]
+    #[error("linear solve failed at step {step}: {cause}")]
     Linear {
         /// Step.
         step: usize,
         /// Cause.
-        source: LinearError,
+        cause: LinearError,
     },
 }
 
@@ -155,7 +155,7 @@ impl Stepper {
             kind,
             bounds: Bounds::for_model(model),
             counters: Counters::default(),
-            solver: LinearSolver::new(solver, pattern).map_err(|source| StepError::Linear { step: 0, source })?,
+            solver: LinearSolver::new(solver, pattern).map_err(|cause| StepError::Linear { step: 0, cause })?,
             matrix: BlockMatrix::zeros(pattern),
             diag: (0..n).map(|k| pattern.find(k, k) as u32).collect(),
             grad: vec![Vec3::ZERO; n],
@@ -296,8 +296,8 @@ impl Stepper {
             self.delta.copy_from_slice(&self.rhs);
             let (f, _) = self
                 .solver
-                .solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut self.delta)
-                .map_err(|source| StepError::Linear { step: state.step + 1, source })?;
+                .solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut self.delta, round > 0)
+                .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
             tf += f;
             self.counters.solves += 1;
             if model.obstacles.is_empty() || model.contact.stiffness <= 0.0 || round == Self::ACTIVE_SET_ROUNDS {
@@ -314,6 +314,14 @@ impl Stepper {
         }
         self.remove_contacts();
         Ok(tf)
+    }
+
+    /// Non-zeros of the Cholesky factor (0 for PCG).
+    pub fn factor_nnz(&self) -> usize {
+        match &self.solver {
+            LinearSolver::Cholesky(c) => c.factor_nnz(),
+            LinearSolver::Pcg(_) => 0,
+        }
     }
 
     /// The step matrix of the last [`Stepper::assemble`] (contacts included).

@@ -150,7 +150,7 @@ impl StaticSolver {
                 for k in 0..n {
                     step[k] = -grad[k];
                 }
-                match self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step) {
+                match self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false) {
                     Ok(_) => {
                         solved = true;
                         shift = s * 0.1;
