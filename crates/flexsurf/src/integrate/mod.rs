@@ -15,7 +15,7 @@ pub mod statics;
 use crate::contact::{self, Contact};
 use crate::energy::{Operator, Sink};
 use crate::math::{diag, finite, Vec3};
-use crate::model::{Energies, Model};
+use crate::model::{Energies, Model, ModelKind};
 use crate::sparse::BlockMatrix;
 use crate::state::State;
 use linsolve::{LinearError, LinearSolver, SolverKind};
@@ -382,7 +382,10 @@ impl Stepper {
                 self.y[k] += d;
             }
             t_solve += ts.elapsed().as_secs_f64();
-            if self.kind == IntegratorKind::Lagged || force_scale == 0.0 {
+            // Newton corrections need a consistent Jacobian: not for the lagged secant operator, nor for the
+            // Terzopoulos force, which is not the gradient of an energy.
+            if self.kind == IntegratorKind::Lagged || model.elastic.kind == ModelKind::Terzopoulos || force_scale == 0.0
+            {
                 break;
             }
         }
