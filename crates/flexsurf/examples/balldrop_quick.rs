@@ -34,8 +34,9 @@ fn main() {
     let mut worst = (0.0, 0);
     let r = flexsurf::sim::run(&model, &mut state, &mut stepper, 0.01, 300, |st, info| {
         let ms = model.max_strain(&st.x);
-        let ms = model.max_strain(&st.x);
-        if ms > worst.0 { worst = (ms, st.step); }
+        if ms > worst.0 {
+            worst = (ms, st.step);
+        }
         if st.step % 50 == 0 {
             let d = flexsurf::sim::diagnose(&model, st, 0.01, info.contacts);
             println!("{:?}", d);

@@ -61,15 +61,7 @@ pub fn run(n: usize, steps: usize) -> Result<BenchRow, BenchError> {
         steps: c.steps,
         solves: c.solves,
     };
-    Ok(BenchRow {
-        n,
-        nodes: n * n,
-        steps,
-        wall_seconds,
-        step_median,
-        per_step,
-        factor_nnz: stepper.factor_nnz(),
-    })
+    Ok(BenchRow { n, nodes: n * n, steps, wall_seconds, step_median, per_step, factor_nnz: stepper.factor_nnz() })
 }
 
 /// Least-squares exponent `p` of `t ∝ nodes^p` over the rows.

@@ -5,11 +5,17 @@
 
 use crate::math::{outer, Mat3, Vec3};
 use serde::Serialize;
+use std::sync::Arc;
 
+use nurbs::{Hint, NurbsBody};
+use trimesh::TriMeshBody;
+
+pub mod mannequin;
+pub mod nurbs;
+pub mod trimesh;
 
 /// A rigid obstacle with a signed distance.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
+#[derive(Debug, Clone)]
 pub enum Obstacle {
     /// Half-space below the plane through `point` with outward `normal`.
     Plane {
@@ -25,30 +31,80 @@ pub enum Obstacle {
         /// Radius.
         radius: f64,
     },
+    /// A closed body of NURBS patches (the mannequin).
+    Nurbs(Arc<NurbsBody>),
+    /// A closed triangle mesh (scanned or modelled bodies).
+    Mesh(Arc<TriMeshBody>),
+}
+
+impl PartialEq for Obstacle {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Obstacle::Plane { point: a, normal: b }, Obstacle::Plane { point: c, normal: d }) => a == c && b == d,
+            (Obstacle::Sphere { center: a, radius: r }, Obstacle::Sphere { center: c, radius: s }) => a == c && r == s,
+            (Obstacle::Nurbs(a), Obstacle::Nurbs(b)) => Arc::ptr_eq(a, b) || a == b,
+            (Obstacle::Mesh(a), Obstacle::Mesh(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
 }
 
 impl Obstacle {
-    /// Signed distance of `p` (positive outside) and the outward normal at the closest point.
+    /// Signed distance of `p` (positive outside) and the outward normal at the closest point (a cold query).
     #[inline]
     pub fn distance(&self, p: Vec3) -> (f64, Vec3) {
-        match *self {
-            Obstacle::Plane { point, normal } => ((p - point).dot(normal), normal),
-            Obstacle::Sphere { center, radius } => {
-                let r = p - center;
-                let len = r.length();
-                let n = if len > 0.0 { r / len } else { Vec3::Z };
-                (len - radius, n)
+        self.distance_hinted(p, &mut None, f64::INFINITY).unwrap_or((f64::INFINITY, Vec3::Z))
+    }
+
+    /// Signed distance and outward normal, warm-started from and updating `hint` (NURBS bodies), or `None` when
+    /// the obstacle is certainly farther than `radius` from `p`.
+    #[inline]
+    pub fn distance_hinted(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
+        match self {
+            Obstacle::Plane { point, normal } => Some(((p - *point).dot(*normal), *normal)),
+            Obstacle::Sphere { center, radius: r } => {
+                let d = p - *center;
+                let len = d.length();
+                let n = if len > 0.0 { d / len } else { Vec3::Z };
+                Some((len - r, n))
             }
+            Obstacle::Nurbs(body) => {
+                let pr = body.closest_within(p, *hint, radius)?;
+                *hint = Some(pr.hint());
+                Some((pr.distance, pr.normal))
+            }
+            Obstacle::Mesh(body) => Some(body.distance(p)),
         }
     }
 
-    /// The same obstacle with lengths scaled by `lambda`.
-    pub fn scaled(&self, lambda: f64) -> Self {
-        match *self {
-            Obstacle::Plane { point, normal } => Obstacle::Plane { point: point * lambda, normal },
+    /// The same obstacle with lengths scaled by `lambda` (analytic obstacles only; `None` for bodies).
+    pub fn scaled(&self, lambda: f64) -> Option<Self> {
+        match self {
+            Obstacle::Plane { point, normal } => Some(Obstacle::Plane { point: *point * lambda, normal: *normal }),
             Obstacle::Sphere { center, radius } => {
-                Obstacle::Sphere { center: center * lambda, radius: radius * lambda }
+                Some(Obstacle::Sphere { center: *center * lambda, radius: radius * lambda })
             }
+            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => None,
+        }
+    }
+}
+
+/// Warm-start state of the closest-point queries: the last (patch, u, v) per obstacle and node.
+#[derive(Debug, Clone, Default)]
+pub struct ContactCache {
+    hints: Vec<Option<Hint>>,
+    nodes: usize,
+}
+
+impl ContactCache {
+    /// Empty hints for `obstacles` × `nodes`.
+    pub fn new(obstacles: usize, nodes: usize) -> Self {
+        Self { hints: vec![None; obstacles * nodes], nodes }
+    }
+
+    fn ensure(&mut self, obstacles: usize, nodes: usize) {
+        if self.hints.len() != obstacles * nodes || self.nodes != nodes {
+            *self = Self::new(obstacles, nodes);
         }
     }
 }
@@ -123,19 +179,32 @@ pub fn closest(obstacles: &[Obstacle], p: Vec3) -> Option<(f64, Vec3)> {
     obstacles.iter().map(|o| o.distance(p)).min_by(|a, b| a.0.total_cmp(&b.0))
 }
 
-/// Active contacts of positions `x` (node areas `area`), deepest obstacle per node.
-pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &[Vec3], out: &mut Vec<Contact>) {
-    out.clear();
-    if params.stiffness <= 0.0 {
-        return;
-    }
-    for (k, &p) in x.iter().enumerate() {
-        if let Some((d, n)) = closest(obstacles, p) {
-            if d < params.offset {
-                out.push(Contact::new(k, p, p, d, n, params, area[k]));
+/// Deepest obstacle at node `k`'s position `p`, warm-started from the cache; obstacles farther than
+/// `radius` are skipped (`None` when all are).
+#[inline]
+pub fn closest_cached(
+    obstacles: &[Obstacle],
+    cache: &mut ContactCache,
+    k: usize,
+    p: Vec3,
+    radius: f64,
+) -> Option<(f64, Vec3)> {
+    let nodes = cache.nodes;
+    let mut best: Option<(f64, Vec3)> = None;
+    for (o, obstacle) in obstacles.iter().enumerate() {
+        if let Some((d, n)) = obstacle.distance_hinted(p, &mut cache.hints[o * nodes + k], radius) {
+            if best.is_none_or(|b| d < b.0) {
+                best = Some((d, n));
             }
         }
     }
+    best
+}
+
+/// Active contacts of positions `x` (node areas `area`), deepest obstacle per node.
+pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &[Vec3], out: &mut Vec<Contact>) {
+    let mut cache = ContactCache::new(obstacles.len(), x.len());
+    detect_predicted(obstacles, params, area, x, x, &mut cache, out);
 }
 
 /// Contact candidates for a step from `x` whose motion is predicted to reach `predicted`: nodes already inside
@@ -147,19 +216,25 @@ pub fn detect_predicted(
     area: &[f64],
     x: &[Vec3],
     predicted: &[Vec3],
+    cache: &mut ContactCache,
     out: &mut Vec<Contact>,
 ) {
     out.clear();
-    if params.stiffness <= 0.0 {
+    if params.stiffness <= 0.0 || obstacles.is_empty() {
         return;
     }
+    cache.ensure(obstacles.len(), x.len());
     for (k, (&p, &q)) in x.iter().zip(predicted).enumerate() {
-        let Some((d, n)) = closest(obstacles, p) else { continue };
+        // Only obstacles within reach of this step's motion matter.
+        let reach = params.offset + (q - p).length();
+        let Some((d, n)) = closest_cached(obstacles, cache, k, p, reach) else { continue };
         if d < params.offset {
             out.push(Contact::new(k, p, p, d, n, params, area[k]));
-        } else if let Some((dq, nq)) = closest(obstacles, q) {
-            if dq < params.offset {
-                out.push(Contact::new(k, p, q, dq, nq, params, area[k]));
+        } else if q != p {
+            if let Some((dq, nq)) = closest_cached(obstacles, cache, k, q, params.offset) {
+                if dq < params.offset {
+                    out.push(Contact::new(k, p, q, dq, nq, params, area[k]));
+                }
             }
         }
     }

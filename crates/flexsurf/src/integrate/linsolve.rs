@@ -134,7 +134,13 @@ impl Cholesky {
         self.symbolic.len_val()
     }
 
-    fn solve(&mut self, a: &BlockMatrix, fixed: &[bool], b: &mut [Vec3], nearby: bool) -> Result<(f64, f64), LinearError> {
+    fn solve(
+        &mut self,
+        a: &BlockMatrix,
+        fixed: &[bool],
+        b: &mut [Vec3],
+        nearby: bool,
+    ) -> Result<(f64, f64), LinearError> {
         let t0 = std::time::Instant::now();
         let n = self.rhs.len();
         for (k, v) in b.iter().enumerate() {

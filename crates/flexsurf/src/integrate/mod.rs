@@ -135,6 +135,7 @@ pub struct Stepper {
     has_contact: Vec<bool>,
     saved: Vec<(usize, crate::math::Mat3)>,
     contacts: Vec<Contact>,
+    cache: contact::ContactCache,
     y: Vec<Vec3>,
     /// Most Newton iterations per step. The first is the linearised step of the paper's form; the default 2
     /// allows one correction towards the fully implicit central-difference solution when the residual is large.
@@ -166,6 +167,7 @@ impl Stepper {
             has_contact: vec![false; n],
             saved: Vec::new(),
             contacts: Vec::new(),
+            cache: contact::ContactCache::new(model.obstacles.len(), n),
             y: vec![Vec3::ZERO; n],
             newton_iterations: 2,
             newton_tolerance: 100.0,
@@ -224,6 +226,7 @@ impl Stepper {
             &model.area,
             &self.y,
             &self.predicted,
+            &mut self.cache,
             &mut self.contacts,
         );
         self.apply_contacts(model, state, dt);
@@ -276,7 +279,7 @@ impl Stepper {
                 continue;
             }
             let q = y[k] + delta[k];
-            if let Some((d, n)) = contact::closest(&model.obstacles, q) {
+            if let Some((d, n)) = contact::closest_cached(&model.obstacles, &mut self.cache, k, q, params.offset) {
                 if d < params.offset {
                     self.contacts.push(contact::Contact::new(k, y[k], q, d, n, params, model.area[k]));
                     changed = true;
@@ -417,7 +420,7 @@ impl Stepper {
                 hint: self.hint(),
             });
         }
-        let max_penetration = max_penetration(model, &state.x);
+        let max_penetration = max_penetration_cached(model, &state.x, &mut self.cache);
         let contact_time = self.counters.contact - contact_before;
         self.counters.assembly += t_assembly - contact_time;
         self.counters.factorization += tf;
@@ -443,10 +446,16 @@ impl Stepper {
 
 /// Deepest penetration below any obstacle's surface (0 when none), in metres.
 pub fn max_penetration(model: &Model, x: &[Vec3]) -> f64 {
+    let mut cache = contact::ContactCache::new(model.obstacles.len(), x.len());
+    max_penetration_cached(model, x, &mut cache)
+}
+
+/// [`max_penetration`] with warm-started closest-point queries.
+pub fn max_penetration_cached(model: &Model, x: &[Vec3], cache: &mut contact::ContactCache) -> f64 {
     let mut worst: f64 = 0.0;
-    for p in x {
-        for o in &model.obstacles {
-            worst = worst.max(-o.distance(*p).0);
+    for (k, p) in x.iter().enumerate() {
+        if let Some((d, _)) = contact::closest_cached(&model.obstacles, cache, k, *p, model.contact.offset.max(0.0)) {
+            worst = worst.max(-d);
         }
     }
     worst

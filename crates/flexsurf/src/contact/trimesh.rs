@@ -1,0 +1,205 @@
+//! Triangle-mesh obstacles read from Wavefront OBJ, with signed distance through [`parry3d_f64`]: the closest
+//! point comes from parry's BVH point projection, and the side from the angle-weighted pseudo-normal of the
+//! closest feature (face, edge or vertex; Bærentzen & Aanæs), which is exact for a closed, consistently
+//! oriented mesh. Faces must be counter-clockwise seen from outside (the OBJ convention), so that
+//! `(b − a) × (c − a)` points out of the body. Units are metres.
+
+use crate::math::Vec3;
+use parry3d_f64::math::Vector;
+use parry3d_f64::query::PointQueryWithLocation;
+use parry3d_f64::shape::{TriMesh as ParryTriMesh, TriMeshFlags};
+use std::path::Path;
+use thiserror::Error;
+
+/// What is wrong with a mesh or an OBJ file.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum TriMeshError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the file: {message}")]
+    Io {
+        /// File name.
+        file: String,
+        /// The system's message.
+        message: String,
+    },
+    /// A malformed `v` or `f` line.
+    #[error("{file}:{line}: {message}")]
+    Syntax {
+        /// File name.
+        file: String,
+        /// Line number (1-based).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {index} is not finite")]
+    NonFiniteVertex {
+        /// Vertex index (0-based).
+        index: usize,
+    },
+    /// A triangle refers to a missing vertex.
+    #[error("triangle {triangle} refers to vertex {index}, but there are {vertices} vertices")]
+    IndexOutOfRange {
+        /// Triangle number.
+        triangle: usize,
+        /// The vertex index (0-based).
+        index: u32,
+        /// Number of vertices.
+        vertices: usize,
+    },
+    /// No triangles.
+    #[error("{0}: the mesh has no triangles")]
+    Empty(String),
+    /// More vertices than a `u32` index can address.
+    #[error("the mesh has {0} vertices; at most u32::MAX are addressable")]
+    TooManyVertices(usize),
+}
+
+/// A rigid obstacle bounded by a closed triangle mesh.
+#[derive(Clone)]
+pub struct TriMeshBody {
+    mesh: ParryTriMesh,
+}
+
+impl std::fmt::Debug for TriMeshBody {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TriMeshBody")
+            .field("vertices", &self.mesh.vertices().len())
+            .field("triangles", &self.mesh.indices().len())
+            .finish()
+    }
+}
+
+#[inline]
+fn to_parry(p: Vec3) -> Vector {
+    Vector::new(p.x, p.y, p.z)
+}
+
+#[inline]
+fn from_parry(p: Vector) -> Vec3 {
+    Vec3::new(p.x, p.y, p.z)
+}
+
+/// Parses one OBJ face index (`7`, `7/1`, `7//3`, `7/1/3`; negative = relative to the end) to 0-based.
+fn face_index(token: &str, vertices: usize) -> Result<u32, String> {
+    let first = token.split('/').next().unwrap_or("");
+    let i: i64 = first.parse().map_err(|_| format!("bad vertex index {token:?}"))?;
+    let zero_based = match i {
+        0 => return Err("vertex index 0 (OBJ indices start at 1)".to_string()),
+        i if i > 0 => i - 1,
+        i => vertices as i64 + i,
+    };
+    u32::try_from(zero_based).map_err(|_| format!("vertex index {token:?} is out of range"))
+}
+
+/// Vertices and fan-triangulated faces of OBJ text (`v` and `f` lines; everything else is ignored).
+fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), TriMeshError> {
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for (n, raw) in text.lines().enumerate() {
+        let syntax = |message: String| TriMeshError::Syntax { file: file.to_string(), line: n + 1, message };
+        let line = raw.split('#').next().unwrap_or("");
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => {
+                let mut c = [0.0; 3];
+                for x in &mut c {
+                    let t = tokens.next().ok_or_else(|| syntax("a vertex needs x y z".to_string()))?;
+                    *x = t.parse().map_err(|_| syntax(format!("bad coordinate {t:?}")))?;
+                }
+                vertices.push(Vec3::from_array(c));
+            }
+            Some("f") => {
+                let idx =
+                    tokens.map(|t| face_index(t, vertices.len())).collect::<Result<Vec<_>, _>>().map_err(syntax)?;
+                if idx.len() < 3 {
+                    return Err(syntax(format!("a face needs at least 3 vertices, got {}", idx.len())));
+                }
+                for k in 1..idx.len() - 1 {
+                    triangles.push([idx[0], idx[k], idx[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok((vertices, triangles))
+}
+
+impl TriMeshBody {
+    /// A body from vertices and counter-clockwise (seen from outside) triangles.
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self, TriMeshError> {
+        Self::build(vertices, triangles, "mesh")
+    }
+
+    fn build(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, file: &str) -> Result<Self, TriMeshError> {
+        if vertices.len() > u32::MAX as usize {
+            return Err(TriMeshError::TooManyVertices(vertices.len()));
+        }
+        if let Some(index) = vertices.iter().position(|v| !v.is_finite()) {
+            return Err(TriMeshError::NonFiniteVertex { index });
+        }
+        if triangles.is_empty() {
+            return Err(TriMeshError::Empty(file.to_string()));
+        }
+        for (t, tri) in triangles.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertices.len()) {
+                return Err(TriMeshError::IndexOutOfRange { triangle: t, index, vertices: vertices.len() });
+            }
+        }
+        let verts = vertices.into_iter().map(to_parry).collect();
+        let flags = TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES;
+        let mesh =
+            ParryTriMesh::with_flags(verts, triangles, flags).map_err(|_| TriMeshError::Empty(file.to_string()))?;
+        Ok(Self { mesh })
+    }
+
+    /// Parses OBJ text (`v x y z` and `f i j k …` lines, polygons fan-triangulated; `vt`, `vn`, groups,
+    /// materials and comments are ignored); `file` names it in errors.
+    pub fn from_obj_str(text: &str, file: &str) -> Result<Self, TriMeshError> {
+        let (vertices, triangles) = parse_obj(text, file)?;
+        Self::build(vertices, triangles, file)
+    }
+
+    /// Loads an OBJ file.
+    pub fn from_obj(path: impl AsRef<Path>) -> Result<Self, TriMeshError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| TriMeshError::Io { file: file.clone(), message: e.to_string() })?;
+        Self::from_obj_str(&text, &file)
+    }
+
+    /// Number of vertices (after merging duplicates).
+    pub fn vertex_count(&self) -> usize {
+        self.mesh.vertices().len()
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.mesh.indices().len()
+    }
+
+    /// Closest surface point, signed distance (positive outside) and outward normal of `p`. The normal is
+    /// `±(p − q)/|p − q|` (pointing out of the body), or the closest triangle's normal when `p` is on the
+    /// surface. A non-finite `p` gives a NaN distance.
+    pub fn closest(&self, p: Vec3) -> (Vec3, f64, Vec3) {
+        if !p.is_finite() {
+            return (p, f64::NAN, Vec3::Z);
+        }
+        let (proj, (tri, _)) = self.mesh.project_local_point_and_get_location(to_parry(p), false);
+        let q = from_parry(proj.point);
+        let delta = p - q;
+        let dist = delta.length();
+        let sign = if proj.is_inside { -1.0 } else { 1.0 };
+        let face = self.mesh.triangle(tri).normal().map(from_parry).unwrap_or(Vec3::Z);
+        let normal = if dist > 1e-12 * (1.0 + q.length()) { delta * (sign / dist) } else { face };
+        (q, sign * dist, normal)
+    }
+
+    /// Signed distance of `p` (positive outside) and the outward normal (see [`TriMeshBody::closest`]).
+    pub fn distance(&self, p: Vec3) -> (f64, Vec3) {
+        let (_, d, n) = self.closest(p);
+        (d, n)
+    }
+}
