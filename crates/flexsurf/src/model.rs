@@ -40,6 +40,16 @@ pub struct Energies {
     pub bending: f64,
 }
 
+/// How the rest shape defines the stress-free state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ElasticOptions {
+    /// Warp direction, radians from the `u1` tangent of the rest shape.
+    pub warp_angle: f64,
+    /// The rest shape is a flat pattern wrapped into shape (a sewn garment): it gives the metric `G⁰` only, and
+    /// the rest curvature is zero.
+    pub flat_pattern: bool,
+}
+
 /// Elastic part of a model: membrane and bending on one sparsity pattern.
 #[derive(Debug, Clone)]
 pub struct Elastic {
@@ -67,8 +77,22 @@ impl Elastic {
         kind: ModelKind,
         warp_angle: f64,
     ) -> Self {
-        let mut membrane = Membrane::with_warp_angle(grid, rest, stiffness, warp_angle);
-        let mut bending = Bending::with_warp_angle(grid, rest, stiffness, warp_angle);
+        Self::with_options(grid, rest, stiffness, kind, &ElasticOptions { warp_angle, flat_pattern: false })
+    }
+
+    /// Both terms with explicit [`ElasticOptions`].
+    pub fn with_options(
+        grid: &Grid,
+        rest: &[Vec3],
+        stiffness: &Stiffness,
+        kind: ModelKind,
+        options: &ElasticOptions,
+    ) -> Self {
+        let mut membrane = Membrane::with_warp_angle(grid, rest, stiffness, options.warp_angle);
+        let mut bending = Bending::with_warp_angle(grid, rest, stiffness, options.warp_angle);
+        if options.flat_pattern {
+            bending.flatten_rest_curvature();
+        }
         let pairs = membrane.pairs().into_iter().chain(bending.pairs());
         let pattern = BlockPattern::from_pairs(grid.len(), pairs);
         membrane.bind(&pattern);
@@ -141,7 +165,20 @@ impl Model {
         kind: ModelKind,
         gravity: Vec3,
     ) -> Self {
-        let elastic = Elastic::new(&grid, &rest, &stiffness, kind);
+        Self::with_options(grid, rest, fabric, stiffness, kind, gravity, &ElasticOptions::default())
+    }
+
+    /// As [`Model::new`] with explicit [`ElasticOptions`] (warp angle, flat pattern).
+    pub fn with_options(
+        grid: Grid,
+        rest: Vec<Vec3>,
+        fabric: Fabric,
+        stiffness: Stiffness,
+        kind: ModelKind,
+        gravity: Vec3,
+        options: &ElasticOptions,
+    ) -> Self {
+        let elastic = Elastic::with_options(&grid, &rest, &stiffness, kind, options);
         let area: Vec<f64> = (0..grid.len()).map(|k| grid.node_area(k)).collect();
         let mass = area.iter().map(|a| a * fabric.density).collect();
         let damping = area.iter().map(|a| a * fabric.damping).collect();

@@ -103,6 +103,14 @@ impl Bending {
         Self { points, aligned }
     }
 
+    /// Sets the rest curvature `B⁰` to zero everywhere: the rest shape then only defines the metric (a garment
+    /// cut from a flat pattern and sewn into a cone or cylinder is bent at rest).
+    pub fn flatten_rest_curvature(&mut self) {
+        for p in &mut self.points {
+            p.rest = [0.0; 2];
+        }
+    }
+
     /// True when every quadrature point's material frame is aligned with the grid (see
     /// [`Bending::with_warp_angle`]).
     pub fn aligned(&self) -> bool {
