@@ -89,23 +89,44 @@ impl Obstacle {
     }
 }
 
-/// Warm-start state of the closest-point queries: the last (patch, u, v) per obstacle and node.
+/// Warm-start state of the closest-point queries: the last (patch, u, v) per obstacle and node, and per node
+/// the distance found at the last detection with the position it was found at. Signed distance is 1-Lipschitz,
+/// so `d(q) ≥ d(p) − |q − p|` lets later queries of a node that cannot have reached the contact layer be skipped.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
     hints: Vec<Option<Hint>>,
     nodes: usize,
+    dist: Vec<f64>,
+    at: Vec<Vec3>,
 }
 
 impl ContactCache {
     /// Empty hints for `obstacles` × `nodes`.
     pub fn new(obstacles: usize, nodes: usize) -> Self {
-        Self { hints: vec![None; obstacles * nodes], nodes }
+        Self {
+            hints: vec![None; obstacles * nodes],
+            nodes,
+            dist: vec![f64::NEG_INFINITY; nodes],
+            at: vec![Vec3::ZERO; nodes],
+        }
     }
 
     fn ensure(&mut self, obstacles: usize, nodes: usize) {
         if self.hints.len() != obstacles * nodes || self.nodes != nodes {
             *self = Self::new(obstacles, nodes);
         }
+    }
+
+    /// A lower bound of node `k`'s signed distance at `p` from its last detection (−∞ if none).
+    #[inline]
+    pub fn lower_bound(&self, k: usize, p: Vec3) -> f64 {
+        self.dist[k] - (p - self.at[k]).length()
+    }
+
+    #[inline]
+    fn record(&mut self, k: usize, p: Vec3, d: f64) {
+        self.dist[k] = d;
+        self.at[k] = p;
     }
 }
 
@@ -226,11 +247,20 @@ pub fn detect_predicted(
     cache.ensure(obstacles.len(), x.len());
     for (k, (&p, &q)) in x.iter().zip(predicted).enumerate() {
         // Only obstacles within reach of this step's motion matter.
-        let reach = params.offset + (q - p).length();
-        let Some((d, n)) = closest_cached(obstacles, cache, k, p, reach) else { continue };
+        let motion = (q - p).length();
+        let reach = params.offset + motion;
+        if cache.lower_bound(k, p) >= reach {
+            continue;
+        }
+        let Some((d, n)) = closest_cached(obstacles, cache, k, p, reach) else {
+            // Every obstacle is farther than `reach` (bounding boxes): record that as the lower bound.
+            cache.record(k, p, reach);
+            continue;
+        };
+        cache.record(k, p, d);
         if d < params.offset {
             out.push(Contact::new(k, p, p, d, n, params, area[k]));
-        } else if q != p {
+        } else if d - motion < params.offset {
             if let Some((dq, nq)) = closest_cached(obstacles, cache, k, q, params.offset) {
                 if dq < params.offset {
                     out.push(Contact::new(k, p, q, dq, nq, params, area[k]));

@@ -279,6 +279,9 @@ impl Stepper {
                 continue;
             }
             let q = y[k] + delta[k];
+            if self.cache.lower_bound(k, q) >= params.offset {
+                continue;
+            }
             if let Some((d, n)) = contact::closest_cached(&model.obstacles, &mut self.cache, k, q, params.offset) {
                 if d < params.offset {
                     self.contacts.push(contact::Contact::new(k, y[k], q, d, n, params, model.area[k]));
@@ -454,6 +457,9 @@ pub fn max_penetration(model: &Model, x: &[Vec3]) -> f64 {
 pub fn max_penetration_cached(model: &Model, x: &[Vec3], cache: &mut contact::ContactCache) -> f64 {
     let mut worst: f64 = 0.0;
     for (k, p) in x.iter().enumerate() {
+        if cache.lower_bound(k, *p) >= 0.0 {
+            continue;
+        }
         if let Some((d, _)) = contact::closest_cached(&model.obstacles, cache, k, *p, model.contact.offset.max(0.0)) {
             worst = worst.max(-d);
         }
