@@ -179,7 +179,7 @@ impl Stepper {
     /// Returns the energies, the number of contacts and the penalty energy at `x_t`.
     pub fn assemble(&mut self, model: &Model, state: &State, dt: f64) -> (Energies, usize, f64) {
         self.y.copy_from_slice(&state.x);
-        self.assemble_at(model, state, dt, true)
+        self.assemble_at(model, state, dt, true, true)
     }
 
     /// Assembles the Newton system of the implicit central-difference equation
@@ -187,28 +187,43 @@ impl Stepper {
     /// `M/Δt² + C/(2Δt) + K(y)` and the residual, the right-hand side for the correction of `y`. At `y = x_t`
     /// this is exactly the linearised step (46)–(48). With `predict`, contact candidates also include nodes whose
     /// extrapolated position `2x_t − x⁻` is inside the contact layer.
-    fn assemble_at(&mut self, model: &Model, state: &State, dt: f64, predict: bool) -> (Energies, usize, f64) {
+    fn assemble_at(
+        &mut self,
+        model: &Model,
+        state: &State,
+        dt: f64,
+        predict: bool,
+        with_matrix: bool,
+    ) -> (Energies, usize, f64) {
         let n = model.grid.len();
         self.grad.fill(Vec3::ZERO);
-        self.matrix.clear();
         let op = match self.kind {
             IntegratorKind::Linearized => Operator::Projected,
             IntegratorKind::Lagged => Operator::Secant,
         };
-        let energies = model
-            .elastic
-            .evaluate(&self.y, &mut Sink { grad: Some(&mut self.grad), hess: Some((&mut self.matrix, op)) });
+        let energies = if with_matrix {
+            self.matrix.clear();
+            model
+                .elastic
+                .evaluate(&self.y, &mut Sink { grad: Some(&mut self.grad), hess: Some((&mut self.matrix, op)) })
+        } else {
+            model.elastic.evaluate(&self.y, &mut Sink::grad(&mut self.grad))
+        };
         let (idt, idt2) = (1.0 / dt, 1.0 / (dt * dt));
         for k in 0..n {
             let (m, c) = (model.mass[k], model.damping[k]);
             let (y, x, xm) = (self.y[k], state.x[k], state.x_prev[k]);
             self.rhs[k] =
                 model.external_force(k) - self.grad[k] - (y - x * 2.0 + xm) * (m * idt2) - (y - xm) * (0.5 * c * idt);
-            self.matrix.blocks[self.diag[k] as usize] += diag(m * idt2 + 0.5 * c * idt);
+            if with_matrix {
+                self.matrix.blocks[self.diag[k] as usize] += diag(m * idt2 + 0.5 * c * idt);
+            }
         }
         for s in &model.springs {
             self.rhs[s.node] += (s.target - self.y[s.node]) * s.stiffness;
-            self.matrix.blocks[self.diag[s.node] as usize] += diag(s.stiffness);
+            if with_matrix {
+                self.matrix.blocks[self.diag[s.node] as usize] += diag(s.stiffness);
+            }
         }
         for (k, &p) in model.pinned.iter().enumerate() {
             if p {
@@ -229,7 +244,17 @@ impl Stepper {
             &mut self.cache,
             &mut self.contacts,
         );
-        self.apply_contacts(model, state, dt);
+        if with_matrix {
+            self.apply_contacts(model, state, dt);
+        } else {
+            for c in &self.contacts {
+                let k = c.node;
+                if !model.pinned[k] {
+                    self.rhs[k] += c.force_vector()
+                        + contact::friction(c, model.contact.friction, state.velocity(k, dt), model.mass[k], dt);
+                }
+            }
+        }
         let contact_energy = self.contacts.iter().map(|c| c.energy()).sum();
         let touching = self.contacts.iter().filter(|c| c.force > 0.0).count();
         self.counters.contact += t1.elapsed().as_secs_f64();
@@ -367,12 +392,15 @@ impl Stepper {
         for iter in 0..self.newton_iterations.max(1) {
             if iter > 0 {
                 let ta = Instant::now();
-                self.assemble_at(model, state, dt, false);
-                t_assembly += ta.elapsed().as_secs_f64();
+                // Residual first (gradient and contact forces only); the matrix only if a correction is due.
+                self.assemble_at(model, state, dt, false, false);
                 let res = (0..n).filter(|&k| !model.pinned[k]).map(|k| self.rhs[k].length()).fold(0.0, f64::max);
                 if res <= self.newton_tolerance * force_scale {
+                    t_assembly += ta.elapsed().as_secs_f64();
                     break;
                 }
+                self.assemble_at(model, state, dt, false, true);
+                t_assembly += ta.elapsed().as_secs_f64();
             }
             let ts = Instant::now();
             tf += self.solve_with_contacts(model, state, dt)?;
