@@ -313,6 +313,11 @@ fn mannequin_layout_orientation_and_measurements() {
         println!("mannequin: part {} encloses {:.4} m³ (divergence theorem; legs are open at the top)", part.name, vol);
         assert!(vol > 0.002, "part {k} is inside out: {vol}");
     }
+    // Placing the body: distances scale and move with it.
+    let moved = body.transformed(2.0, Vec3::new(1.0, 0.0, -0.5)).unwrap();
+    let (p, q) = (Vec3::new(0.3, 0.1, 0.9), Vec3::new(1.6, 0.2, 1.3));
+    assert!((moved.distance(q).0 - 2.0 * body.distance(p).0).abs() < 1e-12);
+    assert!(body.transformed(-1.0, Vec3::ZERO).is_err());
     // Known inside and outside points.
     for (p, inside) in [
         (Vec3::new(0.0, 0.0, 0.95), true),

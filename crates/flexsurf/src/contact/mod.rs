@@ -69,7 +69,23 @@ impl Obstacle {
                 Some((len - r, n))
             }
             Obstacle::Nurbs(body) => {
-                let pr = body.closest_within(p, *hint, radius)?;
+                let pr = match body.closest_within(p, *hint, radius) {
+                    Some(pr) => pr,
+                    None => {
+                        // Nothing within `radius`: either far outside, or deeper than `radius` inside the body,
+                        // which a bounded query cannot tell apart. Inside the body's box, ask without a bound.
+                        let b = body.bbox();
+                        let inside_box = (0..3).all(|a| p[a] >= b.min[a] && p[a] <= b.max[a]);
+                        if !inside_box {
+                            return None;
+                        }
+                        let pr = body.closest(p, *hint);
+                        if !(pr.distance < radius) {
+                            return None;
+                        }
+                        pr
+                    }
+                };
                 *hint = Some(pr.hint());
                 Some((pr.distance, pr.normal))
             }

@@ -183,6 +183,12 @@ pub enum NurbsError {
     /// A body without patches.
     #[error("the body has no patches")]
     Empty,
+    /// A scale factor that is not positive and finite, or an offset that is not finite.
+    #[error("transform: scale {scale} must be positive and finite and the offset finite")]
+    Transform {
+        /// The scale factor given.
+        scale: f64,
+    },
     /// Lengths in a file are not in metres.
     #[error("units = {0:?}: only \"m\" (metres) is supported")]
     Units(String),
@@ -986,6 +992,23 @@ impl NurbsBody {
             let _ = writeln!(s, "]");
         }
         s
+    }
+
+    /// The body mapped by `x ↦ scale · x + offset` (orientation is kept, so `scale` must be positive; units
+    /// stay metres: use it to place a body in a scene or to rescale a figure).
+    pub fn transformed(&self, scale: f64, offset: Vec3) -> Result<Self, NurbsError> {
+        if !(scale.is_finite() && scale > 0.0 && offset.is_finite()) {
+            return Err(NurbsError::Transform { scale });
+        }
+        let mut patches = Vec::with_capacity(self.patches.len());
+        for (k, p) in self.patches.iter().enumerate() {
+            let points = p.points.iter().map(|&x| scale * x + offset).collect();
+            let weights = p.rational.then(|| p.weights.clone());
+            let q = NurbsPatch::new(p.degree(), p.ku.knots.clone(), p.kv.knots.clone(), points, weights)
+                .map_err(|e| NurbsError::Patch { index: k, source: Box::new(e) })?;
+            patches.push((self.parts[self.part_of[k]].name.clone(), q));
+        }
+        Self::new(self.name.clone(), patches)
     }
 
     /// The body's name.
