@@ -1,7 +1,7 @@
 //! The subcommands: thin wrappers over `flexsurf::scene` that add file context, progress and printed tables.
 
 use crate::progress;
-use crate::{FormatArg, IntegratorArg, ModelArg, Overrides, SolverArg};
+use crate::{DemoScene, FormatArg, IntegratorArg, ModelArg, Overrides, SolverArg};
 use anyhow::{bail, Context, Result};
 use flexsurf::integrate::{linsolve::SolverKind, IntegratorKind};
 use flexsurf::io::render;
@@ -12,6 +12,8 @@ use std::path::Path;
 
 /// The canonical ball drop, embedded so `flexsurf demo` works from any directory.
 const BALL_DROP: &str = include_str!("../../../scenes/ball_drop.toml");
+/// The skirt on the (built-in) mannequin, embedded likewise.
+const SKIRT: &str = include_str!("../../../scenes/skirt.toml");
 
 impl Overrides {
     fn apply(&self, spec: &mut SceneSpec) {
@@ -94,10 +96,14 @@ pub fn schema() -> Result<()> {
     Ok(())
 }
 
-/// `flexsurf demo`: the ball drop with both models, each into `out/<model>`, and `out/comparison.png`.
-pub fn demo(out: &Path, steps: Option<usize>) -> Result<()> {
-    let file = Path::new("ball_drop.toml (embedded)");
-    let base = SceneSpec::from_toml(BALL_DROP, file)?;
+/// `flexsurf demo`: a demo scene with both models, each into `out/<model>`, and `out/comparison.png`.
+pub fn demo(which: DemoScene, out: Option<&Path>, steps: Option<usize>) -> Result<()> {
+    let (text, file, what, default_out) = match which {
+        DemoScene::Ball => (BALL_DROP, Path::new("ball_drop.toml (embedded)"), "the ball drop", "out/demo"),
+        DemoScene::Skirt => (SKIRT, Path::new("skirt.toml (embedded)"), "the skirt", "out/skirt"),
+    };
+    let out = out.unwrap_or(Path::new(default_out));
+    let base = SceneSpec::from_toml(text, file)?;
     let mut runs = Vec::new();
     for kind in [ModelKind::Tfs, ModelKind::Terzopoulos] {
         let mut spec = base.clone();
@@ -107,7 +113,7 @@ pub fn demo(out: &Path, steps: Option<usize>) -> Result<()> {
         }
         let scene = spec.build(file)?;
         let dir = out.join(kind.name());
-        eprintln!("running the ball drop with the {} model into {}", kind.name(), dir.display());
+        eprintln!("running {what} with the {} model into {}", kind.name(), dir.display());
         let output = run_built(&scene, &dir, kind.name())?;
         runs.push((kind, scene, output));
     }
@@ -173,6 +179,17 @@ fn print_table(rows: &[(&str, &RunOutput)]) {
             f.membrane_energy,
             f.bending_energy
         );
+    }
+    for (name, o) in rows {
+        let s = &o.summary;
+        if let (Some(drift), Some(gap)) = (s.waist_drift_max, s.initial_min_distance) {
+            println!(
+                "{name}: waist drift {drift:.2e} m (largest waist node distance from its spring target), initial \
+                 clearance {gap:.4} m, {} waist node(s) fitted onto the body, most contacts {}",
+                s.waist_fitted.unwrap_or(0),
+                s.max_contacts
+            );
+        }
     }
 }
 

@@ -1,5 +1,6 @@
-//! `flexsurf`: the command-line front end. Runs TOML scenes (`run`), the paper's ball-drop demo with both
-//! models (`demo`), validates scenes (`check`) and prints the scene format's JSON schema (`schema`).
+//! `flexsurf`: the command-line front end. Runs TOML scenes (`run`), the paper's demos (the ball drop and the
+//! skirt on the mannequin) with both models (`demo`), validates scenes (`check`) and prints the scene format's
+//! JSON schema (`schema`).
 
 mod commands;
 mod progress;
@@ -20,7 +21,8 @@ struct Cli {
 enum Command {
     /// Run a scene file and write frames, energy.csv, summary.json and snapshots.png into --out.
     Run(RunArgs),
-    /// Run the ball drop with both models and write a side-by-side comparison (the paper's Fig. 1 vs Fig. 2).
+    /// Run a demo scene (the ball drop or the skirt) with both models and write a side-by-side comparison
+    /// (the paper's Fig. 1 vs Fig. 2, or its Fig. 3).
     Demo(DemoArgs),
     /// Validate a scene file without running it.
     Check {
@@ -83,12 +85,25 @@ struct RunArgs {
 
 #[derive(Debug, clap::Args)]
 struct DemoArgs {
-    /// Output directory: DIR/tfs, DIR/terzopoulos and DIR/comparison.png.
-    #[arg(long, short, default_value = "out/demo")]
-    out: PathBuf,
-    /// Number of steps (default 300, as in the paper).
+    /// Which demo: the ball drop (Fig. 1 and 2) or the skirt on the mannequin (Fig. 3).
+    #[arg(long, value_enum, default_value_t = DemoScene::Ball)]
+    scene: DemoScene,
+    /// Output directory: DIR/tfs, DIR/terzopoulos and DIR/comparison.png (default out/demo for the ball,
+    /// out/skirt for the skirt).
+    #[arg(long, short)]
+    out: Option<PathBuf>,
+    /// Number of steps (default as in the paper: 300 for the ball, 600 for the skirt).
     #[arg(long)]
     steps: Option<usize>,
+}
+
+/// The demo scenes, embedded in the binary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DemoScene {
+    /// The cloth falling on a ball (scenes/ball_drop.toml).
+    Ball,
+    /// The skirt on the mannequin (scenes/skirt.toml).
+    Skirt,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -120,7 +135,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => commands::run(&args.scene, &args.out, &args.overrides),
-        Command::Demo(args) => commands::demo(&args.out, args.steps),
+        Command::Demo(args) => commands::demo(args.scene, args.out.as_deref(), args.steps),
         Command::Check { scene } => commands::check(&scene),
         Command::Schema => commands::schema(),
         Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),

@@ -14,7 +14,9 @@ pub const BALL_DROP_TOML: &str = include_str!("../../../scenes/ball_drop.toml");
 pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
-    spec.sheet.nodes = [n, n];
+    if let Some(sheet) = spec.sheet.as_mut() {
+        sheet.nodes = [n, n];
+    }
     spec.build(file)
 }
 

@@ -111,6 +111,23 @@ impl Elastic {
     }
 }
 
+/// Rest area per node: each cell's rest area `|c1 × c2| h1 h2` (bilinear cell tangents of the rest shape)
+/// shared equally by its four corners. For a flat rectangular grid this is the trapezoid area `h1 h2` (halved
+/// on edges, quartered at corners); for a cone or any other non-rectangular pattern it is the true share.
+pub fn rest_areas(grid: &Grid, rest: &[Vec3]) -> Vec<f64> {
+    let mut area = vec![0.0; grid.len()];
+    for (i, j) in grid.cells() {
+        let c = grid.cell(i, j);
+        let c1 = (rest[c[1]] - rest[c[0]] + rest[c[3]] - rest[c[2]]) * 0.5;
+        let c2 = (rest[c[2]] - rest[c[0]] + rest[c[3]] - rest[c[1]]) * 0.5;
+        let a = c1.cross(c2).length();
+        for k in c {
+            area[k] += 0.25 * a;
+        }
+    }
+    area
+}
+
 /// A spring holding a node near a target (the skirt's waist): force `k (target − x)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Spring {
@@ -179,7 +196,7 @@ impl Model {
         options: &ElasticOptions,
     ) -> Self {
         let elastic = Elastic::with_options(&grid, &rest, &stiffness, kind, options);
-        let area: Vec<f64> = (0..grid.len()).map(|k| grid.node_area(k)).collect();
+        let area = rest_areas(&grid, &rest);
         let mass = area.iter().map(|a| a * fabric.density).collect();
         let damping = area.iter().map(|a| a * fabric.damping).collect();
         let n = grid.len();

@@ -80,7 +80,7 @@ impl Obstacle {
                             return None;
                         }
                         let pr = body.closest(p, *hint);
-                        if !(pr.distance < radius) {
+                        if pr.distance >= radius || pr.distance.is_nan() {
                             return None;
                         }
                         pr

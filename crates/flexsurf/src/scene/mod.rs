@@ -6,21 +6,26 @@
 //! a [`Scene`], and [`run`] drives a scene into an output directory. Every error names the file, the dotted key
 //! (`time.dt`, `obstacle[0].sphere.radius`) and what is wrong. The format is documented in `docs/scenes.md`.
 
+pub mod garment;
 pub mod keys;
 pub mod material;
 pub mod run;
 
-use crate::contact::{ContactParams, Obstacle};
+use crate::contact::nurbs::NurbsBody;
+use crate::contact::trimesh::TriMeshBody;
+use crate::contact::{mannequin, ContactParams, Obstacle};
 use crate::grid::{Grid, Topology};
 use crate::integrate::{linsolve::SolverKind, IntegratorKind};
 use crate::material::{Calibration, Stiffness};
 use crate::math::{Mat3, Vec3};
-use crate::model::{Model, ModelKind, Spring};
+use crate::model::{ElasticOptions, Model, ModelKind, Spring};
 use crate::state::State;
+pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use material::{MaterialSpec, Preset, Units};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Every default of the scene format, in one place.
@@ -131,8 +136,12 @@ pub struct SceneSpec {
     /// Gravity (m/s²), default `[0, 0, -9.81]`.
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 3],
-    /// The sheet: size, nodes, placement, topology.
-    pub sheet: SheetSpec,
+    /// The sheet: size, nodes, placement, topology. Exactly one of `sheet` and `garment` is given.
+    #[serde(default)]
+    pub sheet: Option<SheetSpec>,
+    /// A garment (a skirt) fitted onto the obstacles, in place of `sheet`.
+    #[serde(default)]
+    pub garment: Option<GarmentSpec>,
     /// The fabric (default: the `paper-cotton` preset).
     #[serde(default = "default_material")]
     pub material: MaterialSpec,
@@ -230,14 +239,48 @@ pub struct IntegratorSpec {
     pub solver: SolverKind,
 }
 
-/// A rigid obstacle, written `sphere = { ... }` or `plane = { ... }` inside `[[obstacle]]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+/// A rigid obstacle, written `sphere = { ... }`, `plane = { ... }`, `nurbs = { ... }` or `mesh = { ... }` inside
+/// `[[obstacle]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ObstacleSpec {
     /// A solid ball.
     Sphere(SphereSpec),
     /// A half-space.
     Plane(PlaneSpec),
+    /// A closed body of NURBS patches: a body file or a built-in body.
+    Nurbs(NurbsSpec),
+    /// A closed triangle mesh from a Wavefront OBJ file.
+    Mesh(MeshSpec),
+}
+
+/// A built-in body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BuiltinBody {
+    /// The paper's 22-patch lower-body mannequin (`docs/mannequin.md`).
+    Mannequin,
+}
+
+/// A NURBS body: exactly one of `file` (a body file in the format of `bodies/mannequin.toml`, relative to the
+/// scene file) and `builtin`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NurbsSpec {
+    /// Body file, relative to the scene file.
+    #[serde(default)]
+    pub file: Option<PathBuf>,
+    /// `mannequin`: the built-in mannequin.
+    #[serde(default)]
+    pub builtin: Option<BuiltinBody>,
+}
+
+/// A closed triangle mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Wavefront OBJ file, relative to the scene file.
+    pub file: PathBuf,
 }
 
 /// A solid ball.
@@ -434,6 +477,8 @@ pub struct Scene {
     pub material: String,
     /// Output settings.
     pub output: OutputSpec,
+    /// The garment, for garment scenes.
+    pub garment: Option<GarmentInfo>,
 }
 
 /// Reads, parses and builds the scene file at `path`.
@@ -497,65 +542,68 @@ impl SceneSpec {
             return Err(bad("time.output_every", "must be at least 1".into()));
         }
 
-        // Sheet and grid.
-        let s = &self.sheet;
-        let l1 = positive("sheet.size", s.size[0], "m")?;
-        let l2 = positive("sheet.size", s.size[1], "m")?;
-        for (d, &count) in s.nodes.iter().enumerate() {
-            if count < 3 {
-                return Err(bad(
-                    "sheet.nodes",
-                    format!("direction u{} has {count} nodes; at least 3 are needed", d + 1),
-                ));
-            }
-        }
-        if s.topology == [Topology::Periodic; 2] {
-            return Err(bad("sheet.topology", "both directions periodic (a torus) is not supported".into()));
-        }
-        let [m, n] = s.nodes;
-        let spacing = |l: f64, count: usize, t: Topology| match t {
-            Topology::Free => l / (count - 1) as f64,
-            Topology::Periodic => l / count as f64,
-        };
-        let grid = Grid::new(m, n, spacing(l1, m, s.topology[0]), spacing(l2, n, s.topology[1]), s.topology)
-            .map_err(|e| bad("sheet.nodes", e.to_string()))?;
-        let center = finite3("sheet.center", s.center)?;
-        let angles = finite3("sheet.rotate_deg", s.rotate_deg)?;
-        let rest = initial_positions(&grid, center, angles);
-
-        // Material and model.
-        let material = self.material.resolve(file, "material")?;
-        let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
-            .map_err(|e| bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
-        let gravity = finite3("gravity", self.gravity)?;
-        let mut model = Model::new(grid, rest.clone(), material.fabric, stiffness, self.model.kind, gravity);
-
-        // Obstacles and contact.
+        // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
+        let mut obstacles = Vec::with_capacity(self.obstacles.len());
         for (i, o) in self.obstacles.iter().enumerate() {
-            let obstacle = match o {
-                ObstacleSpec::Sphere(sp) => Obstacle::Sphere {
-                    center: finite3(&format!("obstacle[{i}].sphere.center"), sp.center)?,
-                    radius: positive(&format!("obstacle[{i}].sphere.radius"), sp.radius, "m")?,
-                },
-                ObstacleSpec::Plane(p) => {
-                    let key = format!("obstacle[{i}].plane.normal");
-                    let normal = finite3(&key, p.normal)?;
-                    if normal.length() == 0.0 {
-                        return Err(bad(&key, "the normal must not be zero".into()));
-                    }
-                    Obstacle::Plane {
-                        point: finite3(&format!("obstacle[{i}].plane.point"), p.point)?,
-                        normal: normal.normalize(),
-                    }
-                }
-            };
-            model.obstacles.push(obstacle);
+            obstacles.push(self.obstacle(i, o, file)?);
         }
-        model.contact = ContactParams {
+        let contact = ContactParams {
             stiffness: positive("contact.stiffness", self.contact.stiffness, "N/m³")?,
             offset: non_negative("contact.offset", self.contact.offset, "m")?,
             friction: non_negative("contact.friction", self.contact.friction, "")?,
         };
+
+        // Material.
+        let material = self.material.resolve(file, "material")?;
+        let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
+            .map_err(|e| bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
+        let gravity = finite3("gravity", self.gravity)?;
+
+        // Sheet or garment: grid, rest shape, initial shape, model.
+        let (mut model, initial, garment) = match (&self.sheet, &self.garment) {
+            (Some(_), Some(_)) => {
+                return Err(bad("garment", "give exactly one of `[sheet]` and `[garment]`, not both".into()));
+            }
+            (None, None) => {
+                return Err(bad("sheet", "give exactly one of `[sheet]` and `[garment]`; neither is present".into()));
+            }
+            (Some(s), None) => {
+                let grid = self.sheet_grid(s, file)?;
+                let center = finite3("sheet.center", s.center)?;
+                let angles = finite3("sheet.rotate_deg", s.rotate_deg)?;
+                let rest = initial_positions(&grid, center, angles);
+                let model = Model::new(grid, rest.clone(), material.fabric, stiffness, self.model.kind, gravity);
+                (model, rest, None)
+            }
+            (None, Some(g)) => {
+                let shape = g.shape(&obstacles, contact.offset, file)?;
+                let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true };
+                let mut model = Model::with_options(
+                    shape.grid,
+                    shape.rest,
+                    material.fabric,
+                    stiffness,
+                    self.model.kind,
+                    gravity,
+                    &options,
+                );
+                for &k in &shape.waist_nodes {
+                    model.springs.push(Spring { node: k, target: shape.initial[k], stiffness: g.waist_springs });
+                }
+                let info = GarmentInfo {
+                    kind: g.kind,
+                    waist_nodes: shape.waist_nodes,
+                    waist_fitted: shape.waist_fitted,
+                    waist_strain: shape.waist_strain,
+                    initial_min_distance: shape.min_distance,
+                };
+                (model, shape.initial, Some(info))
+            }
+        };
+        let grid = model.grid;
+        let rest = initial.clone();
+        model.obstacles = obstacles;
+        model.contact = contact;
 
         // Pins and springs.
         for (i, pin) in self.pins.iter().enumerate() {
@@ -601,7 +649,110 @@ impl SceneSpec {
             calibration: self.calibration,
             material: material.name,
             output: self.output,
+            garment,
         })
+    }
+
+    /// The grid of a `[sheet]`.
+    fn sheet_grid(&self, s: &SheetSpec, file: &Path) -> Result<Grid, SceneError> {
+        let bad = |key: &str, message: String| SceneError::invalid(file, key.to_string(), message);
+        let positive = |v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else if v.is_finite() {
+                Err(bad("sheet.size", format!("{v} m must be positive")))
+            } else {
+                Err(bad("sheet.size", format!("{v} m must be a finite number")))
+            }
+        };
+        let l1 = positive(s.size[0])?;
+        let l2 = positive(s.size[1])?;
+        for (d, &count) in s.nodes.iter().enumerate() {
+            if count < 3 {
+                return Err(bad(
+                    "sheet.nodes",
+                    format!("direction u{} has {count} nodes; at least 3 are needed", d + 1),
+                ));
+            }
+        }
+        if s.topology == [Topology::Periodic; 2] {
+            return Err(bad("sheet.topology", "both directions periodic (a torus) is not supported".into()));
+        }
+        let [m, n] = s.nodes;
+        let spacing = |l: f64, count: usize, t: Topology| match t {
+            Topology::Free => l / (count - 1) as f64,
+            Topology::Periodic => l / count as f64,
+        };
+        Grid::new(m, n, spacing(l1, m, s.topology[0]), spacing(l2, n, s.topology[1]), s.topology)
+            .map_err(|e| bad("sheet.nodes", e.to_string()))
+    }
+
+    /// Builds obstacle `i`; body files are found relative to `file`.
+    fn obstacle(&self, i: usize, o: &ObstacleSpec, file: &Path) -> Result<Obstacle, SceneError> {
+        let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+        let finite3 = |key: String, v: [f64; 3]| -> Result<Vec3, SceneError> {
+            if v.iter().all(|c| c.is_finite()) {
+                Ok(Vec3::from_array(v))
+            } else {
+                Err(bad(key, format!("{v:?} must be three finite numbers")))
+            }
+        };
+        let relative = |p: &Path| file.parent().map_or_else(|| p.to_path_buf(), |d| d.join(p));
+        Ok(match o {
+            ObstacleSpec::Sphere(sp) => {
+                let key = format!("obstacle[{i}].sphere.radius");
+                if !(sp.radius.is_finite() && sp.radius > 0.0) {
+                    let what = if sp.radius.is_finite() { "must be positive" } else { "must be a finite number" };
+                    return Err(bad(key, format!("{} m {what}", sp.radius)));
+                }
+                Obstacle::Sphere {
+                    center: finite3(format!("obstacle[{i}].sphere.center"), sp.center)?,
+                    radius: sp.radius,
+                }
+            }
+            ObstacleSpec::Plane(p) => {
+                let key = format!("obstacle[{i}].plane.normal");
+                let normal = finite3(key.clone(), p.normal)?;
+                if normal.length() == 0.0 {
+                    return Err(bad(key, "the normal must not be zero".into()));
+                }
+                Obstacle::Plane {
+                    point: finite3(format!("obstacle[{i}].plane.point"), p.point)?,
+                    normal: normal.normalize(),
+                }
+            }
+            ObstacleSpec::Nurbs(spec) => match (&spec.file, spec.builtin) {
+                (Some(_), Some(_)) | (None, None) => {
+                    return Err(bad(
+                        format!("obstacle[{i}].nurbs"),
+                        "give exactly one of `file` (a body file) and `builtin` (\"mannequin\")".into(),
+                    ));
+                }
+                (None, Some(BuiltinBody::Mannequin)) => Obstacle::Nurbs(Arc::new(mannequin::generate())),
+                (Some(f), None) => {
+                    let path = relative(f);
+                    let body = NurbsBody::from_file(&path)
+                        .map_err(|e| bad(format!("obstacle[{i}].nurbs.file"), naming(&path, e.to_string())))?;
+                    Obstacle::Nurbs(Arc::new(body))
+                }
+            },
+            ObstacleSpec::Mesh(spec) => {
+                let path = relative(&spec.file);
+                let body = TriMeshBody::from_obj(&path)
+                    .map_err(|e| bad(format!("obstacle[{i}].mesh.file"), naming(&path, e.to_string())))?;
+                Obstacle::Mesh(Arc::new(body))
+            }
+        })
+    }
+}
+
+/// `message` about the body file `path`, prefixed with the path unless it already names it.
+fn naming(path: &Path, message: String) -> String {
+    let name = path.display().to_string();
+    if message.contains(&name) {
+        message
+    } else {
+        format!("{name}: {message}")
     }
 }
 

@@ -125,6 +125,18 @@ pub struct Summary {
     pub max_penetration_seen: f64,
     /// Most simultaneous contacts.
     pub max_contacts: usize,
+    /// Garment scenes: the largest distance of a waist node from its spring target at the end (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_drift_max: Option<f64>,
+    /// Garment scenes: waist nodes moved outward onto the body when the garment was placed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_fitted: Option<usize>,
+    /// Garment scenes: strain of the fitted waist row against the pattern's waist girth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_strain: Option<f64>,
+    /// Garment scenes: smallest signed distance of the initial shape from the obstacles (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial_min_distance: Option<f64>,
     /// Frames written.
     pub frames: Vec<FrameRecord>,
     /// The final configuration.
@@ -248,6 +260,10 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
         timings: stepper.counters,
         max_penetration_seen: stats.max_penetration_seen,
         max_contacts: stats.max_contacts,
+        waist_drift_max: scene.garment.as_ref().map(|g| waist_drift(model, &g.waist_nodes, &state.x)),
+        waist_fitted: scene.garment.as_ref().map(|g| g.waist_fitted),
+        waist_strain: scene.garment.as_ref().map(|g| g.waist_strain),
+        initial_min_distance: scene.garment.as_ref().map(|g| g.initial_min_distance),
         frames,
         final_state: final_state(model, &state.x, &final_mesh, &d),
     };
@@ -265,6 +281,16 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
     let path = out.join("summary.json");
     atomic::write_atomic(&path, json.as_bytes()).map_err(io_err(&path))?;
     Ok(RunOutput { summary, snapshots })
+}
+
+/// Largest distance of a spring-held node among `nodes` from its spring's target (m; 0 without such springs).
+pub fn waist_drift(model: &Model, nodes: &[usize], x: &[Vec3]) -> f64 {
+    model
+        .springs
+        .iter()
+        .filter(|s| nodes.contains(&s.node))
+        .map(|s| (x[s.node] - s.target).length())
+        .fold(0.0, f64::max)
 }
 
 fn csv_row(csv: &mut String, d: &Diagnostics) {
