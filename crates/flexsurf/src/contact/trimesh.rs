@@ -197,9 +197,35 @@ impl TriMeshBody {
         (q, sign * dist, normal)
     }
 
+    /// The body as a display mesh (vertices after merging, face-averaged normals).
+    pub fn to_mesh(&self) -> crate::surface::mesh::TriMesh {
+        let positions = self.mesh.vertices().iter().map(|v| from_parry(*v)).collect();
+        let triangles = self.mesh.indices().to_vec();
+        let mut m = crate::surface::mesh::TriMesh { positions, normals: Vec::new(), triangles };
+        m.recompute_normals();
+        m
+    }
+
     /// Signed distance of `p` (positive outside) and the outward normal (see [`TriMeshBody::closest`]).
     pub fn distance(&self, p: Vec3) -> (f64, Vec3) {
         let (_, d, n) = self.closest(p);
         (d, n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_mesh_keeps_the_body() {
+        // A unit cube, quads fan-triangulated.
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                   f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        let body = TriMeshBody::from_obj_str(obj, "cube.obj").unwrap();
+        let m = body.to_mesh();
+        assert_eq!((m.vertex_count(), m.triangle_count()), (8, 12));
+        assert!((m.area() - 6.0).abs() < 1e-12);
+        assert!(body.distance(Vec3::new(0.5, 0.5, 2.0)).0 > 0.99);
     }
 }

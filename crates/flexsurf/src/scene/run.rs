@@ -379,7 +379,7 @@ pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
             Obstacle::Sphere { center, radius } => Some(Drawable::sphere(*center, *radius, OBSTACLE_COLOR)),
             Obstacle::Plane { point, normal } => Some(Drawable::plane(*point, *normal, PLANE_COLOR)),
             Obstacle::Nurbs(body) => Some(Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR)),
-            Obstacle::Mesh(_) => None,
+            Obstacle::Mesh(body) => Some(Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR)),
         })
         .collect()
 }
