@@ -375,11 +375,11 @@ pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
     model
         .obstacles
         .iter()
-        .filter_map(|o| match o {
-            Obstacle::Sphere { center, radius } => Some(Drawable::sphere(*center, *radius, OBSTACLE_COLOR)),
-            Obstacle::Plane { point, normal } => Some(Drawable::plane(*point, *normal, PLANE_COLOR)),
-            Obstacle::Nurbs(body) => Some(Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR)),
-            Obstacle::Mesh(body) => Some(Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR)),
+        .map(|o| match o {
+            Obstacle::Sphere { center, radius } => Drawable::sphere(*center, *radius, OBSTACLE_COLOR),
+            Obstacle::Plane { point, normal } => Drawable::plane(*point, *normal, PLANE_COLOR),
+            Obstacle::Nurbs(body) => Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR),
+            Obstacle::Mesh(body) => Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR),
         })
         .collect()
 }
