@@ -34,6 +34,36 @@ enum Command {
     /// Time the ball drop at several grid sizes, with the per-step breakdown (assembly, contact,
     /// factorisation, solve).
     Bench(BenchArgs),
+    /// Virtual textile tests on a fabric. `kes`: tension (warp, weft, 45° bias), simple shear and pure bending
+    /// (warp, weft) on small specimens, solved to equilibrium; prints the recovered constants and their errors.
+    Test(TestArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct TestArgs {
+    /// Which virtual test.
+    #[arg(value_enum)]
+    name: TestName,
+    /// Material file (materials/*.toml, SI or KES units); default the paper's non-woven cotton.
+    #[arg(long)]
+    material: Option<PathBuf>,
+    /// Calibration of the energy coefficients.
+    #[arg(long, value_enum, default_value_t = CalibrationArg::Kes)]
+    calibration: CalibrationArg,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum TestName {
+    Kes,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum CalibrationArg {
+    Kes,
+    Paper,
 }
 
 #[derive(Debug, clap::Args)]
@@ -139,6 +169,14 @@ fn main() -> ExitCode {
         Command::Check { scene } => commands::check(&scene),
         Command::Schema => commands::schema(),
         Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),
+        Command::Test(a) => commands::virtual_test(
+            a.material.as_deref(),
+            match a.calibration {
+                CalibrationArg::Kes => flexsurf::material::Calibration::Kes,
+                CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
+            },
+            a.json,
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -21,6 +21,7 @@ pub mod energy;
 pub mod grid;
 pub mod integrate;
 pub mod io;
+pub mod lab;
 pub mod material;
 pub mod math;
 pub mod model;

@@ -113,12 +113,16 @@ impl StaticSolver {
     /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
         let n = x.len();
+        // Force scale of the residual: the largest external load, spring force scale, or (for a problem driven
+        // by prescribed positions) the largest elastic force at the start, pinned nodes included.
+        let mut grad = vec![Vec3::ZERO; n];
+        model.elastic.evaluate(x, &mut Sink::grad(&mut grad));
         let load = (0..n)
             .map(|k| model.external_force(k).length())
             .chain(model.springs.iter().map(|s| s.stiffness * model.length_scale() * 1e-3))
+            .chain(grad.iter().map(|g| g.length()))
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
-        let mut grad = vec![Vec3::ZERO; n];
         let mut step = vec![Vec3::ZERO; n];
         let mut trial = x.to_vec();
         let mut contacts = Vec::new();

@@ -1,0 +1,24 @@
+//! Virtual textile tests: the simulator run as a measuring instrument on small specimens, so that a fabric's
+//! measured constants can be checked to come back out of the model ([`kes`]).
+
+pub mod kes;
+
+use crate::integrate::statics::StaticError;
+use crate::material::MaterialError;
+use thiserror::Error;
+
+/// Why a virtual test could not run.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum LabError {
+    /// The material is unusable.
+    #[error(transparent)]
+    Material(#[from] MaterialError),
+    /// The equilibrium solve failed.
+    #[error("{test}: {source}")]
+    Solve {
+        /// Which test.
+        test: &'static str,
+        /// Why.
+        source: StaticError,
+    },
+}
