@@ -19,3 +19,20 @@ fn kes_round_trip_recovers_the_inputs() {
     assert!((r.relative_error.bending_warp - 1.0).abs() < 0.02, "paper calibration bends 2x stiff: {r:?}");
     assert!((r.relative_error.shear + 0.5).abs() < 0.02, "paper calibration shears at half: {r:?}");
 }
+
+#[test]
+fn every_shipped_material_loads_and_round_trips() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../materials");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        let m = flexsurf::scene::material::load_material_file(&path).unwrap();
+        let r = kes(&m.fabric, Calibration::Kes).unwrap();
+        assert!(r.worst() < 0.01, "{}: {:?}", path.display(), r.relative_error);
+        count += 1;
+    }
+    assert!(count >= 7, "expected the material library, found {count} files");
+}
