@@ -249,8 +249,15 @@ pub fn bench(sizes: &[usize], steps: Option<usize>, repeat: usize, json: bool) -
     Ok(())
 }
 
-/// `flexsurf test kes`.
-pub fn virtual_test(material: Option<&Path>, calibration: flexsurf::material::Calibration, json: bool) -> Result<()> {
+/// `flexsurf test kes|cantilever`.
+pub fn virtual_test(
+    is_cantilever: bool,
+    weft: bool,
+    overhang: Option<f64>,
+    material: Option<&Path>,
+    calibration: flexsurf::material::Calibration,
+    json: bool,
+) -> Result<()> {
     let (fabric, name) = match material {
         Some(path) => {
             let m = flexsurf::scene::material::load_material_file(path)?;
@@ -258,7 +265,39 @@ pub fn virtual_test(material: Option<&Path>, calibration: flexsurf::material::Ca
         }
         None => (flexsurf::material::Fabric::paper_cotton(), "paper-cotton".to_string()),
     };
+    if let Some(l) = overhang {
+        if !(l.is_finite() && l > 0.0) {
+            bail!("--overhang: {l} m must be a positive length");
+        }
+    }
     let t = std::time::Instant::now();
+    if is_cantilever {
+        use flexsurf::lab::cantilever::{cantilever, Direction};
+        let d = if weft { Direction::Weft } else { Direction::Warp };
+        let r = cantilever(&fabric, calibration, d, overhang).with_context(|| format!("cantilever test of {name}"))?;
+        let seconds = t.elapsed().as_secs_f64();
+        if json {
+            let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,
+                "report": r, "wall_seconds": seconds });
+            println!("{}", serde_json::to_string_pretty(&v)?);
+        } else {
+            println!("cantilever test of {name} ({d:?}, {calibration:?} calibration), {seconds:.3} s");
+            println!("overhang             {:>10.4} m", r.overhang);
+            println!(
+                "chord angle          {:>10.3} deg (finest grid {:.3}; heavy elastica {:.3})",
+                r.chord_angle_deg, r.chord_angle_fine_deg, r.elastica_deg
+            );
+            println!("tip drop             {:>10.4} m", r.tip_drop);
+            println!("bending length c     {:>10.4} m (overhang at 41.5 deg / 2)", r.bending_length);
+            println!(
+                "implied rigidity w c^3 {:>10.4e} N m (input {:.4e}, {:+.2e} relative)",
+                r.implied_rigidity,
+                r.input_rigidity,
+                r.implied_rigidity / r.input_rigidity - 1.0
+            );
+        }
+        return Ok(());
+    }
     let report =
         flexsurf::lab::kes::kes(&fabric, calibration).with_context(|| format!("KES virtual test of {name}"))?;
     let seconds = t.elapsed().as_secs_f64();

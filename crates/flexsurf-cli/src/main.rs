@@ -36,6 +36,7 @@ enum Command {
     Bench(BenchArgs),
     /// Virtual textile tests on a fabric. `kes`: tension (warp, weft, 45° bias), simple shear and pure bending
     /// (warp, weft) on small specimens, solved to equilibrium; prints the recovered constants and their errors.
+    /// `cantilever`: the Peirce / ASTM D1388 strip hanging off a ledge; chord angle, tip drop, bending length.
     Test(TestArgs),
 }
 
@@ -53,11 +54,24 @@ struct TestArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// `cantilever`: the strip's direction.
+    #[arg(long, value_enum, default_value_t = DirectionArg::Warp)]
+    direction: DirectionArg,
+    /// `cantilever`: overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input).
+    #[arg(long)]
+    overhang: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum TestName {
     Kes,
+    Cantilever,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DirectionArg {
+    Warp,
+    Weft,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -170,6 +184,9 @@ fn main() -> ExitCode {
         Command::Schema => commands::schema(),
         Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),
         Command::Test(a) => commands::virtual_test(
+            a.name == TestName::Cantilever,
+            a.direction == DirectionArg::Weft,
+            a.overhang,
             a.material.as_deref(),
             match a.calibration {
                 CalibrationArg::Kes => flexsurf::material::Calibration::Kes,

@@ -36,3 +36,22 @@ fn every_shipped_material_loads_and_round_trips() {
     }
     assert!(count >= 7, "expected the material library, found {count} files");
 }
+
+#[test]
+fn cantilever_gives_back_the_bending_rigidity() {
+    use flexsurf::lab::cantilever::{cantilever, elastica_chord_deg, Direction};
+    let f = Fabric::paper_cotton();
+    for d in [Direction::Warp, Direction::Weft] {
+        let t = std::time::Instant::now();
+        let r = cantilever(&f, Calibration::Kes, d, None).unwrap();
+        eprintln!("{d:?}: {r:?} in {:.2} s", t.elapsed().as_secs_f64());
+        // At the Peirce length (q = 8) the chord is 41.5° (the test computes the elastica itself).
+        assert!((elastica_chord_deg(8.0) - 41.49).abs() < 0.01);
+        assert!((r.chord_angle_deg - r.elastica_deg).abs() < 0.1, "{d:?}: {r:?}");
+        assert!((r.chord_angle_fine_deg - 41.5).abs() < 1.0, "{d:?}: {r:?}");
+        assert!((r.implied_rigidity / r.input_rigidity - 1.0).abs() < 0.02, "{d:?}: {r:?}");
+    }
+    // Another ratio: a 10 cm warp strip hangs at 26.4° (AUDIT §7.7).
+    let r = cantilever(&f, Calibration::Kes, Direction::Warp, Some(0.10)).unwrap();
+    assert!((r.chord_angle_deg - 26.4).abs() < 0.2, "{r:?}");
+}

@@ -1,6 +1,7 @@
 //! Virtual textile tests: the simulator run as a measuring instrument on small specimens, so that a fabric's
 //! measured constants can be checked to come back out of the model ([`kes`]).
 
+pub mod cantilever;
 pub mod kes;
 
 use crate::integrate::statics::StaticError;
