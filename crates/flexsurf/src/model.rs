@@ -3,6 +3,7 @@
 //! by the integrators.
 
 use crate::contact::{ContactParams, Obstacle};
+use crate::energy::frame::Warp;
 use crate::energy::{bending::Bending, membrane::Membrane, terzopoulos, Energy, Sink};
 use crate::grid::Grid;
 use crate::material::{Fabric, Stiffness};
@@ -43,8 +44,10 @@ pub struct Energies {
 /// How the rest shape defines the stress-free state.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ElasticOptions {
-    /// Warp direction, radians from the `u1` tangent of the rest shape.
+    /// Warp direction, radians from the `u1` tangent of the rest shape (ignored when `warp_direction` is set).
     pub warp_angle: f64,
+    /// Warp along this fixed direction of the rest shape instead (a polar grid of one flat piece of fabric).
+    pub warp_direction: Option<Vec3>,
     /// The rest shape is a flat pattern wrapped into shape (a sewn garment): it gives the metric `G⁰` only, and
     /// the rest curvature is zero.
     pub flat_pattern: bool,
@@ -77,7 +80,7 @@ impl Elastic {
         kind: ModelKind,
         warp_angle: f64,
     ) -> Self {
-        Self::with_options(grid, rest, stiffness, kind, &ElasticOptions { warp_angle, flat_pattern: false })
+        Self::with_options(grid, rest, stiffness, kind, &ElasticOptions { warp_angle, ..Default::default() })
     }
 
     /// Both terms with explicit [`ElasticOptions`].
@@ -88,8 +91,12 @@ impl Elastic {
         kind: ModelKind,
         options: &ElasticOptions,
     ) -> Self {
-        let mut membrane = Membrane::with_warp_angle(grid, rest, stiffness, options.warp_angle);
-        let mut bending = Bending::with_warp_angle(grid, rest, stiffness, options.warp_angle);
+        let warp = match options.warp_direction {
+            Some(d) => Warp::Direction(d),
+            None => Warp::Angle(options.warp_angle),
+        };
+        let mut membrane = Membrane::with_warp(grid, rest, stiffness, warp);
+        let mut bending = Bending::with_warp(grid, rest, stiffness, warp);
         if options.flat_pattern {
             bending.flatten_rest_curvature();
         }

@@ -464,3 +464,62 @@ fn same_input_same_output_bit_for_bit() {
     let (a, b) = (run(), run());
     assert!(a.iter().zip(&b).all(|(p, q)| p.to_array() == q.to_array()));
 }
+
+/// Issue 3 (MODEL.md §1): strains are measured in the material frame of the flat pattern, whatever the
+/// parametrisation. A homogeneous deformation of one piece of the (strongly anisotropic) paper fabric, warp along
+/// x, must store the same energy per area on a Cartesian grid, on a rotated Cartesian grid and on a polar grid
+/// (quarter annulus): the analytic ½[A11 E11² + A22 E22² + A66 γ²] with E the Green strain in x/y.
+#[test]
+fn energy_is_independent_of_the_parametrisation() {
+    use flexsurf::energy::frame::Warp;
+    let s = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Kes).unwrap();
+    let f = [[1.002, 0.0015], [-0.0005, 0.999]];
+    let map = |p: Vec3| Vec3::new(f[0][0] * p.x + f[0][1] * p.y, f[1][0] * p.x + f[1][1] * p.y, 0.0);
+    // Green strain E = ½(FᵀF − I).
+    let c = |i: usize, j: usize| f[0][i] * f[0][j] + f[1][i] * f[1][j];
+    let (e11, e22, e12) = (0.5 * (c(0, 0) - 1.0), 0.5 * (c(1, 1) - 1.0), 0.5 * c(0, 1));
+    let w = 0.5 * (s.a11 * e11 * e11 + s.a22 * e22 * e22 + s.a66 * (2.0 * e12).powi(2));
+    let energy_density = |g: &Grid, rest: &[Vec3]| {
+        let m = Membrane::with_warp(g, rest, &s, Warp::Direction(Vec3::X));
+        let x: Vec<Vec3> = rest.iter().map(|p| map(*p)).collect();
+        let area: f64 = flexsurf::model::rest_areas(g, rest).iter().sum();
+        energy_of(&m, &x) / area
+    };
+    // Cartesian, and the same sheet rotated by 30° in its plane (warp still along x).
+    let g = Grid::sheet(9, 7, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    let (sn, cs) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
+    let rotated: Vec<Vec3> = rest.iter().map(|p| Vec3::new(cs * p.x - sn * p.y, sn * p.x + cs * p.y, 0.0)).collect();
+    for (name, r) in [("cartesian", &rest), ("rotated", &rotated)] {
+        let wd = energy_density(&g, r);
+        assert!((wd / w - 1.0).abs() < 1e-9, "{name}: {wd} vs {w}");
+    }
+    // Polar quarter annulus (u1 radial, u2 angular): converges to the same density.
+    let mut errs = Vec::new();
+    for n in [9, 17, 33] {
+        let (r0, r1) = (0.05, 0.1);
+        let g = Grid::new(n, n, (r1 - r0) / (n - 1) as f64, 1.0 / (n - 1) as f64, [Topology::Free; 2]).unwrap();
+        let rest: Vec<Vec3> = (0..g.len())
+            .map(|k| {
+                let (i, j) = g.coords(k);
+                let (r, t) = (r0 + i as f64 * g.h1, std::f64::consts::FRAC_PI_2 * j as f64 / (n - 1) as f64);
+                Vec3::new(r * t.cos(), r * t.sin(), 0.0)
+            })
+            .collect();
+        errs.push((energy_density(&g, &rest) / w - 1.0).abs());
+    }
+    assert!(errs[2] < 1e-3 && errs[2] < errs[1] && errs[1] < errs[0], "polar grid: relative errors {errs:?}");
+    // Measuring the warp from u1 instead (radial on the polar grid) is badly wrong for this fabric.
+    let g = Grid::new(9, 9, 0.05 / 8.0, 1.0 / 8.0, [Topology::Free; 2]).unwrap();
+    let rest: Vec<Vec3> = (0..g.len())
+        .map(|k| {
+            let (i, j) = g.coords(k);
+            let (r, t) = (0.05 + i as f64 * g.h1, std::f64::consts::FRAC_PI_2 * j as f64 / 8.0);
+            Vec3::new(r * t.cos(), r * t.sin(), 0.0)
+        })
+        .collect();
+    let m = Membrane::with_warp(&g, &rest, &s, Warp::Angle(0.0));
+    let x: Vec<Vec3> = rest.iter().map(|p| map(*p)).collect();
+    let area: f64 = flexsurf::model::rest_areas(&g, &rest).iter().sum();
+    assert!((energy_of(&m, &x) / area / w - 1.0).abs() > 0.1);
+}

@@ -6,7 +6,7 @@
 //! Per quadrature point `W = ½ κᵀ D κ` over its one or two curvature changes `κ = B − B⁰`.
 
 use super::curvature::NormalCurvature;
-use super::frame::Frame;
+use super::frame::{Frame, Warp};
 use super::{local_blocks, local_pairs, Energy, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
@@ -50,6 +50,11 @@ impl Bending {
     /// direction); otherwise the coupling between twist and normal curvatures is not represented, which
     /// [`Bending::aligned`] reports so that callers can refuse such a set-up.
     pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
+        Self::with_warp(grid, rest, s, Warp::Angle(warp_angle))
+    }
+
+    /// As [`Bending::with_warp_angle`] with the warp given by a [`Warp`].
+    pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
         let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
         let mut points = Vec::new();
         let mut aligned = true;
@@ -60,7 +65,7 @@ impl Bending {
             sup.slot(k);
             let a = sup.scatter(&tangent(grid, 0, i, j));
             let b = sup.scatter(&tangent(grid, 1, i, j));
-            let frame = Frame::new(combine(&sup, &a, rest), combine(&sup, &b, rest), warp_angle);
+            let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
             aligned &= frame.is_aligned();
             let c = frame.pull_back(&dv);
             let mut v = [[0.0; MAX_SUPPORT]; 2];
@@ -94,7 +99,7 @@ impl Bending {
             let a = sup.scatter(&st(&ops.c1));
             let b = sup.scatter(&st(&ops.c2));
             let tw = sup.scatter(&st(&ops.twist));
-            let frame = Frame::new(combine(&sup, &a, rest), combine(&sup, &b, rest), warp_angle);
+            let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
             aligned &= frame.is_aligned();
             // F ⊃ ½ C'₃₃ (2κ12)² = ½ (4 C'₃₃) κ12²; C'₃₃ = D66 for J = I.
             let d = [[4.0 * frame.pull_back(&dv)[2][2] * w * frame.area, 0.0], [0.0, 0.0]];

@@ -4,6 +4,21 @@
 
 use crate::math::Vec3;
 
+/// Where the warp runs in the rest shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Warp {
+    /// At this angle (radians) from the `u1` tangent, towards `u2`.
+    Angle(f64),
+    /// Along this fixed direction (projected onto each point's tangent plane).
+    Direction(Vec3),
+}
+
+impl Default for Warp {
+    fn default() -> Self {
+        Warp::Angle(0.0)
+    }
+}
+
 /// `J⁻¹` and `|det J|` at one quadrature point of the rest shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
@@ -27,6 +42,24 @@ impl Frame {
         let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
         let p = [[j[1][1] / det, -j[0][1] / det], [-j[1][0] / det, j[0][0] / det]];
         Self { p, area: det.abs() }
+    }
+
+    /// Frame from the rest tangents with the warp along the fixed direction `warp` (e.g. the x axis of a flat
+    /// pattern), projected onto the tangent plane: for polar or other curvilinear grids of one piece of fabric.
+    pub fn with_direction(c1: Vec3, c2: Vec3, warp: Vec3) -> Self {
+        let t1 = c1.normalize_or_zero();
+        let nrm = c1.cross(c2).normalize_or_zero();
+        let t2 = nrm.cross(t1);
+        let w = warp - nrm * warp.dot(nrm);
+        Self::new(c1, c2, w.dot(t2).atan2(w.dot(t1)))
+    }
+
+    /// Frame for a [`Warp`] choice.
+    pub fn with_warp(c1: Vec3, c2: Vec3, warp: Warp) -> Self {
+        match warp {
+            Warp::Angle(a) => Self::new(c1, c2, a),
+            Warp::Direction(d) => Self::with_direction(c1, c2, d),
+        }
     }
 
     /// Voigt map `T`: `(E11, E22, γ) = T (ε11, ε22, 2ε12)` for `E = Pᵀ ε P`.

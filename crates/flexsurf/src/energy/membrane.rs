@@ -6,7 +6,7 @@
 //! 3×3 stiffness `C` of `(E11, E22, γ)`, so an interior edge gets full weight from its two cells and a free
 //! boundary edge half, exactly as scheme S, and Poisson coupling stays positive definite.
 
-use super::frame::Frame;
+use super::frame::{Frame, Warp};
 use super::{local_blocks, local_pairs, Energy, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
@@ -48,6 +48,11 @@ impl Membrane {
     /// Strains are measured in the material frame of the rest shape (`E = J⁻ᵀ ε J⁻¹`), so any smooth
     /// parametrisation of the pattern (polar, conical, rotated) gives the same physics.
     pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
+        Self::with_warp(grid, rest, s, Warp::Angle(warp_angle))
+    }
+
+    /// As [`Membrane::new`] with the warp given by a [`Warp`] (an angle from `u1` or a fixed direction).
+    pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
         let cells = grid
             .cells()
             .map(|(i, j)| {
@@ -62,7 +67,7 @@ impl Membrane {
                     restv[a] = 0.5 * scale[a] * comb(&alpha[a]).dot(comb(&beta[a]));
                 }
                 // Material stiffness on (E11, E22, γ), pulled back to the parametric strains: C' = Tᵀ C T.
-                let frame = Frame::new(comb(&ops.c1), comb(&ops.c2), warp_angle);
+                let frame = Frame::with_warp(comb(&ops.c1), comb(&ops.c2), warp);
                 let c = frame.pull_back(&[[s.a11, s.a12, 0.0], [s.a12, s.a22, 0.0], [0.0, 0.0, s.a66]]);
                 let w = grid.h1 * grid.h2 * frame.area;
                 // Averaging map A (3×5) from the 5 strains to the cell's (E11, E22, γ).

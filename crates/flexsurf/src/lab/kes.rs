@@ -105,7 +105,7 @@ fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
     let (len, width, m, n) = (0.5, 0.04, 101, 9);
     let grid = Grid::sheet(m, n, len, width).expect("valid strip grid");
     let rest = grid.flat_positions(0.0);
-    let opts = ElasticOptions { warp_angle: angle, flat_pattern: false };
+    let opts = ElasticOptions { warp_angle: angle, ..Default::default() };
     let mut model = Model::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO, &opts);
     // Line load T small enough for a linear response: strain ~1e-5.
     let t = 1e-5 * f.tensile_warp.min(f.tensile_weft).min(f.shear);

@@ -577,7 +577,7 @@ impl SceneSpec {
             }
             (None, Some(g)) => {
                 let shape = g.shape(&obstacles, contact.offset, file)?;
-                let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true };
+                let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true, ..Default::default() };
                 let mut model = Model::with_options(
                     shape.grid,
                     shape.rest,
