@@ -30,6 +30,7 @@ impl Overrides {
             spec.integrator.kind = match i {
                 IntegratorArg::Linearized => IntegratorKind::Linearized,
                 IntegratorArg::Lagged => IntegratorKind::Lagged,
+                IntegratorArg::Static => IntegratorKind::Static,
             };
         }
         if let Some(s) = self.solver {

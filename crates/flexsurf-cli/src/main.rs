@@ -160,6 +160,7 @@ enum ModelArg {
 enum IntegratorArg {
     Linearized,
     Lagged,
+    Static,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

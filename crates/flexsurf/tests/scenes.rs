@@ -343,3 +343,47 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     assert!(files.contains(&"energy.csv".to_string()));
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// `integrator = "static"`: a hammock (both u1 edges pinned) sags to equilibrium; the run writes frames 0 and 1,
+/// and the summary reports the Newton iterations and a residual below the tolerance. The hanging sheet's
+/// membrane tension times its curvature carries its weight, so it sags below the pins.
+#[test]
+fn static_integrator_finds_the_drape() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-static-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene_path = dir.join("hammock.toml");
+    std::fs::write(
+        &scene_path,
+        r#"
+[sheet]
+size = [0.6, 0.2]
+nodes = [25, 5]
+
+[time]
+dt = 0.01
+steps = 1
+
+[integrator]
+kind = "static"
+
+[[pin]]
+set = "edge_u1_0"
+
+[[pin]]
+set = "edge_u1_1"
+"#,
+    )
+    .unwrap();
+    let scene = flexsurf::scene::load(&scene_path).unwrap();
+    let out = dir.join("out");
+    flexsurf::scene::run::run_scene(&scene, &out, |_| {}).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["integrator"], "static");
+    let residual = summary["static_solve"]["residual"].as_f64().unwrap();
+    assert!(residual < 1e-4, "static residual {residual}");
+    assert!(summary["static_solve"]["iterations"].as_u64().unwrap() > 0);
+    assert!(summary["final"]["min_z"].as_f64().unwrap() < -1e-3, "the hammock does not sag: {summary}");
+    assert!(out.join("frames/frame_00000.obj").exists() && out.join("frames/frame_00001.obj").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

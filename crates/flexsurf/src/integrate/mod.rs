@@ -32,6 +32,9 @@ pub enum IntegratorKind {
     Linearized,
     /// The paper's literal lagged-coefficient step.
     Lagged,
+    /// No time stepping: the quasi-static equilibrium (drape) by projected Newton ([`statics`]). A run then
+    /// writes the initial and the equilibrium frame.
+    Static,
 }
 
 impl IntegratorKind {
@@ -40,6 +43,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Linearized => "linearized",
             IntegratorKind::Lagged => "lagged",
+            IntegratorKind::Static => "static",
         }
     }
 }
@@ -198,7 +202,7 @@ impl Stepper {
         let n = model.grid.len();
         self.grad.fill(Vec3::ZERO);
         let op = match self.kind {
-            IntegratorKind::Linearized => Operator::Projected,
+            IntegratorKind::Linearized | IntegratorKind::Static => Operator::Projected,
             IntegratorKind::Lagged => Operator::Secant,
         };
         let energies = if with_matrix {
@@ -467,7 +471,7 @@ impl Stepper {
                  about h/sqrt(A11/rho) (9e-5 s for the 1 m, 21x21 demo sheet): use integrator = \"linearized\" or a \
                  much smaller dt"
             }
-            IntegratorKind::Linearized => {
+            IntegratorKind::Linearized | IntegratorKind::Static => {
                 "try a smaller dt, a larger contact offset, or a softer contact stiffness (contact is implicit only to \
                  first order)"
             }

@@ -5,7 +5,8 @@
 
 use super::{FrameFormat, Scene};
 use crate::contact::Obstacle;
-use crate::integrate::{Counters, StepError, Stepper};
+use crate::integrate::statics::{StaticOptions, StaticReport, StaticSolver};
+use crate::integrate::{Counters, IntegratorKind, StepError, Stepper};
 use crate::io::render::{self, Drawable, View};
 use crate::io::{atomic, PlyFormat};
 use crate::math::Vec3;
@@ -41,6 +42,9 @@ pub enum RunError {
     /// The step failed (divergence or a failed solve); the message carries the step number and a hint.
     #[error(transparent)]
     Step(#[from] StepError),
+    /// The static equilibrium solve failed.
+    #[error(transparent)]
+    Static(crate::integrate::statics::StaticError),
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
@@ -137,6 +141,10 @@ pub struct Summary {
     /// Garment scenes: smallest signed distance of the initial shape from the obstacles (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub initial_min_distance: Option<f64>,
+    /// `integrator = "static"`: Newton iterations, final relative residual (residual force over the largest
+    /// load) and total potential.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub static_solve: Option<StaticReport>,
     /// Frames written.
     pub frames: Vec<FrameRecord>,
     /// The final configuration.
@@ -195,7 +203,12 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io_err(&summary_path)(e)),
         _ => {}
     }
-    let outputs = output_steps(scene.steps, scene.output_every);
+    // A static solve writes the initial state and the equilibrium (as step 1).
+    let outputs = if scene.integrator == IntegratorKind::Static {
+        vec![0, 1]
+    } else {
+        output_steps(scene.steps, scene.output_every)
+    };
     let pictured = spread(&outputs, MAX_SNAPSHOTS);
     let k = scene.output.coons_subdivisions;
 
@@ -223,16 +236,36 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
     };
 
     record(&state, &mut csv)?;
-    let stats = sim::run(model, &mut state, &mut stepper, scene.dt, scene.steps, |st, _info| {
-        progress(st.step);
-        match record(st, &mut csv) {
-            Ok(()) => ControlFlow::Continue(()),
-            Err(e) => {
-                failure = Some(e);
-                ControlFlow::Break(())
+    let mut static_report = None;
+    let stats = if scene.integrator == IntegratorKind::Static {
+        let t = std::time::Instant::now();
+        let report = StaticSolver::new(model)
+            .and_then(|mut s| s.solve(model, &mut state.x, &StaticOptions::default()))
+            .map_err(RunError::Static)?;
+        let wall = t.elapsed().as_secs_f64();
+        state.x_prev.copy_from_slice(&state.x);
+        state.step = 1;
+        static_report = Some(report);
+        progress(1);
+        record(&state, &mut csv)?;
+        Ok(sim::RunStats {
+            steps: 0,
+            wall_seconds: wall,
+            max_penetration_seen: crate::integrate::max_penetration(model, &state.x),
+            max_contacts: 0,
+        })
+    } else {
+        sim::run(model, &mut state, &mut stepper, scene.dt, scene.steps, |st, _info| {
+            progress(st.step);
+            match record(st, &mut csv) {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(e) => {
+                    failure = Some(e);
+                    ControlFlow::Break(())
+                }
             }
-        }
-    });
+        })
+    };
     // The energy history up to a failure is still useful; it is complete as far as it goes.
     let csv_path = out.join("energy.csv");
     atomic::write_atomic(&csv_path, csv.as_bytes()).map_err(io_err(&csv_path))?;
@@ -264,6 +297,7 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
         waist_fitted: scene.garment.as_ref().map(|g| g.waist_fitted),
         waist_strain: scene.garment.as_ref().map(|g| g.waist_strain),
         initial_min_distance: scene.garment.as_ref().map(|g| g.initial_min_distance),
+        static_solve: static_report,
         frames,
         final_state: final_state(model, &state.x, &final_mesh, &d),
     };
