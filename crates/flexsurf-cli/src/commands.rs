@@ -325,3 +325,69 @@ pub fn virtual_test(
     println!("(bias input: the orthotropic prediction 1/E45 = (1/E1 + 1/E2 + 1/G - 2 nu12/E1)/4)");
     Ok(())
 }
+
+/// `flexsurf test cusick`.
+pub fn cusick_test(
+    material: Option<&Path>,
+    calibration: flexsurf::material::Calibration,
+    specimen: f64,
+    out: &Path,
+    json: bool,
+) -> Result<()> {
+    use flexsurf::lab::cusick::{cusick, default_grid, DISC};
+    if !(specimen.is_finite() && specimen > DISC) {
+        bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
+    }
+    let (fabric, name) = match material {
+        Some(path) => {
+            let m = flexsurf::scene::material::load_material_file(path)?;
+            (m.fabric, m.name)
+        }
+        None => (flexsurf::material::Fabric::paper_cotton(), "paper-cotton".to_string()),
+    };
+    let t = std::time::Instant::now();
+    let (nr, na) = default_grid(specimen, 1);
+    let drape = cusick(&fabric, calibration, specimen, nr, na).with_context(|| format!("Cusick drape of {name}"))?;
+    let seconds = t.elapsed().as_secs_f64();
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mesh = drape.mesh(4);
+    let obj = out.join("cusick.obj");
+    flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
+    // Top view, looking down the z axis, as a drape meter's shadow.
+    let r = 0.5 * specimen;
+    let base = render::View::look_at(flexsurf::math::Vec3::new(0.0, 0.0, 4.4 * r), flexsurf::math::Vec3::ZERO);
+    let view = render::View { up: flexsurf::math::Vec3::Y, ..base };
+    let disc = flexsurf::surface::mesh::TriMesh {
+        positions: (0..=64)
+            .map(|k| {
+                let t = k as f64 / 64.0 * std::f64::consts::TAU;
+                if k == 64 {
+                    flexsurf::math::Vec3::new(0.0, 0.0, 0.001)
+                } else {
+                    flexsurf::math::Vec3::new(0.5 * DISC * t.cos(), 0.5 * DISC * t.sin(), 0.001)
+                }
+            })
+            .collect(),
+        normals: Vec::new(),
+        triangles: (0..64u32).map(|k| [64, k, (k + 1) % 64]).collect(),
+    };
+    // A drape meter's shadow: the specimen dark, the support disc light.
+    let items = [render::Drawable::mesh(&mesh, [55, 55, 65]), render::Drawable::mesh(&disc, [215, 215, 205])];
+    let img = render::render(&view, &items, 600, 600);
+    let png = out.join("cusick_top.png");
+    render::save_png(&png, &img).with_context(|| format!("writing {}", png.display()))?;
+    let rep = drape.report;
+    if json {
+        let v = serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
+            "report": rep, "picture": png, "mesh": obj, "wall_seconds": seconds });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
+        println!("specimen          {:>8.3} m on an {DISC} m disc (grid {} x {})", specimen, rep.grid[0], rep.grid[1]);
+        println!("drape coefficient {:>8.2} %", rep.drape_coefficient);
+        println!("nodes (folds)     {:>8}", rep.nodes);
+        println!("came to rest in {} steps; equilibrium residual {:.2e} of a node's weight", rep.steps, rep.residual);
+        println!("wrote {} and {}", png.display(), obj.display());
+    }
+    Ok(())
+}

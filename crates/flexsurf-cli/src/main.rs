@@ -37,6 +37,7 @@ enum Command {
     /// Virtual textile tests on a fabric. `kes`: tension (warp, weft, 45° bias), simple shear and pure bending
     /// (warp, weft) on small specimens, solved to equilibrium; prints the recovered constants and their errors.
     /// `cantilever`: the Peirce / ASTM D1388 strip hanging off a ledge; chord angle, tip drop, bending length.
+    /// `cusick`: the drape meter (18 cm disc); drape coefficient, nodes, a top-view picture and the mesh.
     Test(TestArgs),
 }
 
@@ -60,12 +61,19 @@ struct TestArgs {
     /// `cantilever`: overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input).
     #[arg(long)]
     overhang: Option<f64>,
+    /// `cusick`: specimen diameter in metres (0.24, 0.30 or 0.36 in the standard).
+    #[arg(long, default_value_t = 0.30)]
+    specimen: f64,
+    /// `cusick`: where to write the top-view picture and the draped mesh.
+    #[arg(long, default_value = "out/cusick")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum TestName {
     Kes,
     Cantilever,
+    Cusick,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -184,6 +192,16 @@ fn main() -> ExitCode {
         Command::Check { scene } => commands::check(&scene),
         Command::Schema => commands::schema(),
         Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),
+        Command::Test(a) if a.name == TestName::Cusick => commands::cusick_test(
+            a.material.as_deref(),
+            match a.calibration {
+                CalibrationArg::Kes => flexsurf::material::Calibration::Kes,
+                CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
+            },
+            a.specimen,
+            &a.out,
+            a.json,
+        ),
         Command::Test(a) => commands::virtual_test(
             a.name == TestName::Cantilever,
             a.direction == DirectionArg::Weft,

@@ -55,3 +55,31 @@ fn cantilever_gives_back_the_bending_rigidity() {
     let r = cantilever(&f, Calibration::Kes, Direction::Warp, Some(0.10)).unwrap();
     assert!((r.chord_angle_deg - 26.4).abs() < 0.2, "{r:?}");
 }
+
+/// Cusick drape (issue 3): bounds, grid convergence between the two finest default grids, and the trends a
+/// drape meter shows: the drape coefficient rises with bending stiffness and falls with specimen size.
+#[test]
+fn cusick_drape_coefficient_behaves() {
+    use flexsurf::lab::cusick::{cusick, default_grid};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../materials");
+    let soft = flexsurf::scene::material::load_material_file(&dir.join("silk-like-polyester.toml")).unwrap().fabric;
+    let dc = |f: &Fabric, d: f64, level: usize| {
+        let (nr, na) = default_grid(d, level);
+        let r = cusick(f, Calibration::Kes, d, nr, na).unwrap().report;
+        eprintln!("D = {d}, level {level}: DC {:.2}%, {} nodes, {} steps", r.drape_coefficient, r.nodes, r.steps);
+        assert!((0.0..=100.0).contains(&r.drape_coefficient), "{r:?}");
+        r
+    };
+    let base = dc(&soft, 0.30, 1);
+    assert!(base.nodes >= 4 && base.nodes <= 12, "a soft fabric forms folds: {base:?}");
+    let fine = dc(&soft, 0.30, 2);
+    assert!((fine.drape_coefficient - base.drape_coefficient).abs() < 2.0, "not grid-converged: {base:?} {fine:?}");
+    let stiffer = Fabric { bending_warp: 4.0 * soft.bending_warp, bending_weft: 4.0 * soft.bending_weft, ..soft };
+    assert!(dc(&stiffer, 0.30, 1).drape_coefficient > base.drape_coefficient + 2.0);
+    // Shear stiffness: measured, not asserted. The drape meter's correlation (DC rising with G) is not seen here:
+    // ×4 G gives 42.8 % (7 nodes) against 44.4 % (8 nodes) for this fabric; an open question (closing note).
+    let shear = Fabric { shear: 4.0 * soft.shear, ..soft };
+    let _ = dc(&shear, 0.30, 1);
+    let (small, large) = (dc(&soft, 0.24, 1), dc(&soft, 0.36, 1));
+    assert!(small.drape_coefficient > base.drape_coefficient && base.drape_coefficient > large.drape_coefficient);
+}

@@ -2,6 +2,7 @@
 //! measured constants can be checked to come back out of the model ([`kes`]).
 
 pub mod cantilever;
+pub mod cusick;
 pub mod kes;
 
 use crate::integrate::statics::StaticError;
@@ -21,5 +22,13 @@ pub enum LabError {
         test: &'static str,
         /// Why.
         source: StaticError,
+    },
+    /// A dynamic relaxation step failed.
+    #[error("{test}: {source}")]
+    Step {
+        /// Which test.
+        test: &'static str,
+        /// Why.
+        source: crate::integrate::StepError,
     },
 }
