@@ -83,3 +83,31 @@ fn cusick_drape_coefficient_behaves() {
     let (small, large) = (dc(&soft, 0.24, 1), dc(&soft, 0.36, 1));
     assert!(small.drape_coefficient > base.drape_coefficient && base.drape_coefficient > large.drape_coefficient);
 }
+
+/// FAST units: weight g/m², E100 %, EB5 %, bending length mm (B = 9.81e-6 W C³ µN·m), against hand values;
+/// bending lengths without the weight are an error naming `density`.
+#[test]
+fn fast_units_material_file() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-fast-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("fast.toml");
+    std::fs::write(
+        &path,
+        "units = \"fast\"\ndensity = 150.0\ntensile_warp = 2.0\ntensile_weft = 4.0\nshear = 1.5\n\
+         bending_warp = 20.0\nbending_weft = 15.0\n",
+    )
+    .unwrap();
+    let f = flexsurf::scene::material::load_material_file(&path).unwrap().fabric;
+    assert!((f.density - 0.150).abs() < 1e-15);
+    assert!((f.tensile_warp - 4903.325).abs() < 1e-9 && (f.tensile_weft - 2451.6625).abs() < 1e-9);
+    assert!((f.shear - 82.0).abs() < 1e-12);
+    // 9.81e-6 · 150 · 20³ = 11.772 µN·m; 9.81e-6 · 150 · 15³ = 4.9663 µN·m.
+    assert!((f.bending_warp - 11.772e-6).abs() < 1e-12 && (f.bending_weft - 4.966_312_5e-6).abs() < 1e-12);
+    // And the model gives them back.
+    assert!(kes(&f, Calibration::Kes).unwrap().worst() < 0.01);
+    std::fs::write(&path, "units = \"fast\"\ntensile_warp = 2.0\ntensile_weft = 4.0\nshear = 1.5\nbending_warp = 20.0\nbending_weft = 15.0\n")
+        .unwrap();
+    let e = flexsurf::scene::material::load_material_file(&path).unwrap_err().to_string();
+    assert!(e.contains("fast.toml") && e.contains("density"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -42,6 +42,11 @@ pub enum Units {
     /// KES-F: weight mg/cm², tensile gf/cm, shear gf/(cm·deg), bending and twist gf·cm²/cm; damping stays
     /// kg/(m²·s) (KES measures none).
     Kes,
+    /// FAST (SiroFAST): `density` is the weight W in g/m²; `tensile_warp`/`tensile_weft` are the extensibility
+    /// E100 in % (at 100 gf/cm: E·h = 98.0665 N/m / (E100/100)); `shear` is the bias extensibility EB5 in %
+    /// (G = 123/EB5 N/m); `bending_warp`/`bending_weft` are bending lengths C in mm (B = 9.81e-6 W C³ µN·m, so
+    /// `density` must be given in the same table); twist in N·m; damping kg/(m²·s).
+    Fast,
 }
 
 /// A fabric as written in a scene's `[material]` table or in a material file (same keys; a material file may not
@@ -101,6 +106,9 @@ impl MaterialSpec {
         let kes = self.units == Units::Kes;
         let conv = |f: fn(f64) -> f64, v: f64| if kes { f(v) } else { v };
         let id = |v: f64| v;
+        if self.units == Units::Fast {
+            return self.given_fast();
+        }
         let fields: [Field; 10] = [
             ("density", self.density, units::density_from_kes, |f, v| f.density = v),
             ("damping", self.damping, id, |f, v| f.damping = v),
@@ -114,6 +122,44 @@ impl MaterialSpec {
             ("twist", self.twist, units::bending_from_kes, |f, v| f.twist = Some(v)),
         ];
         fields.into_iter().filter_map(|(k, v, c, s)| v.map(|v| (k, conv(c, v), s))).collect()
+    }
+
+    /// The constants given in FAST units, converted (bending lengths need the weight given in the same table;
+    /// without it they are left out and [`MaterialSpec::resolve`] reports the missing weight).
+    fn given_fast(&self) -> Vec<(&'static str, f64, Setter)> {
+        let mut out: Vec<(&'static str, f64, Setter)> = Vec::new();
+        let w = self.density; // g/m²
+        if let Some(v) = self.density {
+            out.push(("density", units::density_from_fast(v), |f, v| f.density = v));
+        }
+        if let Some(v) = self.damping {
+            out.push(("damping", v, |f, v| f.damping = v));
+        }
+        if let Some(v) = self.tensile_warp {
+            out.push(("tensile_warp", units::tension_from_fast(v), |f, v| f.tensile_warp = v));
+        }
+        if let Some(v) = self.tensile_weft {
+            out.push(("tensile_weft", units::tension_from_fast(v), |f, v| f.tensile_weft = v));
+        }
+        if let Some(v) = self.shear {
+            out.push(("shear", units::shear_from_fast(v), |f, v| f.shear = v));
+        }
+        if let (Some(c), Some(w)) = (self.bending_warp, w) {
+            out.push(("bending_warp", units::bending_from_fast(c, w), |f, v| f.bending_warp = v));
+        }
+        if let (Some(c), Some(w)) = (self.bending_weft, w) {
+            out.push(("bending_weft", units::bending_from_fast(c, w), |f, v| f.bending_weft = v));
+        }
+        for (key, v, set) in [
+            ("poisson", self.poisson, (|f: &mut Fabric, v| f.poisson = v) as Setter),
+            ("bending_poisson", self.bending_poisson, |f, v| f.bending_poisson = v),
+            ("twist", self.twist, |f, v| f.twist = Some(v)),
+        ] {
+            if let Some(v) = v {
+                out.push((key, v, set));
+            }
+        }
+        out
     }
 
     /// Resolves to SI constants. `file` is the file this table was read from (for relative paths and messages),
@@ -138,6 +184,16 @@ impl MaterialSpec {
             }
             (None, None) => (None, None, None),
         };
+        if self.units == Units::Fast
+            && self.density.is_none()
+            && (self.bending_warp.is_some() || self.bending_weft.is_some())
+        {
+            return Err(invalid(
+                "density",
+                "missing value: FAST bending lengths (mm) need the weight W (g/m²) as `density` in the same table"
+                    .into(),
+            ));
+        }
         let given = self.given();
         let fabric = match base {
             Some(mut f) => {
