@@ -259,13 +259,7 @@ pub fn virtual_test(
     calibration: flexsurf::material::Calibration,
     json: bool,
 ) -> Result<()> {
-    let (fabric, name) = match material {
-        Some(path) => {
-            let m = flexsurf::scene::material::load_material_file(path)?;
-            (m.fabric, m.name)
-        }
-        None => (flexsurf::material::Fabric::paper_cotton(), "paper-cotton".to_string()),
-    };
+    let (fabric, name) = load_fabric(material)?;
     if let Some(l) = overhang {
         if !(l.is_finite() && l > 0.0) {
             bail!("--overhang: {l} m must be a positive length");
@@ -338,13 +332,7 @@ pub fn cusick_test(
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
     }
-    let (fabric, name) = match material {
-        Some(path) => {
-            let m = flexsurf::scene::material::load_material_file(path)?;
-            (m.fabric, m.name)
-        }
-        None => (flexsurf::material::Fabric::paper_cotton(), "paper-cotton".to_string()),
-    };
+    let (fabric, name) = load_fabric(material)?;
     let t = std::time::Instant::now();
     let (nr, na) = default_grid(specimen, 1);
     let drape = cusick(&fabric, calibration, specimen, nr, na).with_context(|| format!("Cusick drape of {name}"))?;
@@ -390,4 +378,15 @@ pub fn cusick_test(
         println!("wrote {} and {}", png.display(), obj.display());
     }
     Ok(())
+}
+
+/// The fabric of `--material FILE`, or the paper's non-woven cotton, with its display name.
+fn load_fabric(material: Option<&Path>) -> Result<(flexsurf::material::Fabric, String)> {
+    Ok(match material {
+        Some(path) => {
+            let m = flexsurf::scene::material::load_material_file(path)?;
+            (m.fabric, m.name)
+        }
+        None => (flexsurf::material::Fabric::paper_cotton(), "paper-cotton".to_string()),
+    })
 }
