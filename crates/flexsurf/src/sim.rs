@@ -29,15 +29,41 @@ pub struct Diagnostics {
     pub max_strain: f64,
 }
 
-/// Diagnostics of a state (evaluates the elastic energy once).
-pub fn diagnose(model: &Model, state: &State, dt: f64, contacts: usize) -> Diagnostics {
-    let energies = model.elastic.evaluate(&state.x, &mut crate::energy::Sink::none());
-    Diagnostics {
+/// The energies of a state, the per-step record of a run (`energy.csv`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EnergyRecord {
+    /// Step number.
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Kinetic energy (J), backward-difference velocities.
+    pub kinetic: f64,
+    /// Elastic energies (J).
+    pub energies: Energies,
+    /// Gravitational potential energy (J).
+    pub potential: f64,
+}
+
+/// Energies of a state (evaluates the elastic energy once; no obstacle queries).
+pub fn energies(model: &Model, state: &State, dt: f64) -> EnergyRecord {
+    EnergyRecord {
         step: state.step,
         time: state.time,
         kinetic: state.kinetic_energy(&model.mass, dt),
-        energies,
+        energies: model.elastic.evaluate(&state.x, &mut crate::energy::Sink::none()),
         potential: model.potential(&state.x),
+    }
+}
+
+/// Diagnostics of a state: its [`energies`] plus penetration and strain.
+pub fn diagnose(model: &Model, state: &State, dt: f64, contacts: usize) -> Diagnostics {
+    let e = energies(model, state, dt);
+    Diagnostics {
+        step: e.step,
+        time: e.time,
+        kinetic: e.kinetic,
+        energies: e.energies,
+        potential: e.potential,
         contacts,
         max_penetration: max_penetration(model, &state.x),
         max_strain: model.max_strain(&state.x),
