@@ -253,8 +253,9 @@ pub fn bench(sizes: &[usize], steps: Option<usize>, repeat: usize, json: bool) -
 /// `flexsurf test kes|cantilever`.
 pub fn virtual_test(
     is_cantilever: bool,
-    weft: bool,
+    direction: flexsurf::lab::cantilever::Direction,
     overhang: Option<f64>,
+    width: Option<f64>,
     material: Option<&Path>,
     calibration: flexsurf::material::Calibration,
     json: bool,
@@ -265,11 +266,18 @@ pub fn virtual_test(
             bail!("--overhang: {l} m must be a positive length");
         }
     }
+    if let Some(b) = width {
+        if !(b.is_finite() && b > 0.0) {
+            bail!("--width: {b} m must be a positive length");
+        }
+    }
     let t = std::time::Instant::now();
     if is_cantilever {
-        use flexsurf::lab::cantilever::{cantilever, Direction};
-        let d = if weft { Direction::Weft } else { Direction::Warp };
-        let r = cantilever(&fabric, calibration, d, overhang).with_context(|| format!("cantilever test of {name}"))?;
+        use flexsurf::lab::cantilever::{cantilever, Strip};
+        let d = direction;
+        let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };
+        let r =
+            cantilever(&fabric, calibration, strip, overhang).with_context(|| format!("cantilever test of {name}"))?;
         let seconds = t.elapsed().as_secs_f64();
         if json {
             let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,
@@ -290,6 +298,13 @@ pub fn virtual_test(
                 r.input_rigidity,
                 r.implied_rigidity / r.input_rigidity - 1.0
             );
+            if d == flexsurf::lab::cantilever::Direction::Bias {
+                println!(
+                    "(bias input: the free narrow strip 1/(D'^-1)_11; a wide plate would show D'_11 = {:.4e} N m;\n \
+                     a clamped strip of width {} m lies between, nearer the first the narrower it is)",
+                    r.plate_rigidity, r.width
+                );
+            }
         }
         return Ok(());
     }

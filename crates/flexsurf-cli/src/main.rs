@@ -55,12 +55,15 @@ struct TestArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
-    /// `cantilever`: the strip's direction.
+    /// `cantilever`: the strip's direction (bias: 45° to warp and weft).
     #[arg(long, value_enum, default_value_t = DirectionArg::Warp)]
     direction: DirectionArg,
     /// `cantilever`: overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input).
     #[arg(long)]
     overhang: Option<f64>,
+    /// `cantilever`: strip width in metres (default 0.02).
+    #[arg(long)]
+    width: Option<f64>,
     /// `cusick`: specimen diameter in metres (0.24, 0.30 or 0.36 in the standard).
     #[arg(long, default_value_t = 0.30)]
     specimen: f64,
@@ -80,6 +83,7 @@ enum TestName {
 enum DirectionArg {
     Warp,
     Weft,
+    Bias,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -204,8 +208,13 @@ fn main() -> ExitCode {
         ),
         Command::Test(a) => commands::virtual_test(
             a.name == TestName::Cantilever,
-            a.direction == DirectionArg::Weft,
+            match a.direction {
+                DirectionArg::Warp => flexsurf::lab::cantilever::Direction::Warp,
+                DirectionArg::Weft => flexsurf::lab::cantilever::Direction::Weft,
+                DirectionArg::Bias => flexsurf::lab::cantilever::Direction::Bias,
+            },
             a.overhang,
+            a.width,
             a.material.as_deref(),
             match a.calibration {
                 CalibrationArg::Kes => flexsurf::material::Calibration::Kes,

@@ -39,21 +39,69 @@ fn every_shipped_material_loads_and_round_trips() {
 
 #[test]
 fn cantilever_gives_back_the_bending_rigidity() {
-    use flexsurf::lab::cantilever::{cantilever, elastica_chord_deg, Direction};
+    use flexsurf::lab::cantilever::{cantilever, chord_angle, elastica_chord_deg, Direction, Strip};
     let f = Fabric::paper_cotton();
+    let w = f.density * flexsurf::lab::cantilever::G;
     for d in [Direction::Warp, Direction::Weft] {
         let t = std::time::Instant::now();
-        let r = cantilever(&f, Calibration::Kes, d, None).unwrap();
+        let r = cantilever(&f, Calibration::Kes, Strip::new(d), None).unwrap();
         eprintln!("{d:?}: {r:?} in {:.2} s", t.elapsed().as_secs_f64());
         // At the Peirce length (q = 8) the chord is 41.5° (the test computes the elastica itself).
         assert!((elastica_chord_deg(8.0) - 41.49).abs() < 0.01);
         assert!((r.chord_angle_deg - r.elastica_deg).abs() < 0.1, "{d:?}: {r:?}");
         assert!((r.chord_angle_fine_deg - 41.5).abs() < 1.0, "{d:?}: {r:?}");
         assert!((r.implied_rigidity / r.input_rigidity - 1.0).abs() < 0.02, "{d:?}: {r:?}");
+        // Three more overhang ratios q = w L³ / K, from nearly straight to strongly bent.
+        let k = if d == Direction::Warp { f.bending_warp } else { f.bending_weft };
+        for q in [1.0, 3.0, 20.0] {
+            let l = (q * k / w).cbrt();
+            let (angle, _) = chord_angle(&f, Calibration::Kes, Strip::new(d), l).unwrap();
+            let exact = elastica_chord_deg(q);
+            assert!((angle / exact - 1.0).abs() < 0.005, "{d:?}, q = {q}: {angle}° vs elastica {exact}°");
+        }
     }
     // Another ratio: a 10 cm warp strip hangs at 26.4° (AUDIT §7.7).
-    let r = cantilever(&f, Calibration::Kes, Direction::Warp, Some(0.10)).unwrap();
+    let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), Some(0.10)).unwrap();
     assert!((r.chord_angle_deg - 26.4).abs() < 0.2, "{r:?}");
+}
+
+/// The 45° bias of the (strongly anisotropic) paper fabric. Its bending couples to twist (the compliance
+/// `S'16 = (1/K1 − 1/K2)/√2` is nearly as large as `S'11`): a free narrow strip bends with the rigidity
+/// `1/S'11`; the clamp holds twist and cross curvature over a length of about the width, so a strip of finite
+/// width is stiffer, and a wide plate would show `D'11`. Checked: (1) nearly straight (q = 1) strips approach
+/// the free-strip elastica as they narrow; (2) the standard 2 cm strip's bending length lies between the two
+/// bounds; (3) for a fabric with isotropic bending the bias is the warp.
+#[test]
+fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
+    use flexsurf::lab::cantilever::{cantilever, chord_angle, elastica_chord_deg, strip_rigidity, Direction, Strip};
+    let f = Fabric::paper_cotton();
+    let w = f.density * flexsurf::lab::cantilever::G;
+    let k = strip_rigidity(&f, Direction::Bias).unwrap();
+    // Huber's default twist: 1/S'11 = 4/(1/√K1 + 1/√K2)².
+    let hand = 4.0 / (1.0 / f.bending_warp.sqrt() + 1.0 / f.bending_weft.sqrt()).powi(2);
+    assert!((k / hand - 1.0).abs() < 1e-12, "{k} vs {hand}");
+    let l = (k / w).cbrt();
+    let exact = elastica_chord_deg(1.0);
+    let errs: Vec<f64> = [0.02, 0.01, 0.005, 0.0025]
+        .iter()
+        .map(|&width| {
+            let strip = Strip { direction: Direction::Bias, width };
+            chord_angle(&f, Calibration::Kes, strip, l).unwrap().0 / exact - 1.0
+        })
+        .collect();
+    eprintln!("bias, q = 1: relative chord errors {errs:?} for widths 20, 10, 5, 2.5 mm");
+    assert!(errs.windows(2).all(|p| p[1].abs() < p[0].abs()), "{errs:?}");
+    assert!(errs[3].abs() < 0.02, "{errs:?}");
+    let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Bias), None).unwrap();
+    eprintln!("bias: {r:?}");
+    assert!(r.input_rigidity < r.implied_rigidity && r.implied_rigidity < r.plate_rigidity, "{r:?}");
+    // Isotropic bending (Huber's twist is then K/2) and isotropic membrane (G = E/2 for ν = 0).
+    let iso = Fabric { bending_weft: f.bending_warp, tensile_weft: f.tensile_warp, shear: 0.5 * f.tensile_warp, ..f };
+    let (warp, bias) = (
+        chord_angle(&iso, Calibration::Kes, Strip::new(Direction::Warp), 0.1).unwrap().0,
+        chord_angle(&iso, Calibration::Kes, Strip::new(Direction::Bias), 0.1).unwrap().0,
+    );
+    assert!((warp - bias).abs() < 1e-6, "isotropic bending: warp {warp}°, bias {bias}°");
 }
 
 /// Cusick drape (issue 3): bounds, grid convergence between the two finest default grids, and the trends a

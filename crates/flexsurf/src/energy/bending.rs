@@ -16,17 +16,21 @@ use crate::sparse::BlockPattern;
 
 type Coefs = [f64; MAX_SUPPORT];
 
-/// One quadrature point: a normal from tangents `a`, `b` and one or two curvature measures `n·v_m`.
+/// Most curvature measures at one quadrature point: the normal curvatures and, at cells where the material
+/// frame is not aligned with the grid, the twist together with cell averages of the normal curvatures.
+pub(crate) const MEASURES: usize = 3;
+
+/// One quadrature point: a normal from tangents `a`, `b` and up to [`MEASURES`] curvature measures `n·v_m`.
 #[derive(Debug, Clone)]
 pub(crate) struct Point {
     pub(crate) support: Support,
     pub(crate) a: Coefs,
     pub(crate) b: Coefs,
-    pub(crate) v: [Coefs; 2],
+    pub(crate) v: [Coefs; MEASURES],
     pub(crate) count: usize,
-    pub(crate) rest: [f64; 2],
+    pub(crate) rest: [f64; MEASURES],
     /// Weighted stiffness `w D` of the measures.
-    pub(crate) d: [[f64; 2]; 2],
+    pub(crate) d: [[f64; MEASURES]; MEASURES],
     pub(crate) blocks: Vec<u32>,
 }
 
@@ -34,7 +38,26 @@ pub(crate) struct Point {
 #[derive(Debug, Clone)]
 pub struct Bending {
     pub(crate) points: Vec<Point>,
-    aligned: bool,
+}
+
+/// The parametric bending stiffness `C` on `(κ11, κ22, 2κ12)` split into the part carried by the nodal normal
+/// curvatures and the part carried by the cell twist: `½ κᵀ C κ = ½ κₙᵀ S κₙ + ½ (gᵀ κ)² / C₃₃` with
+/// `κₙ = (κ11, κ22)`, `S = Cₙₙ − c cᵀ / C₃₃` (the Schur complement, PSD when `C` is) and `g = (c, C₃₃)`,
+/// `c = (C₁₃, C₂₃)`. When the frame is aligned with the grid `c = 0`: the twist term is `½ C₃₃ (2κ12)²` alone.
+fn split(c: &[[f64; 3]; 3], aligned: bool) -> ([[f64; 2]; 2], [f64; 3]) {
+    let nn = [[c[0][0], c[0][1]], [c[1][0], c[1][1]]];
+    let d = c[2][2];
+    if aligned || d <= 0.0 {
+        return (nn, [0.0, 0.0, d]);
+    }
+    let cv = [c[0][2], c[1][2]];
+    let mut s = nn;
+    for r in 0..2 {
+        for q in 0..2 {
+            s[r][q] -= cv[r] * cv[q] / d;
+        }
+    }
+    (s, [cv[0], cv[1], d])
 }
 
 impl Bending {
@@ -44,11 +67,10 @@ impl Bending {
     }
 
     /// As [`Bending::new`] with the warp at `warp_angle` from the `u1` tangent. Curvatures are measured in the
-    /// material frame, `K = J⁻ᵀ κ J⁻¹`; the bending stiffness is pulled back to the parametric curvatures. The
-    /// normal curvatures live at nodes and the twist at cells, so the pull-back is exact when the frame is
-    /// aligned with the grid (`J` diagonal: arc-length, polar or conical grids with the warp along a grid
-    /// direction); otherwise the coupling between twist and normal curvatures is not represented, which
-    /// [`Bending::aligned`] reports so that callers can refuse such a set-up.
+    /// material frame, `K = J⁻ᵀ κ J⁻¹`; the bending stiffness is pulled back to the parametric curvatures `C`.
+    /// The normal curvatures live at nodes and the twist at cells; when the frame is not aligned with the grid
+    /// (`J` not diagonal: a bias cut, a polar grid of one piece of fabric) `C` couples them, and the coupling is
+    /// carried at the cells, with the normal curvatures averaged over the cell's corners (see `split`).
     pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
         Self::with_warp(grid, rest, s, Warp::Angle(warp_angle))
     }
@@ -57,7 +79,6 @@ impl Bending {
     pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
         let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
         let mut points = Vec::new();
-        let mut aligned = true;
         let w = grid.h1 * grid.h2;
         for k in 0..grid.len() {
             let (i, j) = grid.coords(k);
@@ -66,9 +87,8 @@ impl Bending {
             let a = sup.scatter(&tangent(grid, 0, i, j));
             let b = sup.scatter(&tangent(grid, 1, i, j));
             let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
-            aligned &= frame.is_aligned();
-            let c = frame.pull_back(&dv);
-            let mut v = [[0.0; MAX_SUPPORT]; 2];
+            let (c, _) = split(&frame.pull_back(&dv), frame.is_aligned());
+            let mut v = [[0.0; MAX_SUPPORT]; MEASURES];
             // (measure kind 0 = κ11 or 1 = κ22, quadrature weight): B11 with trapezoid weight across u2,
             // B22 across u1.
             let mut kinds: Vec<(usize, f64)> = Vec::new();
@@ -84,7 +104,7 @@ impl Bending {
             if count == 0 {
                 continue;
             }
-            let mut d = [[0.0; 2]; 2];
+            let mut d = [[0.0; MEASURES]; MEASURES];
             for (m, &(km, wm)) in kinds.iter().enumerate() {
                 for (q, &(kq, wq)) in kinds.iter().enumerate() {
                     d[m][q] = c[km][kq] * (wm * wq).sqrt();
@@ -100,32 +120,62 @@ impl Bending {
             let b = sup.scatter(&st(&ops.c2));
             let tw = sup.scatter(&st(&ops.twist));
             let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
-            aligned &= frame.is_aligned();
-            // F ⊃ ½ C'₃₃ (2κ12)² = ½ (4 C'₃₃) κ12²; C'₃₃ = D66 for J = I.
-            let d = [[4.0 * frame.pull_back(&dv)[2][2] * w * frame.area, 0.0], [0.0, 0.0]];
-            points.push(Point::new(sup, a, b, [tw, [0.0; MAX_SUPPORT]], 1, d, rest));
+            let (_, g) = split(&frame.pull_back(&dv), frame.is_aligned());
+            let wc = w * frame.area;
+            let mut v = [tw, [0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT]];
+            let mut d = [[0.0; MEASURES]; MEASURES];
+            if g[0] == 0.0 && g[1] == 0.0 {
+                // F ⊃ ½ C₃₃ (2κ12)² = ½ (4 C₃₃) κ12².
+                d[0][0] = 4.0 * g[2] * wc;
+                points.push(Point::new(sup, a, b, v, 1, d, rest));
+                continue;
+            }
+            // ½ (gᵀκ)²/C₃₃ over (2κ12, κ11, κ22): measures (κ12, κ̄11, κ̄22), weights (2C₃₃, C₁₃, C₂₃).
+            let gm = [2.0 * g[2], g[0], g[1]];
+            for dir in 0..2 {
+                let mut avg: Vec<(usize, f64)> = Vec::new();
+                for &node in &ops.nodes {
+                    let (ci, cj) = grid.coords(node);
+                    if let Some(s2) = second(grid, dir, ci, cj) {
+                        avg.extend(s2);
+                    }
+                }
+                let n = avg.len() / 3;
+                if n > 0 {
+                    avg.iter_mut().for_each(|e| e.1 /= n as f64);
+                    v[1 + dir] = sup.scatter(&avg);
+                }
+            }
+            for m in 0..MEASURES {
+                for q in 0..MEASURES {
+                    d[m][q] = gm[m] * gm[q] / g[2] * wc;
+                }
+            }
+            points.push(Point::new(sup, a, b, v, MEASURES, d, rest));
         }
-        Self { points, aligned }
+        Self { points }
     }
 
     /// Sets the rest curvature `B⁰` to zero everywhere: the rest shape then only defines the metric (a garment
     /// cut from a flat pattern and sewn into a cone or cylinder is bent at rest).
     pub fn flatten_rest_curvature(&mut self) {
         for p in &mut self.points {
-            p.rest = [0.0; 2];
+            p.rest = [0.0; MEASURES];
         }
-    }
-
-    /// True when every quadrature point's material frame is aligned with the grid (see
-    /// [`Bending::with_warp_angle`]).
-    pub fn aligned(&self) -> bool {
-        self.aligned
     }
 }
 
 impl Point {
-    fn new(support: Support, a: Coefs, b: Coefs, v: [Coefs; 2], count: usize, d: [[f64; 2]; 2], rest: &[Vec3]) -> Self {
-        let mut p = Self { support, a, b, v, count, rest: [0.0; 2], d, blocks: Vec::new() };
+    fn new(
+        support: Support,
+        a: Coefs,
+        b: Coefs,
+        v: [Coefs; MEASURES],
+        count: usize,
+        d: [[f64; MEASURES]; MEASURES],
+        rest: &[Vec3],
+    ) -> Self {
+        let mut p = Self { support, a, b, v, count, rest: [0.0; MEASURES], d, blocks: Vec::new() };
         let (av, bv) = (combine(&p.support, &p.a, rest), combine(&p.support, &p.b, rest));
         for m in 0..count {
             p.rest[m] = NormalCurvature::new(av, bv, combine(&p.support, &p.v[m], rest)).value;
@@ -135,12 +185,16 @@ impl Point {
 
     /// Tangents, curvature kernels and curvature changes at `x`.
     #[inline]
-    pub(crate) fn kernels(&self, x: &[Vec3]) -> (Vec3, Vec3, [NormalCurvature; 2], [Vec3; 2], [f64; 2]) {
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn kernels(
+        &self,
+        x: &[Vec3],
+    ) -> (Vec3, Vec3, [NormalCurvature; MEASURES], [Vec3; MEASURES], [f64; MEASURES]) {
         let a = combine(&self.support, &self.a, x);
         let b = combine(&self.support, &self.b, x);
-        let mut vs = [Vec3::ZERO; 2];
-        let mut kappa = [0.0; 2];
-        let mut nc = [NormalCurvature::new(a, b, Vec3::ZERO); 2];
+        let mut vs = [Vec3::ZERO; MEASURES];
+        let mut kappa = [0.0; MEASURES];
+        let mut nc = [NormalCurvature::new(a, b, Vec3::ZERO); MEASURES];
         for m in 0..self.count {
             vs[m] = combine(&self.support, &self.v[m], x);
             nc[m] = NormalCurvature::new(a, b, vs[m]);
@@ -151,8 +205,8 @@ impl Point {
 
     /// Moments `P = D κ` and the energy `½ κᵀ D κ`.
     #[inline]
-    pub(crate) fn moments(&self, kappa: &[f64; 2]) -> ([f64; 2], f64) {
-        let mut p = [0.0; 2];
+    pub(crate) fn moments(&self, kappa: &[f64; MEASURES]) -> ([f64; MEASURES], f64) {
+        let mut p = [0.0; MEASURES];
         let mut e = 0.0;
         for m in 0..self.count {
             for q in 0..self.count {
@@ -171,7 +225,7 @@ impl Point {
         }
         let len = self.support.len;
         // g[m][k] = ∂κ_m/∂x_k.
-        let mut g = [[Vec3::ZERO; MAX_SUPPORT]; 2];
+        let mut g = [[Vec3::ZERO; MAX_SUPPORT]; MEASURES];
         for m in 0..self.count {
             for k in 0..len {
                 g[m][k] = nc[m].da * self.a[k] + nc[m].db * self.b[k] + nc[m].dv * self.v[m][k];

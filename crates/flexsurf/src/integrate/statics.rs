@@ -59,6 +59,8 @@ pub struct StaticSolver {
     solver: LinearSolver,
     matrix: BlockMatrix,
     diag: Vec<u32>,
+    /// Try the exact Hessian first (see [`StaticSolver::solve`]).
+    exact: bool,
 }
 
 impl StaticSolver {
@@ -69,6 +71,7 @@ impl StaticSolver {
             solver: LinearSolver::new(SolverKind::Cholesky, p)?,
             matrix: BlockMatrix::zeros(p),
             diag: (0..model.grid.len()).map(|k| p.find(k, k) as u32).collect(),
+            exact: true,
         })
     }
 
@@ -110,6 +113,24 @@ impl StaticSolver {
         total
     }
 
+    /// The step matrix at `x`: elastic Hessian (`op`), contact and spring stiffness.
+    fn assemble(&mut self, model: &Model, x: &[Vec3], contacts: &mut Vec<contact::Contact>, op: Operator) {
+        self.matrix.clear();
+        model.elastic.evaluate(x, &mut Sink { grad: None, hess: Some((&mut self.matrix, op)) });
+        contact::detect(&model.obstacles, &model.contact, &model.area, x, contacts);
+        for c in contacts.iter() {
+            self.matrix.blocks[self.diag[c.node] as usize] += c.stiffness_block();
+        }
+        for s in &model.springs {
+            self.matrix.blocks[self.diag[s.node] as usize] += diag(s.stiffness);
+        }
+    }
+
+    /// Size of the matrix entries, for relative shifts.
+    fn scale(&self) -> f64 {
+        self.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max)
+    }
+
     /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
         let n = x.len();
@@ -134,37 +155,48 @@ impl StaticSolver {
             if res <= opts.tolerance {
                 return Ok(StaticReport { iterations: it, residual: res, potential: pi });
             }
-            self.matrix.clear();
-            model.elastic.evaluate(x, &mut Sink { grad: None, hess: Some((&mut self.matrix, Operator::Projected)) });
-            contact::detect(&model.obstacles, &model.contact, &model.area, x, &mut contacts);
-            for c in &contacts {
-                self.matrix.blocks[self.diag[c.node] as usize] += c.stiffness_block();
-            }
-            for s in &model.springs {
-                self.matrix.blocks[self.diag[s.node] as usize] += diag(s.stiffness);
-            }
-            // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
-            let scale = self.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max);
+            // Newton with the exact Hessian where it is positive definite (quadratic convergence near a stable
+            // equilibrium); where Cholesky meets a non-positive pivot or the direction does not descend, the
+            // PSD-projected Hessian with a Levenberg shift instead.
             let mut solved = false;
-            for attempt in 0..8 {
-                let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (shift * 10.0).max(1e-8 * scale) };
+            if self.exact {
+                self.assemble(model, x, &mut contacts, Operator::Exact);
+                let scale = self.scale();
                 for d in &self.diag {
-                    self.matrix.blocks[*d as usize] += diag(s);
+                    self.matrix.blocks[*d as usize] += diag(1e-12 * scale);
                 }
                 for k in 0..n {
                     step[k] = -grad[k];
                 }
-                match self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false) {
-                    Ok(_) => {
-                        solved = true;
-                        shift = s * 0.1;
-                        break;
+                if self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false).is_ok() {
+                    let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
+                    solved = slope < 0.0;
+                }
+            }
+            if !solved {
+                self.assemble(model, x, &mut contacts, Operator::Projected);
+                // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
+                let scale = self.scale();
+                for attempt in 0..8 {
+                    let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (shift * 10.0).max(1e-8 * scale) };
+                    for d in &self.diag {
+                        self.matrix.blocks[*d as usize] += diag(s);
                     }
-                    Err(_) => {
-                        for d in &self.diag {
-                            self.matrix.blocks[*d as usize] -= diag(s);
+                    for k in 0..n {
+                        step[k] = -grad[k];
+                    }
+                    match self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false) {
+                        Ok(_) => {
+                            solved = true;
+                            shift = s * 0.1;
+                            break;
                         }
-                        shift = s;
+                        Err(_) => {
+                            for d in &self.diag {
+                                self.matrix.blocks[*d as usize] -= diag(s);
+                            }
+                            shift = s;
+                        }
                     }
                 }
             }

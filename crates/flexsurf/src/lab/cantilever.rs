@@ -8,11 +8,12 @@
 //! inextensible heavy elastica `K θ'' = −w (L − s) cos θ`, `θ(0) = 0`, `θ'(L) = 0` ([`elastica_chord_deg`]).
 
 use super::LabError;
+use crate::energy::frame::Frame;
 use crate::grid::{Grid, Topology};
 use crate::integrate::statics::{StaticOptions, StaticSolver};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
-use crate::model::{Model, ModelKind};
+use crate::model::{ElasticOptions, Model, ModelKind};
 use serde::Serialize;
 
 /// Standard gravity of the test (m/s²).
@@ -28,6 +29,65 @@ pub enum Direction {
     Warp,
     /// Along the weft (rigidity K2).
     Weft,
+    /// At 45° to both (rigidity: the orthotropic narrow-strip prediction, [`strip_rigidity`]).
+    Bias,
+}
+
+/// The bending rigidity a strip cut along `direction` should show: `K1`, `K2`, or on the 45° bias the
+/// narrow-strip value `1/(D'⁻¹)₁₁` of the bending stiffness `D` (calibrated the consistent way, `D11 = K1`)
+/// rotated into the strip's axes: the strip's free edges carry no moment across and no twisting moment, so it
+/// bends and twists freely. For the default Huber twist rigidity this is `4/(1/√K1 + 1/√K2)²`. (A wide plate,
+/// held from curving across and twisting, would show `D'₁₁`, larger.)
+pub fn strip_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabError> {
+    Ok(match direction {
+        Direction::Warp => fabric.bending_warp,
+        Direction::Weft => fabric.bending_weft,
+        Direction::Bias => {
+            let c = bias_stiffness(fabric)?;
+            // (C⁻¹)₁₁ = det / cofactor₁₁.
+            let det = c[0][0] * (c[1][1] * c[2][2] - c[1][2] * c[2][1])
+                - c[0][1] * (c[1][0] * c[2][2] - c[1][2] * c[2][0])
+                + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0]);
+            det / (c[1][1] * c[2][2] - c[1][2] * c[2][1])
+        }
+    })
+}
+
+/// The rigidity of a wide plate bent along `direction` with its other curvature and twist held: `D'₁₁`
+/// (`(K1 + K2 + 2 D12 + 4 D66)/4` on the bias).
+pub fn plate_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabError> {
+    Ok(match direction {
+        Direction::Bias => bias_stiffness(fabric)?[0][0],
+        d => strip_rigidity(fabric, d)?,
+    })
+}
+
+/// The bending stiffness on `(κ11, κ22, 2κ12)` in the axes of a strip cut at 45° to the warp.
+fn bias_stiffness(fabric: &Fabric) -> Result<[[f64; 3]; 3], LabError> {
+    let s = Stiffness::calibrate(fabric, Calibration::Kes)?;
+    let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
+    Ok(Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4).pull_back(&dv))
+}
+
+/// The specimen of one cantilever test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Strip {
+    /// Which way it is cut.
+    pub direction: Direction,
+    /// Width (m); ASTM D1388 uses 25 mm.
+    pub width: f64,
+}
+
+impl Strip {
+    /// Default width (m).
+    pub const WIDTH: f64 = 0.02;
+    /// Nodes across the width.
+    const ACROSS: usize = 3;
+
+    /// A strip of the default width.
+    pub fn new(direction: Direction) -> Self {
+        Self { direction, width: Self::WIDTH }
+    }
 }
 
 /// What the test reports.
@@ -35,6 +95,8 @@ pub enum Direction {
 pub struct CantileverReport {
     /// Direction of the strip.
     pub direction: Direction,
+    /// Strip width (m).
+    pub width: f64,
     /// Overhang L (m).
     pub overhang: f64,
     /// Chord angle below horizontal (degrees), grid-extrapolated.
@@ -49,32 +111,31 @@ pub struct CantileverReport {
     pub bending_length: f64,
     /// Rigidity implied by the bending length, `w c³` (N·m).
     pub implied_rigidity: f64,
-    /// The input rigidity (N·m).
+    /// The rigidity the strip should show (N·m): the input K1 or K2, on the bias [`strip_rigidity`].
     pub input_rigidity: f64,
+    /// On the bias, the wide-plate rigidity `D'₁₁` (N·m), the upper bound of what a clamped strip of finite
+    /// width shows (see [`plate_rigidity`]); along warp or weft the same as `input_rigidity`.
+    pub plate_rigidity: f64,
 }
 
-/// Runs the cantilever test along `direction`, at `overhang` (default: the Peirce length of the input).
+/// Runs the cantilever test on `strip`, at `overhang` (default: the Peirce length of the input).
 pub fn cantilever(
     fabric: &Fabric,
     calibration: Calibration,
-    direction: Direction,
+    strip: Strip,
     overhang: Option<f64>,
 ) -> Result<CantileverReport, LabError> {
+    if !(strip.width.is_finite() && strip.width > 0.0) {
+        return Err(LabError::Input(format!("strip width {} m must be a positive length", strip.width)));
+    }
     let s = Stiffness::calibrate(fabric, calibration)?;
     let w = fabric.density * G;
-    let k = match direction {
-        Direction::Warp => fabric.bending_warp,
-        Direction::Weft => fabric.bending_weft,
-    };
+    let k = strip_rigidity(fabric, strip.direction)?;
     let peirce = 2.0 * (k / w).cbrt();
-    let l = overhang.unwrap_or(peirce);
-    let (angle, fine, drop) = extrapolated(fabric, &s, direction, l)?;
     // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
+    let at_peirce = extrapolated(fabric, &s, strip, peirce)?;
     let (mut l0, mut l1) = (peirce, peirce * 1.05);
-    let (mut f0, mut f1) = (
-        extrapolated(fabric, &s, direction, l0)?.0 - PEIRCE_ANGLE,
-        extrapolated(fabric, &s, direction, l1)?.0 - PEIRCE_ANGLE,
-    );
+    let (mut f0, mut f1) = (at_peirce.0 - PEIRCE_ANGLE, extrapolated(fabric, &s, strip, l1)?.0 - PEIRCE_ANGLE);
     for _ in 0..8 {
         if (f1 - f0).abs() < 1e-12 || f1.abs() < 1e-6 {
             break;
@@ -82,11 +143,14 @@ pub fn cantilever(
         let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
         (l0, f0) = (l1, f1);
         l1 = next;
-        f1 = extrapolated(fabric, &s, direction, l1)?.0 - PEIRCE_ANGLE;
+        f1 = extrapolated(fabric, &s, strip, l1)?.0 - PEIRCE_ANGLE;
     }
     let c = 0.5 * l1;
+    let l = overhang.unwrap_or(peirce);
+    let (angle, fine, drop) = if overhang.is_some() { extrapolated(fabric, &s, strip, l)? } else { at_peirce };
     Ok(CantileverReport {
-        direction,
+        direction: strip.direction,
+        width: strip.width,
         overhang: l,
         chord_angle_deg: angle,
         chord_angle_fine_deg: fine,
@@ -95,25 +159,57 @@ pub fn cantilever(
         bending_length: c,
         implied_rigidity: w * c.powi(3),
         input_rigidity: k,
+        plate_rigidity: plate_rigidity(fabric, strip.direction)?,
     })
 }
 
-/// (extrapolated angle, fine angle, fine tip drop) at overhang `l`.
-fn extrapolated(f: &Fabric, s: &Stiffness, d: Direction, l: f64) -> Result<(f64, f64, f64), LabError> {
-    let (coarse, _) = chord(f, s, d, l, 66)?;
-    let (fine, drop) = chord(f, s, d, l, 130)?;
+/// The grid-extrapolated chord angle (degrees) of `strip` with overhang `l`, without the search for the
+/// bending length: (extrapolated, finest grid) angles.
+pub fn chord_angle(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f64) -> Result<(f64, f64), LabError> {
+    let s = Stiffness::calibrate(fabric, calibration)?;
+    extrapolated(fabric, &s, strip, l).map(|(a, f, _)| (a, f))
+}
+
+/// (extrapolated angle, fine angle, fine tip drop) at overhang `l`. The coarse solution, interpolated along
+/// the strip, starts the fine solve.
+fn extrapolated(f: &Fabric, s: &Stiffness, strip: Strip, l: f64) -> Result<(f64, f64, f64), LabError> {
+    let k = strip_rigidity(f, strip.direction)?;
+    let shape = Elastica::new(f.density * G * l.powi(3) / k);
+    // Start from the heavy elastica of the strip's nominal rigidity (from a flat start Newton needs about a
+    // hundred damped steps).
+    let elastica = |sigma: f64, y: f64| {
+        let (sx, drop) = shape.at(sigma);
+        Vec3::new(sx * l, y, -drop * l)
+    };
+    let (coarse, _, cols) = chord(f, s, strip, l, 66, &elastica)?;
+    let along = |sigma: f64, a: usize| {
+        let t = sigma * (cols.len() - 1) as f64;
+        let i = (t.floor() as usize).min(cols.len() - 2);
+        cols[i][a].lerp(cols[i + 1][a], t - i as f64)
+    };
+    let hw = strip.width / (Strip::ACROSS - 1) as f64;
+    let from_coarse = |sigma: f64, y: f64| along(sigma, ((y + 0.5 * strip.width) / hw).round() as usize);
+    let (fine, drop, _) = chord(f, s, strip, l, 130, &from_coarse)?;
     Ok((2.0 * fine - coarse, fine, drop))
 }
 
-/// Chord angle (degrees) and tip drop of a strip with `m` node columns (two clamped).
-fn chord(f: &Fabric, s: &Stiffness, d: Direction, l: f64, m: usize) -> Result<(f64, f64), LabError> {
-    let (n, width) = (3, 0.02);
+/// Chord angle (degrees), tip drop and the solved node columns from the ledge edge to the tip of a strip with
+/// `m` node columns (two clamped), starting from `start(σ, y)` (σ = arc length / overhang, y across).
+fn chord(
+    f: &Fabric,
+    s: &Stiffness,
+    strip: Strip,
+    l: f64,
+    m: usize,
+    start: &dyn Fn(f64, f64) -> Vec3,
+) -> Result<(f64, f64, Vec<[Vec3; Strip::ACROSS]>), LabError> {
+    let (n, width) = (Strip::ACROSS, strip.width);
     let h = l / (m - 2) as f64;
     let hw = width / (n - 1) as f64;
-    let weft = d == Direction::Weft;
+    let weft = strip.direction == Direction::Weft;
     let grid =
         if weft { Grid::new(n, m, hw, h, [Topology::Free; 2]) } else { Grid::new(m, n, h, hw, [Topology::Free; 2]) }
-            .expect("valid strip grid");
+            .map_err(|e| LabError::Input(format!("strip grid: {e}")))?;
     let node = |i: usize, a: usize| if weft { grid.index(a, i) } else { grid.index(i, a) };
     let mut rest = vec![Vec3::ZERO; grid.len()];
     for i in 0..m {
@@ -121,13 +217,15 @@ fn chord(f: &Fabric, s: &Stiffness, d: Direction, l: f64, m: usize) -> Result<(f
             rest[node(i, a)] = Vec3::new((i as f64 - 1.0) * h, a as f64 * hw - 0.5 * width, 0.0);
         }
     }
-    let mut model = Model::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    // On the bias the warp runs at 45° to the strip (u1).
+    let warp_angle = if strip.direction == Direction::Bias { std::f64::consts::FRAC_PI_4 } else { 0.0 };
+    let opts = ElasticOptions { warp_angle, ..Default::default() };
+    let mut model = Model::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G), &opts);
     for a in 0..n {
         model.pinned[node(0, a)] = true;
         model.pinned[node(1, a)] = true;
     }
-    // A slightly bent start so Newton does not begin exactly at the flat state.
-    let mut x: Vec<Vec3> = rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, -0.01 * p.x.max(0.0).powi(2))).collect();
+    let mut x: Vec<Vec3> = rest.iter().map(|p| if p.x > 0.0 { start(p.x / l, p.y) } else { *p }).collect();
     let opts = StaticOptions { tolerance: 1e-9, max_iterations: 300 };
     StaticSolver::new(&model)
         .and_then(|mut solver| solver.solve(&model, &mut x, &opts))
@@ -135,43 +233,82 @@ fn chord(f: &Fabric, s: &Stiffness, d: Direction, l: f64, m: usize) -> Result<(f
     let mid = n / 2;
     let (clamp, tip) = (x[node(1, mid)], x[node(m - 1, mid)]);
     let drop = clamp.z - tip.z;
-    Ok((drop.atan2(tip.x - clamp.x).to_degrees(), drop))
+    let cols = (1..m).map(|i| std::array::from_fn(|a| x[node(i, a)])).collect();
+    Ok((drop.atan2(tip.x - clamp.x).to_degrees(), drop, cols))
 }
 
-/// Chord angle (degrees) of the inextensible heavy elastica with `q = w L³ / K`: `θ'' = −q (1 − σ) cos θ` on
-/// `σ ∈ [0, 1]`, `θ(0) = 0`, `θ'(1) = 0`, by shooting on `θ'(0)` (RK4, 2000 steps, bisection).
-pub fn elastica_chord_deg(q: f64) -> f64 {
-    // Integrate with θ'(0) = a; return (θ'(1), tip x, tip z) in units of L.
-    let shoot = |a: f64| -> (f64, f64, f64) {
-        let steps = 2000;
-        let hs = 1.0 / steps as f64;
-        let rhs = |s: f64, th: f64, om: f64| -> [f64; 4] { [om, -q * (1.0 - s) * th.cos(), th.cos(), -th.sin()] };
-        let (mut th, mut om, mut x, mut z) = (0.0, a, 0.0, 0.0);
-        for i in 0..steps {
-            let s = i as f64 * hs;
-            let k1 = rhs(s, th, om);
-            let k2 = rhs(s + 0.5 * hs, th + 0.5 * hs * k1[0], om + 0.5 * hs * k1[1]);
-            let k3 = rhs(s + 0.5 * hs, th + 0.5 * hs * k2[0], om + 0.5 * hs * k2[1]);
-            let k4 = rhs(s + hs, th + hs * k3[0], om + hs * k3[1]);
-            th += hs / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
-            om += hs / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
-            x += hs / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
-            z += hs / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]);
+/// The inextensible heavy elastica with `q = w L³ / K`, in units of the overhang `L`: `θ'' = −q (1 − σ) cos θ`
+/// on `σ ∈ [0, 1]`, `θ(0) = 0`, `θ'(1) = 0` (θ measured downwards), solved by shooting on `θ'(0)` (RK4,
+/// [`Elastica::STEPS`] steps, bisection). Positions `(x, −z)` along the arc are kept at every step.
+#[derive(Debug, Clone)]
+pub struct Elastica {
+    /// `(x, drop)` at `σ = i / STEPS`, `i = 0..=STEPS`.
+    pub profile: Vec<(f64, f64)>,
+}
+
+impl Elastica {
+    /// RK4 steps over the strip.
+    pub const STEPS: usize = 2000;
+
+    /// Solves the elastica for `q`.
+    pub fn new(q: f64) -> Self {
+        // Integrate with θ'(0) = a; returns θ'(1) and the profile.
+        let shoot = |a: f64, keep: bool| -> (f64, Vec<(f64, f64)>) {
+            let hs = 1.0 / Self::STEPS as f64;
+            let rhs = |s: f64, th: f64, om: f64| -> [f64; 4] { [om, -q * (1.0 - s) * th.cos(), th.cos(), th.sin()] };
+            let (mut th, mut om, mut x, mut z) = (0.0, a, 0.0, 0.0);
+            let mut profile = Vec::with_capacity(if keep { Self::STEPS + 1 } else { 0 });
+            if keep {
+                profile.push((0.0, 0.0));
+            }
+            for i in 0..Self::STEPS {
+                let s = i as f64 * hs;
+                let k1 = rhs(s, th, om);
+                let k2 = rhs(s + 0.5 * hs, th + 0.5 * hs * k1[0], om + 0.5 * hs * k1[1]);
+                let k3 = rhs(s + 0.5 * hs, th + 0.5 * hs * k2[0], om + 0.5 * hs * k2[1]);
+                let k4 = rhs(s + hs, th + hs * k3[0], om + hs * k3[1]);
+                th += hs / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
+                om += hs / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
+                x += hs / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
+                z += hs / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]);
+                if keep {
+                    profile.push((x, z));
+                }
+            }
+            (om, profile)
+        };
+        // θ'(0) ∈ [0, q] brackets θ'(1) = 0.
+        let (mut lo, mut hi) = (0.0, q.max(1e-9));
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if shoot(mid, false).0 > 0.0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
         }
-        (om, x, z)
-    };
-    // θ measured downwards: θ'(0) ∈ [0, q] brackets θ'(1) = 0.
-    let (mut lo, mut hi) = (0.0, q.max(1e-9));
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if shoot(mid).0 > 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
+        Self { profile: shoot(0.5 * (lo + hi), true).1 }
     }
-    let (_, x, z) = shoot(0.5 * (lo + hi));
-    (-z).atan2(x).to_degrees().abs()
+
+    /// Chord angle below horizontal (degrees).
+    pub fn chord_deg(&self) -> f64 {
+        let (x, drop) = self.profile[Self::STEPS];
+        drop.atan2(x).to_degrees().abs()
+    }
+
+    /// `(x, drop)` at arc length `σ ∈ [0, 1]` (linear between steps).
+    pub fn at(&self, sigma: f64) -> (f64, f64) {
+        let t = sigma.clamp(0.0, 1.0) * Self::STEPS as f64;
+        let i = (t.floor() as usize).min(Self::STEPS - 1);
+        let f = t - i as f64;
+        let (a, b) = (self.profile[i], self.profile[i + 1]);
+        (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1))
+    }
+}
+
+/// Chord angle (degrees) of the inextensible heavy elastica with `q = w L³ / K` ([`Elastica`]).
+pub fn elastica_chord_deg(q: f64) -> f64 {
+    Elastica::new(q).chord_deg()
 }
 
 #[cfg(test)]

@@ -23,6 +23,9 @@ pub enum LabError {
         /// Why.
         source: StaticError,
     },
+    /// A test option is out of range.
+    #[error("{0}")]
+    Input(String),
     /// A dynamic relaxation step failed.
     #[error("{test}: {source}")]
     Step {
