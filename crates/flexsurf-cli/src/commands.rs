@@ -340,6 +340,7 @@ pub fn cusick_test(
     material: Option<&Path>,
     calibration: flexsurf::material::Calibration,
     specimen: f64,
+    level: usize,
     out: &Path,
     json: bool,
 ) -> Result<()> {
@@ -349,7 +350,10 @@ pub fn cusick_test(
     }
     let (fabric, name) = load_fabric(material)?;
     let t = std::time::Instant::now();
-    let (nr, na) = default_grid(specimen, 1);
+    if level > 2 {
+        bail!("--level: {level} must be 0 (coarse), 1 (default) or 2 (fine)");
+    }
+    let (nr, na) = default_grid(specimen, level);
     let drape = cusick(&fabric, calibration, specimen, nr, na).with_context(|| format!("Cusick drape of {name}"))?;
     let seconds = t.elapsed().as_secs_f64();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;

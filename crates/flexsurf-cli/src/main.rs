@@ -67,6 +67,9 @@ struct TestArgs {
     /// `cusick`: specimen diameter in metres (0.24, 0.30 or 0.36 in the standard).
     #[arg(long, default_value_t = 0.30)]
     specimen: f64,
+    /// `cusick`: grid level, 0 (coarse), 1 (default) or 2 (fine; for a convergence check).
+    #[arg(long, default_value_t = 1)]
+    level: usize,
     /// `cusick`: where to write the top-view picture and the draped mesh.
     #[arg(long, default_value = "out/cusick")]
     out: PathBuf,
@@ -203,6 +206,7 @@ fn main() -> ExitCode {
                 CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
             },
             a.specimen,
+            a.level,
             &a.out,
             a.json,
         ),

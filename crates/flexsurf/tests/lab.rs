@@ -105,7 +105,8 @@ fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
 }
 
 /// Cusick drape (issue 3): bounds, grid convergence between the two finest default grids, and the trends a
-/// drape meter shows: the drape coefficient rises with bending stiffness and falls with specimen size.
+/// drape meter shows: the drape coefficient rises with bending stiffness and with shear stiffness (up to the
+/// fabric's own; see below) and falls with specimen size.
 #[test]
 fn cusick_drape_coefficient_behaves() {
     use flexsurf::lab::cusick::{cusick, default_grid};
@@ -124,10 +125,13 @@ fn cusick_drape_coefficient_behaves() {
     assert!((fine.drape_coefficient - base.drape_coefficient).abs() < 2.0, "not grid-converged: {base:?} {fine:?}");
     let stiffer = Fabric { bending_warp: 4.0 * soft.bending_warp, bending_weft: 4.0 * soft.bending_weft, ..soft };
     assert!(dc(&stiffer, 0.30, 1).drape_coefficient > base.drape_coefficient + 2.0);
-    // Shear stiffness: measured, not asserted. The drape meter's correlation (DC rising with G) is not seen here:
-    // ×4 G gives 42.8 % (7 nodes) against 44.4 % (8 nodes) for this fabric; an open question (closing note).
-    let shear = Fabric { shear: 4.0 * soft.shear, ..soft };
-    let _ = dc(&shear, 0.30, 1);
+    // Shear stiffness: below its typical value the fabric shears into a smooth cone instead of folding out,
+    // and DC falls (G/16: 41.3 % against 44.5 %, both 8 folds; 35.8 % against 45.4 % on the finer grid). Above
+    // it the fold count drops (7 at 4G, 6 at 8G) and DC moves by a few points either way with it: measured in
+    // docs/materials.md, not asserted.
+    let low_shear = Fabric { shear: soft.shear / 16.0, ..soft };
+    let low = dc(&low_shear, 0.30, 1);
+    assert!(low.drape_coefficient + 2.0 < base.drape_coefficient, "{low:?} vs {base:?}");
     let (small, large) = (dc(&soft, 0.24, 1), dc(&soft, 0.36, 1));
     assert!(small.drape_coefficient > base.drape_coefficient && base.drape_coefficient > large.drape_coefficient);
 }

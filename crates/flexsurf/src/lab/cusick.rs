@@ -11,9 +11,8 @@
 //! reported. The shadow is the xy footprint of the Coons
 //! display surface (raster), plus the uncovered hole inside the clamp.
 //!
-//! Bending of an anisotropic fabric on this grid: the frame is not aligned with the grid except along the axes,
-//! so the twist/normal-curvature coupling of the bending energy is dropped there (see `Bending::aligned`); for
-//! equal warp and weft rigidities the bending energy is exact.
+//! Bending of an anisotropic fabric on this grid: the frame is not aligned with the grid except along the axes;
+//! the bending energy carries the twist/normal-curvature coupling there (see `Bending::with_warp`).
 
 use super::LabError;
 use crate::grid::{Grid, Topology};
@@ -46,7 +45,7 @@ pub struct CusickReport {
     pub shadow_area: f64,
     /// Grid: radial × angular nodes.
     pub grid: [usize; 2],
-    /// Damped implicit steps (Δt = 0.02 s) taken to come to rest.
+    /// Damped implicit steps (Δt = 0.04 s) taken to come to rest.
     pub steps: usize,
     /// Equilibrium residual at the end: largest nodal force imbalance over the largest nodal weight.
     pub residual: f64,
@@ -125,7 +124,7 @@ pub fn cusick(
     let mut stepper = Stepper::new(&dyn_model, IntegratorKind::Linearized, SolverKind::Cholesky)
         .map_err(|e| LabError::Step { test: "cusick", source: e })?;
     // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
-    let dt = 0.02;
+    let dt = 0.04;
     let mut steps = 0;
     for _ in 0..1500 {
         stepper.step(&dyn_model, &mut state, dt).map_err(|e| LabError::Step { test: "cusick", source: e })?;
