@@ -38,3 +38,29 @@ fn check_schema_and_errors() {
     assert!(!dir.join("unused").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `flexsurf test cantilever`: the bias strip reports both orthotropic bounds as JSON; bad options are one-line
+/// errors naming the option.
+#[test]
+fn cantilever_command() {
+    let (code, stdout, stderr) = flexsurf(&["test", "cantilever", "--direction", "bias", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let r = &v["report"];
+    assert_eq!(r["direction"], "bias");
+    let (input, implied, plate) = (
+        r["input_rigidity"].as_f64().unwrap(),
+        r["implied_rigidity"].as_f64().unwrap(),
+        r["plate_rigidity"].as_f64().unwrap(),
+    );
+    assert!(input < implied && implied < plate, "{r}");
+    for (opt, val) in [("--width", "-0.01"), ("--overhang", "0"), ("--width", "nan")] {
+        let (code, _, stderr) = flexsurf(&["test", "cantilever", &format!("{opt}={val}")]);
+        assert_ne!(code, 0);
+        assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
+    let (code, _, stderr) = flexsurf(&["test", "cusick", "--level", "3"]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("--level") && !stderr.contains("panicked"), "{stderr}");
+}
