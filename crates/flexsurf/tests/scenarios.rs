@@ -556,3 +556,64 @@ fn pure_bending_energy_converges() {
     }
     assert!(errs[2].1 <= 1e-6, "membrane energy of an isometric bending: {:.3e} of the bending", errs[2].1);
 }
+
+/// Issue 3, item 2, as a simulation: one square of the (strongly anisotropic) paper fabric, warp along x,
+/// clamped along x = 0 and sagging under its own weight, solved to equilibrium on a Cartesian grid and on a
+/// curvilinear grid of the same square (`y = v + a sin(πu/L) sin(πv/L)`: the u-lines are wavy, the frame is
+/// neither orthogonal nor aligned with the warp). The free edge's sag agrees, the more closely the finer the
+/// grids; reading the warp along the u1 tangent instead is further off.
+#[test]
+fn same_sheet_on_a_curvilinear_grid_sags_the_same() {
+    use flexsurf::energy::frame::Warp;
+    use flexsurf::model::ElasticOptions;
+    let fabric = Fabric::paper_cotton();
+    let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
+    let l = 0.1;
+    // Mean drop of the free edge x = L.
+    let sag = |n: usize, wavy: bool, warp: Warp| -> f64 {
+        let g = Grid::sheet(n, n, l, l).unwrap();
+        let a = if wavy { 0.4 * l / std::f64::consts::PI } else { 0.0 };
+        let rest: Vec<Vec3> = g
+            .flat_positions(0.0)
+            .iter()
+            .map(|p| {
+                // The sheet spans [−L/2, L/2]²; the wave vanishes on its edges.
+                let (su, sv) =
+                    ((std::f64::consts::PI * (p.x / l + 0.5)).sin(), (std::f64::consts::PI * (p.y / l + 0.5)).sin());
+                Vec3::new(p.x, p.y + a * su * sv, 0.0)
+            })
+            .collect();
+        let opts = match warp {
+            Warp::Direction(d) => ElasticOptions { warp_direction: Some(d), ..Default::default() },
+            Warp::Angle(t) => ElasticOptions { warp_angle: t, ..Default::default() },
+        };
+        let mut model =
+            Model::with_options(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
+        for j in 0..n {
+            model.pinned[g.index(0, j)] = true;
+            model.pinned[g.index(1, j)] = true;
+        }
+        let mut x: Vec<Vec3> = rest.iter().map(|p| *p - Vec3::Z * (0.3 * (p.x + 0.5 * l).powi(2) / l)).collect();
+        for j in 0..n {
+            x[g.index(0, j)] = rest[g.index(0, j)];
+            x[g.index(1, j)] = rest[g.index(1, j)];
+        }
+        StaticSolver::new(&model)
+            .unwrap()
+            .solve(&model, &mut x, &StaticOptions { tolerance: 1e-9, max_iterations: 300 })
+            .unwrap();
+        -(0..n).map(|j| x[g.index(n - 1, j)].z).sum::<f64>() / n as f64
+    };
+    let along_x = Warp::Direction(Vec3::X);
+    let mut diffs = Vec::new();
+    for n in [11, 21, 41] {
+        let (flat, wavy) = (sag(n, false, along_x), sag(n, true, along_x));
+        diffs.push(wavy / flat - 1.0);
+        eprintln!("n = {n}: sag {flat:.6} m (Cartesian), {wavy:.6} m (curvilinear)");
+    }
+    let blind = sag(21, true, Warp::Angle(0.0)) / sag(21, false, along_x) - 1.0;
+    eprintln!("relative differences {diffs:?}; warp along u1 on the curvilinear grid: {blind}");
+    assert!(diffs[2].abs() < diffs[1].abs() && diffs[1].abs() < diffs[0].abs(), "{diffs:?}");
+    assert!(diffs[2].abs() < 0.01, "{diffs:?}");
+    assert!(blind.abs() > 2.0 * diffs[1].abs(), "warp-blind {blind} vs {diffs:?}");
+}
