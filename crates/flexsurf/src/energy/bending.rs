@@ -3,7 +3,9 @@
 //! twist `B12` at cell centres from the bilinear cell tangents. The rest curvature `B⁰` comes from the same
 //! operators on the rest shape, so a curved rest shape holds with zero force.
 //!
-//! Per quadrature point `W = ½ κᵀ D κ` over its one or two curvature changes `κ = B − B⁰`.
+//! Per quadrature point `W = ½ κᵀ D κ` over its curvature changes `κ = B − B⁰` (one or two at nodes; at cells
+//! the twist alone, or with the cell-averaged normal curvatures where the material frame is not aligned with the
+//! grid, see `split`).
 
 use super::curvature::NormalCurvature;
 use super::frame::{Frame, Warp};

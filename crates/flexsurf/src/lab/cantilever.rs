@@ -2,10 +2,13 @@
 //! weight. The chord from the ledge edge to the tip makes the angle θ below horizontal; the overhang at which
 //! θ = 41.5° is twice the bending length `c`, and the rigidity it implies is `w c³`.
 //!
-//! The strip (2 cm wide, 3 nodes across) is clamped by pinning its first two node columns and solved to static
-//! equilibrium on two grids (64 and 128 cells over the overhang); the clamp's discretisation error is first
-//! order in `h`, so the reported angle is the Richardson extrapolation `2 θ₁₂₈ − θ₆₄`. The reference is the
-//! inextensible heavy elastica `K θ'' = −w (L − s) cos θ`, `θ(0) = 0`, `θ'(L) = 0` ([`elastica_chord_deg`]).
+//! The strip ([`Strip`]: 2 cm wide by default, 3 nodes across) is clamped by pinning its first two node columns
+//! and solved to static equilibrium on two grids (64 and 128 cells over the overhang), Newton starting from the
+//! elastica and the coarse solution starting the fine one; the clamp's discretisation error is first order in
+//! `h`, so the reported angle is the Richardson extrapolation `2 θ₁₂₈ − θ₆₄`. The reference is the inextensible
+//! heavy elastica `K θ'' = −w (L − s) cos θ`, `θ(0) = 0`, `θ'(L) = 0` ([`Elastica`]) with `K` = K1, K2, or on the
+//! 45° bias the free narrow strip's rigidity ([`strip_rigidity`]; a clamped strip of finite width is stiffer,
+//! up to [`plate_rigidity`]).
 
 use super::LabError;
 use crate::energy::frame::Frame;
