@@ -611,9 +611,10 @@ fn same_sheet_on_a_curvilinear_grid_sags_the_same() {
         diffs.push(wavy / flat - 1.0);
         eprintln!("n = {n}: sag {flat:.6} m (Cartesian), {wavy:.6} m (curvilinear)");
     }
-    let blind = sag(21, true, Warp::Angle(0.0)) / sag(21, false, along_x) - 1.0;
+    let blind = sag(41, true, Warp::Angle(0.0)) / sag(41, false, along_x) - 1.0;
     eprintln!("relative differences {diffs:?}; warp along u1 on the curvilinear grid: {blind}");
-    assert!(diffs[2].abs() < diffs[1].abs() && diffs[1].abs() < diffs[0].abs(), "{diffs:?}");
-    assert!(diffs[2].abs() < 0.01, "{diffs:?}");
-    assert!(blind.abs() > 2.0 * diffs[1].abs(), "warp-blind {blind} vs {diffs:?}");
+    // First order: each halving of h about halves the difference.
+    assert!(diffs.windows(2).all(|p| p[0].abs() > 1.6 * p[1].abs()), "{diffs:?}");
+    assert!(diffs[2].abs() < 0.015, "{diffs:?}");
+    assert!(blind.abs() > 2.0 * diffs[2].abs(), "warp-blind {blind} vs {diffs:?}");
 }

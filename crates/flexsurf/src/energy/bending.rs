@@ -134,18 +134,26 @@ impl Bending {
             }
             // ½ (gᵀκ)²/C₃₃ over (2κ12, κ11, κ22): measures (κ12, κ̄11, κ̄22), weights (2C₃₃, C₁₃, C₂₃).
             let gm = [2.0 * g[2], g[0], g[1]];
-            for dir in 0..2 {
-                let mut avg: Vec<(usize, f64)> = Vec::new();
-                for &node in &ops.nodes {
-                    let (ci, cj) = grid.coords(node);
-                    if let Some(s2) = second(grid, dir, ci, cj) {
-                        avg.extend(s2);
+            // κ̄11 from the column of corners (i, ·), or (i + 1, ·) on a free edge; κ̄22 from the row (·, j) or
+            // (·, j + 1). The support stays within the 3×3 nodes around corner (i, j): the symmetric average over
+            // all four corners needs 12 nodes and made the Cusick test's factorisations 1.8× slower, for the same
+            // first order (alternating the choice with the parity of i, j does not converge).
+            let pairs = [[[0, 2], [1, 3]], [[0, 1], [2, 3]]];
+            for (dir, choice) in pairs.iter().enumerate() {
+                for pair in choice {
+                    let st: Vec<Option<Vec<(usize, f64)>>> = pair
+                        .iter()
+                        .map(|&q| {
+                            let (ci, cj) = grid.coords(ops.nodes[q]);
+                            second(grid, dir, ci, cj)
+                        })
+                        .collect();
+                    if st.iter().all(Option::is_some) {
+                        let avg: Vec<(usize, f64)> =
+                            st.into_iter().flatten().flatten().map(|(k, c)| (k, 0.5 * c)).collect();
+                        v[1 + dir] = sup.scatter(&avg);
+                        break;
                     }
-                }
-                let n = avg.len() / 3;
-                if n > 0 {
-                    avg.iter_mut().for_each(|e| e.1 /= n as f64);
-                    v[1 + dir] = sup.scatter(&avg);
                 }
             }
             for m in 0..MEASURES {

@@ -7,8 +7,8 @@ use crate::grid::Grid;
 use crate::math::Vec3;
 
 /// Most nodes one quadrature point touches (nodal bending with one-sided normals touches 5 to 7; a cell
-/// carrying the twist coupling of a frame not aligned with the grid, 12).
-pub const MAX_SUPPORT: usize = 12;
+/// carrying the twist coupling of a frame not aligned with the grid, 8).
+pub const MAX_SUPPORT: usize = 9;
 
 /// A linear difference operator: `Σ c_k x[node_k]`.
 pub type Stencil = Vec<(usize, f64)>;
