@@ -128,7 +128,7 @@ impl Bending {
             let mut d = [[0.0; MEASURES]; MEASURES];
             if g[0] == 0.0 && g[1] == 0.0 {
                 // F ⊃ ½ C₃₃ (2κ12)² = ½ (4 C₃₃) κ12².
-                d[0][0] = 4.0 * g[2] * wc;
+                d[0][0] = 4.0 * g[2] * w * frame.area;
                 points.push(Point::new(sup, a, b, v, 1, d, rest));
                 continue;
             }
