@@ -98,10 +98,13 @@ impl Frame {
         out
     }
 
-    /// True when the parametrisation is orthogonal and aligned with the warp (`J` diagonal).
+    /// True when the parametrisation is orthogonal and its directions are the warp and weft, in either order
+    /// (`J` diagonal, or anti-diagonal for the warp along `u2`): the pulled-back stiffness then has no
+    /// coupling between normal strains (curvatures) and shear (twist).
     pub fn is_aligned(&self) -> bool {
-        let off = self.p[0][1].abs() + self.p[1][0].abs();
-        off <= 1e-9 * (self.p[0][0].abs() + self.p[1][1].abs())
+        let p = &self.p;
+        let (diag, anti) = (p[0][0].abs() + p[1][1].abs(), p[0][1].abs() + p[1][0].abs());
+        diag.min(anti) <= 1e-9 * diag.max(anti)
     }
 }
 
@@ -121,6 +124,7 @@ mod tests {
         let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_2);
         let t = f.voigt();
         assert!((t[1][0] - 1.0).abs() < 1e-12 && t[0][0].abs() < 1e-12);
+        assert!(f.is_aligned(), "warp along u2 is aligned with the grid");
         // Warp at 45°: uniaxial u1 strain ε has warp and weft strain ε/2 and shear ∓ε.
         let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4);
         let t = f.voigt();
