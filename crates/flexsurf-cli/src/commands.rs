@@ -250,38 +250,103 @@ pub fn bench(sizes: &[usize], steps: Option<usize>, repeat: usize, json: bool) -
     Ok(())
 }
 
-/// `flexsurf test kes|cantilever`.
+/// Side view of the strip hanging at the report's overhang (dark) over the heavy elastica of its nominal
+/// rigidity (red, set back behind it), on a ledge; and the strip's mesh. Returns (picture, mesh) paths.
+fn cantilever_picture(
+    fabric: &flexsurf::material::Fabric,
+    calibration: flexsurf::material::Calibration,
+    strip: flexsurf::lab::cantilever::Strip,
+    r: &flexsurf::lab::cantilever::CantileverReport,
+    out: &Path,
+) -> Result<(std::path::PathBuf, std::path::PathBuf)> {
+    use flexsurf::math::Vec3;
+    use flexsurf::surface::mesh::TriMesh;
+    let hang = flexsurf::lab::cantilever::hang(fabric, calibration, strip, r.overhang)
+        .context("cantilever picture: solving the strip at the reported overhang")?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mesh = hang.mesh();
+    let obj = out.join("cantilever.obj");
+    flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
+    let (l, w) = (r.overhang, strip.width);
+    // The elastica drawn as a line along the strip's near edge.
+    let reference = hang.elastica_mesh(-0.5 * w - 1e-3 * l, 0.012 * l);
+    // The ledge: a block under x ≤ 0, the strip's clamp on top of it.
+    let (x0, x1, y0, y1, z0, z1) = (-0.4 * l, 0.0, -w, w, -0.15 * l, -1e-3 * l);
+    let corner = |k: u32| {
+        Vec3::new(if k & 1 == 0 { x0 } else { x1 }, if k & 2 == 0 { y0 } else { y1 }, if k & 4 == 0 { z0 } else { z1 })
+    };
+    let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let ledge = TriMesh {
+        positions: (0..8).map(corner).collect(),
+        normals: Vec::new(),
+        triangles: faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect(),
+    };
+    let items = [
+        render::Drawable::mesh(&mesh, [55, 55, 65]),
+        render::Drawable::mesh(&reference, [200, 60, 50]),
+        render::Drawable::mesh(&ledge, [190, 180, 160]),
+    ];
+    // From the −y side, a little round and above so that the strip's width shows; a narrow field of view so
+    // that perspective hardly shifts the near edge against the far one.
+    let target = Vec3::new(0.25 * l, 0.0, -0.35 * l);
+    let (az, el) = (15f64.to_radians(), 10f64.to_radians());
+    let dir = Vec3::new(-az.sin() * el.cos(), -az.cos() * el.cos(), el.sin());
+    let mut view = render::View::look_at(target + dir * (10.0 * l), target);
+    view.fov_y_deg = 7.0;
+    view.shadows = false;
+    let mut img = render::render(&view, &items, 640, 480);
+    let caption = format!(
+        "{:?}: dark simulated, red heavy elastica; chord {:.2} deg vs {:.2} deg",
+        r.direction, r.chord_angle_deg, r.elastica_deg
+    );
+    render::draw_text(&mut img, 10, 10, &caption, 1, [30, 30, 30]);
+    let png = out.join("cantilever_side.png");
+    render::save_png(&png, &img).with_context(|| format!("writing {}", png.display()))?;
+    Ok((png, obj))
+}
+
+/// The cantilever test's own options.
+pub struct CantileverArgs<'a> {
+    /// Strip direction.
+    pub direction: flexsurf::lab::cantilever::Direction,
+    /// Overhang (m), default the Peirce length.
+    pub overhang: Option<f64>,
+    /// Strip width (m).
+    pub width: Option<f64>,
+    /// Output folder of the picture and mesh.
+    pub out: &'a Path,
+}
+
+/// `flexsurf test kes|cantilever` (`cantilever` is `Some` for the cantilever test).
 pub fn virtual_test(
-    is_cantilever: bool,
-    direction: flexsurf::lab::cantilever::Direction,
-    overhang: Option<f64>,
-    width: Option<f64>,
+    cantilever: Option<CantileverArgs<'_>>,
     material: Option<&Path>,
     calibration: flexsurf::material::Calibration,
     json: bool,
 ) -> Result<()> {
     let (fabric, name) = load_fabric(material)?;
-    if let Some(l) = overhang {
-        if !(l.is_finite() && l > 0.0) {
-            bail!("--overhang: {l} m must be a positive length");
-        }
-    }
-    if let Some(b) = width {
-        if !(b.is_finite() && b > 0.0) {
-            bail!("--width: {b} m must be a positive length");
-        }
-    }
     let t = std::time::Instant::now();
-    if is_cantilever {
+    if let Some(CantileverArgs { direction, overhang, width, out }) = cantilever {
+        if let Some(l) = overhang {
+            if !(l.is_finite() && l > 0.0) {
+                bail!("--overhang: {l} m must be a positive length");
+            }
+        }
+        if let Some(b) = width {
+            if !(b.is_finite() && b > 0.0) {
+                bail!("--width: {b} m must be a positive length");
+            }
+        }
         use flexsurf::lab::cantilever::{cantilever, Strip};
         let d = direction;
         let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };
         let r =
             cantilever(&fabric, calibration, strip, overhang).with_context(|| format!("cantilever test of {name}"))?;
         let seconds = t.elapsed().as_secs_f64();
+        let (png, obj) = cantilever_picture(&fabric, calibration, strip, &r, out)?;
         if json {
             let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,
-                "report": r, "wall_seconds": seconds });
+                "report": r, "picture": png, "mesh": obj, "wall_seconds": seconds });
             println!("{}", serde_json::to_string_pretty(&v)?);
         } else {
             println!("cantilever test of {name} ({d:?}, {calibration:?} calibration), {seconds:.3} s");
@@ -305,6 +370,7 @@ pub fn virtual_test(
                     r.plate_rigidity, r.width
                 );
             }
+            println!("wrote {} and {}", png.display(), obj.display());
         }
         return Ok(());
     }

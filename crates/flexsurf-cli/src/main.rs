@@ -70,9 +70,9 @@ struct TestArgs {
     /// `cusick`: grid level, 0 (coarse), 1 (default) or 2 (fine; for a convergence check).
     #[arg(long, default_value_t = 1)]
     level: usize,
-    /// `cusick`: where to write the top-view picture and the draped mesh.
-    #[arg(long, default_value = "out/cusick")]
-    out: PathBuf,
+    /// `cusick`, `cantilever`: where to write the picture and the mesh (default out/cusick, out/cantilever).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -207,18 +207,20 @@ fn main() -> ExitCode {
             },
             a.specimen,
             a.level,
-            &a.out,
+            a.out.as_deref().unwrap_or(std::path::Path::new("out/cusick")),
             a.json,
         ),
         Command::Test(a) => commands::virtual_test(
-            a.name == TestName::Cantilever,
-            match a.direction {
-                DirectionArg::Warp => flexsurf::lab::cantilever::Direction::Warp,
-                DirectionArg::Weft => flexsurf::lab::cantilever::Direction::Weft,
-                DirectionArg::Bias => flexsurf::lab::cantilever::Direction::Bias,
-            },
-            a.overhang,
-            a.width,
+            (a.name == TestName::Cantilever).then(|| commands::CantileverArgs {
+                direction: match a.direction {
+                    DirectionArg::Warp => flexsurf::lab::cantilever::Direction::Warp,
+                    DirectionArg::Weft => flexsurf::lab::cantilever::Direction::Weft,
+                    DirectionArg::Bias => flexsurf::lab::cantilever::Direction::Bias,
+                },
+                overhang: a.overhang,
+                width: a.width,
+                out: a.out.as_deref().unwrap_or(std::path::Path::new("out/cantilever")),
+            }),
             a.material.as_deref(),
             match a.calibration {
                 CalibrationArg::Kes => flexsurf::material::Calibration::Kes,

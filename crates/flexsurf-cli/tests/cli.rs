@@ -39,13 +39,20 @@ fn check_schema_and_errors() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// `flexsurf test cantilever`: the bias strip reports both orthotropic bounds as JSON; bad options are one-line
-/// errors naming the option.
+/// `flexsurf test cantilever`: the bias strip reports both orthotropic bounds as JSON and writes its side view
+/// and mesh; bad options are one-line errors naming the option.
 #[test]
 fn cantilever_command() {
-    let (code, stdout, stderr) = flexsurf(&["test", "cantilever", "--direction", "bias", "--json"]);
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-cantilever-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, stdout, stderr) = flexsurf(&["test", "cantilever", "--direction", "bias", "--json", "--out", out]);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    for (key, file) in [("picture", "cantilever_side.png"), ("mesh", "cantilever.obj")] {
+        assert!(v[key].as_str().unwrap().ends_with(file), "{v}");
+        assert!(dir.join(file).metadata().unwrap().len() > 1000, "{file}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
     let r = &v["report"];
     assert_eq!(r["direction"], "bias");
     let (input, implied, plate) = (

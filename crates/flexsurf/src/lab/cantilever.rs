@@ -17,6 +17,7 @@ use crate::integrate::statics::{StaticOptions, StaticSolver};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::{ElasticOptions, Model, ModelKind};
+use crate::surface::mesh::TriMesh;
 use serde::Serialize;
 
 /// Standard gravity of the test (m/s²).
@@ -85,7 +86,7 @@ impl Strip {
     /// Default width (m).
     pub const WIDTH: f64 = 0.02;
     /// Nodes across the width.
-    const ACROSS: usize = 3;
+    pub const ACROSS: usize = 3;
 
     /// A strip of the default width.
     pub fn new(direction: Direction) -> Self {
@@ -173,9 +174,83 @@ pub fn chord_angle(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f
     extrapolated(fabric, &s, strip, l).map(|(a, f, _)| (a, f))
 }
 
-/// (extrapolated angle, fine angle, fine tip drop) at overhang `l`. The coarse solution, interpolated along
-/// the strip, starts the fine solve.
+/// (extrapolated angle, fine angle, fine tip drop) at overhang `l`.
 fn extrapolated(f: &Fabric, s: &Stiffness, strip: Strip, l: f64) -> Result<(f64, f64, f64), LabError> {
+    solve_pair(f, s, strip, l).map(|(a, b, c, _)| (a, b, c))
+}
+
+/// The strip hanging at one overhang, for pictures and meshes: the finer grid's solution.
+#[derive(Debug, Clone)]
+pub struct Hang {
+    /// Overhang (m).
+    pub overhang: f64,
+    /// Width (m).
+    pub width: f64,
+    /// Node columns from the ledge edge to the tip, each across the width.
+    pub columns: Vec<[Vec3; Strip::ACROSS]>,
+    /// The heavy elastica of the strip's nominal rigidity at this overhang, in units of the overhang.
+    pub elastica: Elastica,
+}
+
+impl Hang {
+    /// The strip as a triangle mesh (the ledge edge at x = 0).
+    pub fn mesh(&self) -> TriMesh {
+        ribbon(&self.columns.iter().map(|c| c.to_vec()).collect::<Vec<_>>())
+    }
+
+    /// The elastica as a band of thickness `thickness` in the vertical plane `y = offset` (a line drawn along
+    /// the strip's edge in a side view).
+    pub fn elastica_mesh(&self, offset: f64, thickness: f64) -> TriMesh {
+        let n = 200;
+        let point = |k: usize| {
+            let (x, drop) = self.elastica.at(k as f64 / n as f64);
+            Vec3::new(x * self.overhang, offset, -drop * self.overhang)
+        };
+        let cols: Vec<Vec<Vec3>> = (0..=n)
+            .map(|k| {
+                let p = point(k);
+                let t = (point((k + 1).min(n)) - point(k.saturating_sub(1))).normalize_or_zero();
+                let normal = Vec3::new(-t.z, 0.0, t.x) * (0.5 * thickness);
+                vec![p - normal, p + normal]
+            })
+            .collect();
+        ribbon(&cols)
+    }
+}
+
+/// A quad strip through consecutive columns of points (same count in each), two triangles per quad.
+fn ribbon(cols: &[Vec<Vec3>]) -> TriMesh {
+    let across = cols.first().map_or(0, Vec::len);
+    let positions: Vec<Vec3> = cols.iter().flatten().copied().collect();
+    let mut triangles = Vec::new();
+    for i in 0..cols.len().saturating_sub(1) {
+        for a in 0..across.saturating_sub(1) {
+            let k = |i: usize, a: usize| (i * across + a) as u32;
+            triangles.push([k(i, a), k(i + 1, a), k(i + 1, a + 1)]);
+            triangles.push([k(i, a), k(i + 1, a + 1), k(i, a + 1)]);
+        }
+    }
+    TriMesh { positions, normals: Vec::new(), triangles }
+}
+
+/// The strip hanging at overhang `l` (finer grid) with its elastica.
+pub fn hang(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f64) -> Result<Hang, LabError> {
+    if !(l.is_finite() && l > 0.0) {
+        return Err(LabError::Input(format!("overhang {l} m must be a positive length")));
+    }
+    let s = Stiffness::calibrate(fabric, calibration)?;
+    let (_, _, _, columns) = solve_pair(fabric, &s, strip, l)?;
+    let k = strip_rigidity(fabric, strip.direction)?;
+    let elastica = Elastica::new(fabric.density * G * l.powi(3) / k);
+    Ok(Hang { overhang: l, width: strip.width, columns, elastica })
+}
+
+/// Columns of the fine solution.
+type Columns = Vec<[Vec3; Strip::ACROSS]>;
+
+/// (extrapolated angle, fine angle, fine tip drop, fine columns) at overhang `l`. The coarse solution,
+/// interpolated along the strip, starts the fine solve.
+fn solve_pair(f: &Fabric, s: &Stiffness, strip: Strip, l: f64) -> Result<(f64, f64, f64, Columns), LabError> {
     let k = strip_rigidity(f, strip.direction)?;
     let shape = Elastica::new(f.density * G * l.powi(3) / k);
     // Start from the heavy elastica of the strip's nominal rigidity (from a flat start Newton needs about a
@@ -192,8 +267,8 @@ fn extrapolated(f: &Fabric, s: &Stiffness, strip: Strip, l: f64) -> Result<(f64,
     };
     let hw = strip.width / (Strip::ACROSS - 1) as f64;
     let from_coarse = |sigma: f64, y: f64| along(sigma, ((y + 0.5 * strip.width) / hw).round() as usize);
-    let (fine, drop, _) = chord(f, s, strip, l, 130, &from_coarse)?;
-    Ok((2.0 * fine - coarse, fine, drop))
+    let (fine, drop, fine_cols) = chord(f, s, strip, l, 130, &from_coarse)?;
+    Ok((2.0 * fine - coarse, fine, drop, fine_cols))
 }
 
 /// Chord angle (degrees), tip drop and the solved node columns from the ledge edge to the tip of a strip with
@@ -205,7 +280,7 @@ fn chord(
     l: f64,
     m: usize,
     start: &dyn Fn(f64, f64) -> Vec3,
-) -> Result<(f64, f64, Vec<[Vec3; Strip::ACROSS]>), LabError> {
+) -> Result<(f64, f64, Columns), LabError> {
     let (n, width) = (Strip::ACROSS, strip.width);
     let h = l / (m - 2) as f64;
     let hw = width / (n - 1) as f64;
