@@ -43,7 +43,10 @@ pub enum RunError {
     #[error(transparent)]
     Step(#[from] StepError),
     /// The static equilibrium solve failed.
-    #[error(transparent)]
+    #[error(
+        "{0} (hint: a static solve needs an equilibrium to find: the sheet held by pins or springs, or resting on \
+         a support it cannot slide off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
+    )]
     Static(crate::integrate::statics::StaticError),
 }
 
