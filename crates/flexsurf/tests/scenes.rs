@@ -387,3 +387,23 @@ set = "edge_u1_1"
     assert!(out.join("frames/frame_00000.obj").exists() && out.join("frames/frame_00001.obj").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scenes/drape_static.toml`: the paper's sheet pinned at its centre on top of the ball, solved directly for
+/// its drape. It converges, hangs down the sides (below the ball's centre), stays outside the ball (no node
+/// deeper than the contact offset) and barely stretches.
+#[test]
+fn static_drape_over_the_ball() {
+    let scene = flexsurf::scene::load(&repo().join("scenes/drape_static.toml")).unwrap();
+    let out = scratch("drape_static");
+    flexsurf::scene::run::run_scene(&scene, &out, |_| {}).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let residual = summary["static_solve"]["residual"].as_f64().unwrap();
+    assert!(residual < 1e-4, "static residual {residual}");
+    let f = &summary["final"];
+    assert!(f["min_z"].as_f64().unwrap() < -0.1, "{f}");
+    assert!((f["max_z"].as_f64().unwrap() - 0.306).abs() < 1e-12, "{f}");
+    assert!(f["max_penetration"].as_f64().unwrap() <= 0.005, "{f}");
+    assert!(f["max_strain"].as_f64().unwrap() < 0.01, "{f}");
+    std::fs::remove_dir_all(&out).ok();
+}
