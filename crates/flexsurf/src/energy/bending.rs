@@ -71,8 +71,9 @@ impl Bending {
     /// As [`Bending::new`] with the warp at `warp_angle` from the `u1` tangent. Curvatures are measured in the
     /// material frame, `K = J⁻ᵀ κ J⁻¹`; the bending stiffness is pulled back to the parametric curvatures `C`.
     /// The normal curvatures live at nodes and the twist at cells; when the frame is not aligned with the grid
-    /// (`J` not diagonal: a bias cut, a polar grid of one piece of fabric) `C` couples them, and the coupling is
-    /// carried at the cells, with the normal curvatures averaged over the cell's corners (see `split`).
+    /// (`J` neither diagonal nor anti-diagonal: a bias cut, a polar grid of one piece of fabric) `C` couples
+    /// them, and the coupling is carried at the cells, with the normal curvatures averaged over a pair of the
+    /// cell's corners (see `split`).
     pub fn with_warp_angle(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp_angle: f64) -> Self {
         Self::with_warp(grid, rest, s, Warp::Angle(warp_angle))
     }
