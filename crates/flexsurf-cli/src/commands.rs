@@ -403,66 +403,119 @@ pub fn virtual_test(
 
 /// `flexsurf test cusick`.
 pub fn cusick_test(
+    args: CusickArgs<'_>,
     material: Option<&Path>,
     calibration: flexsurf::material::Calibration,
-    specimen: f64,
-    level: usize,
-    out: &Path,
     json: bool,
 ) -> Result<()> {
-    use flexsurf::lab::cusick::{cusick, default_grid, DISC};
+    use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
+    let CusickArgs { specimen, level, specimens, out } = args;
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
     }
-    let (fabric, name) = load_fabric(material)?;
-    let t = std::time::Instant::now();
     if level > 2 {
         bail!("--level: {level} must be 0 (coarse), 1 (default) or 2 (fine)");
     }
+    if !(1..=10).contains(&specimens) {
+        bail!("--specimens: {specimens} must be between 1 and 10");
+    }
+    let (fabric, name) = load_fabric(material)?;
+    let t = std::time::Instant::now();
     let (nr, na) = default_grid(specimen, level);
-    let drape = cusick(&fabric, calibration, specimen, nr, na).with_context(|| format!("Cusick drape of {name}"))?;
+    let mut drapes = Vec::with_capacity(specimens);
+    for k in 0..specimens {
+        drapes.push(
+            cusick_specimen(&fabric, calibration, specimen, nr, na, k)
+                .with_context(|| format!("Cusick drape of {name}, specimen {}", k + 1))?,
+        );
+    }
     let seconds = t.elapsed().as_secs_f64();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mesh = drape.mesh(4);
-    let obj = out.join("cusick.obj");
-    flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
-    // Top view, looking down the z axis, as a drape meter's shadow.
+    let mut files = Vec::new();
+    for (k, drape) in drapes.iter().enumerate() {
+        let suffix = if k == 0 { String::new() } else { format!("_{}", k + 1) };
+        let mesh = drape.mesh(4);
+        let obj = out.join(format!("cusick{suffix}.obj"));
+        flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
+        let png = out.join(format!("cusick_top{suffix}.png"));
+        render::save_png(&png, &cusick_picture(&mesh, specimen))
+            .with_context(|| format!("writing {}", png.display()))?;
+        files.push((png, obj));
+    }
+    let dcs: Vec<f64> = drapes.iter().map(|d| d.report.drape_coefficient).collect();
+    let mean = dcs.iter().sum::<f64>() / dcs.len() as f64;
+    let sd = if dcs.len() > 1 {
+        (dcs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (dcs.len() - 1) as f64).sqrt()
+    } else {
+        0.0
+    };
+    let rep = drapes[0].report;
+    if json {
+        let reports: Vec<_> = drapes.iter().map(|d| d.report).collect();
+        let v = serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
+            "report": rep, "specimens": reports, "mean_drape_coefficient": mean, "sd_drape_coefficient": sd,
+            "picture": files[0].0, "mesh": files[0].1,
+            "pictures": files.iter().map(|f| &f.0).collect::<Vec<_>>(),
+            "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "wall_seconds": seconds });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
+        println!("specimen          {:>8.3} m on an {DISC} m disc (grid {} x {})", specimen, rep.grid[0], rep.grid[1]);
+        for (k, d) in drapes.iter().enumerate() {
+            let r = &d.report;
+            println!(
+                "specimen {:>2}: drape coefficient {:>6.2} %, {:>2} nodes; at rest after {} steps, residual {:.2e} of a \
+                 node's weight",
+                k + 1,
+                r.drape_coefficient,
+                r.nodes,
+                r.steps,
+                r.residual
+            );
+        }
+        if specimens > 1 {
+            println!("mean drape coefficient {mean:.2} % (s.d. {sd:.2} over {specimens} specimens)");
+        }
+        println!("wrote {} and {} (and one pair per further specimen)", files[0].0.display(), files[0].1.display());
+    }
+    Ok(())
+}
+
+/// The Cusick test's own options.
+pub struct CusickArgs<'a> {
+    /// Specimen diameter (m).
+    pub specimen: f64,
+    /// Grid level 0–2.
+    pub level: usize,
+    /// How many specimens (different starting wobbles).
+    pub specimens: usize,
+    /// Output folder of the pictures and meshes.
+    pub out: &'a Path,
+}
+
+/// Top view, looking down the z axis, as a drape meter's shadow: the specimen dark, the support disc light.
+fn cusick_picture(mesh: &flexsurf::surface::mesh::TriMesh, specimen: f64) -> render::Picture {
+    use flexsurf::lab::cusick::DISC;
+    use flexsurf::math::Vec3;
     let r = 0.5 * specimen;
-    let base = render::View::look_at(flexsurf::math::Vec3::new(0.0, 0.0, 4.4 * r), flexsurf::math::Vec3::ZERO);
-    let view = render::View { up: flexsurf::math::Vec3::Y, ..base };
+    let base = render::View::look_at(Vec3::new(0.0, 0.0, 4.4 * r), Vec3::ZERO);
+    let view = render::View { up: Vec3::Y, ..base };
     let disc = flexsurf::surface::mesh::TriMesh {
         positions: (0..=64)
             .map(|k| {
                 let t = k as f64 / 64.0 * std::f64::consts::TAU;
                 if k == 64 {
-                    flexsurf::math::Vec3::new(0.0, 0.0, 0.001)
+                    Vec3::new(0.0, 0.0, 0.001)
                 } else {
-                    flexsurf::math::Vec3::new(0.5 * DISC * t.cos(), 0.5 * DISC * t.sin(), 0.001)
+                    Vec3::new(0.5 * DISC * t.cos(), 0.5 * DISC * t.sin(), 0.001)
                 }
             })
             .collect(),
         normals: Vec::new(),
         triangles: (0..64u32).map(|k| [64, k, (k + 1) % 64]).collect(),
     };
-    // A drape meter's shadow: the specimen dark, the support disc light.
-    let items = [render::Drawable::mesh(&mesh, [55, 55, 65]), render::Drawable::mesh(&disc, [215, 215, 205])];
-    let img = render::render(&view, &items, 600, 600);
-    let png = out.join("cusick_top.png");
-    render::save_png(&png, &img).with_context(|| format!("writing {}", png.display()))?;
-    let rep = drape.report;
-    if json {
-        let v = serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
-            "report": rep, "picture": png, "mesh": obj, "wall_seconds": seconds });
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
-        println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
-        println!("specimen          {:>8.3} m on an {DISC} m disc (grid {} x {})", specimen, rep.grid[0], rep.grid[1]);
-        println!("drape coefficient {:>8.2} %", rep.drape_coefficient);
-        println!("nodes (folds)     {:>8}", rep.nodes);
-        println!("came to rest in {} steps; equilibrium residual {:.2e} of a node's weight", rep.steps, rep.residual);
-        println!("wrote {} and {}", png.display(), obj.display());
-    }
-    Ok(())
+    let items = [render::Drawable::mesh(mesh, [55, 55, 65]), render::Drawable::mesh(&disc, [215, 215, 205])];
+    render::render(&view, &items, 600, 600)
 }
 
 /// The fabric of `--material FILE`, or the paper's non-woven cotton, with its display name.

@@ -70,6 +70,10 @@ struct TestArgs {
     /// `cusick`: grid level, 0 (coarse), 1 (default) or 2 (fine; for a convergence check).
     #[arg(long, default_value_t = 1)]
     level: usize,
+    /// `cusick`: how many specimens (each starts from a different small wobble of the hem; their mean and
+    /// standard deviation are reported, as a drape-meter operator would).
+    #[arg(long, default_value_t = 1)]
+    specimens: usize,
     /// `cusick`, `cantilever`: where to write the picture and the mesh (default out/cusick, out/cantilever).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -200,14 +204,17 @@ fn main() -> ExitCode {
         Command::Schema => commands::schema(),
         Command::Bench(a) => commands::bench(&a.sizes, a.steps, a.repeat, a.json),
         Command::Test(a) if a.name == TestName::Cusick => commands::cusick_test(
+            commands::CusickArgs {
+                specimen: a.specimen,
+                level: a.level,
+                specimens: a.specimens,
+                out: a.out.as_deref().unwrap_or(std::path::Path::new("out/cusick")),
+            },
             a.material.as_deref(),
             match a.calibration {
                 CalibrationArg::Kes => flexsurf::material::Calibration::Kes,
                 CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
             },
-            a.specimen,
-            a.level,
-            a.out.as_deref().unwrap_or(std::path::Path::new("out/cusick")),
             a.json,
         ),
         Command::Test(a) => commands::virtual_test(

@@ -67,7 +67,9 @@ fn cantilever_command() {
         assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");
         assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     }
-    let (code, _, stderr) = flexsurf(&["test", "cusick", "--level", "3"]);
-    assert_ne!(code, 0);
-    assert!(stderr.contains("--level") && !stderr.contains("panicked"), "{stderr}");
+    for (opt, val) in [("--level", "3"), ("--specimens", "0"), ("--specimens", "11")] {
+        let (code, _, stderr) = flexsurf(&["test", "cusick", opt, val]);
+        assert_ne!(code, 0);
+        assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");
+    }
 }

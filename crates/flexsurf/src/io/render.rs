@@ -7,6 +7,8 @@
 use super::atomic::write_atomic;
 use crate::math::Vec3;
 use crate::surface::mesh::{Aabb, TriMesh};
+/// The picture type the renderer returns (re-exported so callers need not depend on `image`).
+pub use image::RgbImage as Picture;
 use image::{ImageEncoder, Rgb, RgbImage};
 use std::borrow::Cow;
 use std::io;

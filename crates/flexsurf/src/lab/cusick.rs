@@ -84,6 +84,20 @@ pub fn cusick(
     radial: usize,
     angular: usize,
 ) -> Result<Drape, LabError> {
+    cusick_specimen(fabric, calibration, specimen, radial, angular, 0)
+}
+
+/// As [`cusick`] for the `index`-th specimen of the fabric: the phases of the hem's starting wobble differ from
+/// specimen to specimen (index 0 is [`cusick`]'s), as a drape-meter operator tests several specimens and
+/// reports their mean: a drape has several equilibria, and which one a specimen finds depends on its start.
+pub fn cusick_specimen(
+    fabric: &Fabric,
+    calibration: Calibration,
+    specimen: f64,
+    radial: usize,
+    angular: usize,
+    index: usize,
+) -> Result<Drape, LabError> {
     let s = Stiffness::calibrate(fabric, calibration)?;
     let (rd, rs) = (0.5 * DISC, 0.5 * specimen);
     let hr = (rs - rd) / radial as f64;
@@ -112,7 +126,8 @@ pub fn cusick(
             let (i, j) = grid.coords(k);
             let sr = ((radius(i) - rd) / (rs - rd)).max(0.0);
             let t = j as f64 * grid.h2;
-            let wobble: f64 = (3..=10).map(|q| ((q * q) as f64 * 0.7 + q as f64 * t).cos() / 8.0).sum();
+            let phase = |q: usize| (q * q) as f64 * 0.7 + index as f64 * (1.3 * q as f64 + 0.4);
+            let wobble: f64 = (3..=10).map(|q| (phase(q) + q as f64 * t).cos() / 8.0).sum();
             *p + Vec3::new(0.0, 0.0, -0.01 * sr * sr * (1.0 + 0.5 * wobble))
         })
         .collect();
