@@ -105,35 +105,46 @@ fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
 }
 
 /// Cusick drape (issue 3): bounds, grid convergence between the two finest default grids, and the trends a
-/// drape meter shows: the drape coefficient rises with bending stiffness and with shear stiffness (up to the
-/// fabric's own; see below) and falls with specimen size.
+/// drape meter shows: the drape coefficient rises with bending stiffness and with shear stiffness and falls with
+/// specimen size. A drape has several equilibria (specimens started from different small wobbles of the hem
+/// differ by a few points, s.d. 3–5 points for this fabric), so the weak shear trend is judged, as on a drape
+/// meter, on the mean of three specimens; the strong bending and size trends on one.
 #[test]
 fn cusick_drape_coefficient_behaves() {
-    use flexsurf::lab::cusick::{cusick, default_grid};
+    use flexsurf::lab::cusick::{cusick_specimen, default_grid};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../materials");
     let soft = flexsurf::scene::material::load_material_file(&dir.join("silk-like-polyester.toml")).unwrap().fabric;
-    let dc = |f: &Fabric, d: f64, level: usize| {
+    let run = |f: &Fabric, d: f64, level: usize, specimen: usize| {
         let (nr, na) = default_grid(d, level);
-        let r = cusick(f, Calibration::Kes, d, nr, na).unwrap().report;
-        eprintln!("D = {d}, level {level}: DC {:.2}%, {} nodes, {} steps", r.drape_coefficient, r.nodes, r.steps);
+        let r = cusick_specimen(f, Calibration::Kes, d, nr, na, specimen).unwrap().report;
+        eprintln!(
+            "D = {d}, level {level}, G = {:.3} N/m, specimen {specimen}: DC {:.2}%, {} nodes, {} steps",
+            f.shear, r.drape_coefficient, r.nodes, r.steps
+        );
         assert!((0.0..=100.0).contains(&r.drape_coefficient), "{r:?}");
         r
     };
+    let dc = |f: &Fabric, d: f64, level: usize| run(f, d, level, 0);
     let base = dc(&soft, 0.30, 1);
     assert!(base.nodes >= 4 && base.nodes <= 12, "a soft fabric forms folds: {base:?}");
     let fine = dc(&soft, 0.30, 2);
     assert!((fine.drape_coefficient - base.drape_coefficient).abs() < 2.0, "not grid-converged: {base:?} {fine:?}");
     let stiffer = Fabric { bending_warp: 4.0 * soft.bending_warp, bending_weft: 4.0 * soft.bending_weft, ..soft };
-    assert!(dc(&stiffer, 0.30, 1).drape_coefficient > base.drape_coefficient + 2.0);
-    // Shear stiffness: below its typical value the fabric shears into a smooth cone instead of folding out,
-    // and DC falls (G/16: 43.4 % against 45.8 %, both 8 folds; 40.0 % against 45.6 % on the finer grid). Above
-    // it the fold count drops (7 at 2G, 6 at 8G) and DC moves by a few points either way with it: measured in
-    // docs/materials.md, not asserted.
-    let low_shear = Fabric { shear: soft.shear / 16.0, ..soft };
-    let low = dc(&low_shear, 0.30, 1);
-    assert!(low.drape_coefficient + 2.0 < base.drape_coefficient, "{low:?} vs {base:?}");
+    assert!(dc(&stiffer, 0.30, 1).drape_coefficient > base.drape_coefficient + 10.0);
     let (small, large) = (dc(&soft, 0.24, 1), dc(&soft, 0.36, 1));
-    assert!(small.drape_coefficient > base.drape_coefficient && base.drape_coefficient > large.drape_coefficient);
+    assert!(small.drape_coefficient > base.drape_coefficient + 10.0);
+    assert!(base.drape_coefficient > large.drape_coefficient + 5.0);
+    // Shear: mean DC of three specimens at G/16, G and 4G (measured 38.4 %, 39.7 %, 41.6 %).
+    let mean = |g: f64| {
+        let f = Fabric { shear: g * soft.shear, ..soft };
+        (0..3)
+            .map(|k| if g == 1.0 && k == 0 { base.drape_coefficient } else { run(&f, 0.30, 1, k).drape_coefficient })
+            .sum::<f64>()
+            / 3.0
+    };
+    let means = [mean(1.0 / 16.0), mean(1.0), mean(4.0)];
+    eprintln!("mean DC of three specimens at G/16, G, 4G: {means:?}");
+    assert!(means[0] < means[1] && means[1] < means[2], "{means:?}");
 }
 
 /// FAST units: weight g/m², E100 %, EB5 %, bending length mm (B = 9.81e-6 W C³ µN·m), against hand values;
