@@ -422,12 +422,19 @@ pub fn cusick_test(
     let (fabric, name) = load_fabric(material)?;
     let t = std::time::Instant::now();
     let (nr, na) = default_grid(specimen, level);
+    // Specimens are independent: one thread each (results in specimen order, so the output does not depend on
+    // the thread count).
+    let results: Vec<_> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..specimens)
+            .map(|k| scope.spawn(move || cusick_specimen(&fabric, calibration, specimen, nr, na, k)))
+            .collect();
+        handles.into_iter().map(|h| h.join()).collect()
+    });
     let mut drapes = Vec::with_capacity(specimens);
-    for k in 0..specimens {
-        drapes.push(
-            cusick_specimen(&fabric, calibration, specimen, nr, na, k)
-                .with_context(|| format!("Cusick drape of {name}, specimen {}", k + 1))?,
-        );
+    for (k, r) in results.into_iter().enumerate() {
+        let r =
+            r.map_err(|_| anyhow::anyhow!("Cusick drape of {name}, specimen {}: the solver thread panicked", k + 1))?;
+        drapes.push(r.with_context(|| format!("Cusick drape of {name}, specimen {}", k + 1))?);
     }
     let seconds = t.elapsed().as_secs_f64();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
