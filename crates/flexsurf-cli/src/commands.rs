@@ -365,6 +365,11 @@ pub fn virtual_test(
             );
             if d == flexsurf::lab::cantilever::Direction::Bias {
                 println!(
+                    "narrow-strip reference (bend-twist coupled Kirchhoff rod): chord {:.3} deg at this overhang, \
+                     bending length {:.4} m",
+                    r.rod_chord_deg, r.rod_bending_length
+                );
+                println!(
                     "(bias input: the free narrow strip 1/(D'^-1)_11; a wide plate would show D'_11 = {:.4e} N m;\n \
                      a clamped strip of width {} m lies between, nearer the first the narrower it is)",
                     r.plate_rigidity, r.width

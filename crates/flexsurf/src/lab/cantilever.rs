@@ -68,9 +68,38 @@ pub fn plate_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabE
 
 /// The bending stiffness on `(κ11, κ22, 2κ12)` in the axes of a strip cut at 45° to the warp.
 fn bias_stiffness(fabric: &Fabric) -> Result<[[f64; 3]; 3], LabError> {
+    strip_stiffness(fabric, Direction::Bias)
+}
+
+/// The bending stiffness (consistent calibration) on `(κ11, κ22, 2κ12)` in the axes of a strip cut along
+/// `direction` (κ11 along the strip).
+pub fn strip_stiffness(fabric: &Fabric, direction: Direction) -> Result<[[f64; 3]; 3], LabError> {
     let s = Stiffness::calibrate(fabric, Calibration::Kes)?;
     let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
-    Ok(Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4).pull_back(&dv))
+    let angle = match direction {
+        Direction::Warp => 0.0,
+        Direction::Weft => std::f64::consts::FRAC_PI_2,
+        Direction::Bias => std::f64::consts::FRAC_PI_4,
+    };
+    Ok(Frame::new(Vec3::X, Vec3::Y, angle).pull_back(&dv))
+}
+
+/// The overhang (m) at which the Kirchhoff rod of stiffness `c` ([`rod_chord_deg`]) hangs at 41.5°: secant
+/// iteration on ln L from `guess`.
+fn rod_peirce_length(c: &[[f64; 3]; 3], w: f64, guess: f64) -> f64 {
+    let f = |l: f64| rod_chord_deg(c, w, l) - PEIRCE_ANGLE;
+    let (mut l0, mut l1) = (guess, guess * 1.05);
+    let (mut f0, mut f1) = (f(l0), f(l1));
+    for _ in 0..30 {
+        if (f1 - f0).abs() < 1e-14 || f1.abs() < 1e-9 {
+            break;
+        }
+        let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
+        (l0, f0) = (l1, f1);
+        l1 = next;
+        f1 = f(l1);
+    }
+    l1
 }
 
 /// The specimen of one cantilever test.
@@ -120,6 +149,11 @@ pub struct CantileverReport {
     /// On the bias, the wide-plate rigidity `D'₁₁` (N·m), the upper bound of what a clamped strip of finite
     /// width shows (see [`plate_rigidity`]); along warp or weft the same as `input_rigidity`.
     pub plate_rigidity: f64,
+    /// The chord angle (degrees) at this overhang of the narrow-strip, large-deflection reference: the
+    /// bend–twist coupled Kirchhoff rod ([`rod_chord_deg`]); along warp or weft it is the planar elastica's.
+    pub rod_chord_deg: f64,
+    /// The bending length (m) of that rod: half the overhang at which it hangs at 41.5°.
+    pub rod_bending_length: f64,
 }
 
 /// Runs the cantilever test on `strip`, at `overhang` (default: the Peirce length of the input).
@@ -164,6 +198,8 @@ pub fn cantilever(
         implied_rigidity: w * c.powi(3),
         input_rigidity: k,
         plate_rigidity: plate_rigidity(fabric, strip.direction)?,
+        rod_chord_deg: rod_chord_deg(&strip_stiffness(fabric, strip.direction)?, w, l),
+        rod_bending_length: 0.5 * rod_peirce_length(&strip_stiffness(fabric, strip.direction)?, w, peirce),
     })
 }
 
@@ -382,6 +418,97 @@ impl Elastica {
         let (a, b) = (self.profile[i], self.profile[i + 1]);
         (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1))
     }
+}
+
+/// An inextensible anisotropic Kirchhoff rod with bend–twist coupling: the narrow-strip limit of the bias
+/// cantilever at large deflection, independent of the plate code. Body frame (d1 tangent, d2 across, d3 normal),
+/// curvatures `κ_b` about d2 and twist `τ` about d1 (in-plane bending held at zero); the strip's
+/// `κ11 = −κ_b`, `κ12 = τ`; energy per length `½ b [κ11, 2κ12] K_r [κ11, 2κ12]ᵀ` with `K_r` the plate stiffness
+/// condensed over the free cross curvature κ22. Clamped level at s = 0, free at L, weight `w b` per length.
+/// `c` is the plate's bending stiffness on `(κ11, κ22, 2κ12)` in the strip's axes (N·m), `w` the weight per area
+/// (N/m²), `l` the overhang (m). Returns the chord angle (degrees below horizontal, in the vertical plane of the
+/// strip) by RK4 on frame, position and moment (1000 steps) and Newton shooting on the three components of the
+/// clamp moment. Without coupling (`c` diagonal) it is the planar heavy elastica.
+pub fn rod_chord_deg(c: &[[f64; 3]; 3], w: f64, l: f64) -> f64 {
+    type V = [f64; 3];
+    let idx = [0usize, 2];
+    let mut kr = [[0.0; 2]; 2];
+    for (r, &i) in idx.iter().enumerate() {
+        for (q, &j) in idx.iter().enumerate() {
+            kr[r][q] = c[i][j] - c[i][1] * c[1][j] / c[1][1];
+        }
+    }
+    // Per unit width: A = P K_r P, P = diag(−1, 2), on q = (κ_b, τ); moments (about d2, about d1) = A q.
+    let a = [[kr[0][0], -2.0 * kr[0][1]], [-2.0 * kr[1][0], 4.0 * kr[1][1]]];
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    let cross = |x: V, y: V| -> V { [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]] };
+    let dot = |x: V, y: V| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    // State: frame d1, d2, d3, position r, moment m (world), all per unit width (w per area).
+    let shoot = |m0: V| -> (V, V) {
+        let steps = 1000;
+        let h = l / steps as f64;
+        let mut st: [V; 5] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0; 3], m0];
+        let rhs = |s: f64, st: &[V; 5]| -> [V; 5] {
+            let (d1, d2, d3, m) = (st[0], st[1], st[2], st[4]);
+            let (mb, mt) = (dot(m, d2), dot(m, d1));
+            let kb = (a[1][1] * mb - a[0][1] * mt) / det;
+            let tau = (-a[1][0] * mb + a[0][0] * mt) / det;
+            let om: V = [tau * d1[0] + kb * d2[0], tau * d1[1] + kb * d2[1], tau * d1[2] + kb * d2[2]];
+            // n(s) = −w (L − s) ẑ; m' = −d1 × n.
+            let n: V = [0.0, 0.0, -w * (l - s)];
+            let dm = cross(n, d1);
+            [cross(om, d1), cross(om, d2), cross(om, d3), d1, dm]
+        };
+        let add = |x: &[V; 5], k: &[V; 5], f: f64| -> [V; 5] {
+            std::array::from_fn(|i| std::array::from_fn(|j| x[i][j] + f * k[i][j]))
+        };
+        for i in 0..steps {
+            let s = i as f64 * h;
+            let k1 = rhs(s, &st);
+            let k2 = rhs(s + 0.5 * h, &add(&st, &k1, 0.5 * h));
+            let k3 = rhs(s + 0.5 * h, &add(&st, &k2, 0.5 * h));
+            let k4 = rhs(s + h, &add(&st, &k3, h));
+            for q in 0..5 {
+                for j in 0..3 {
+                    st[q][j] += h / 6.0 * (k1[q][j] + 2.0 * k2[q][j] + 2.0 * k3[q][j] + k4[q][j]);
+                }
+            }
+        }
+        (st[4], st[3])
+    };
+    // Start: the planar cantilever's clamp moment w L²/2 about +y (bending down), Newton on m(L) = 0.
+    let mut m0: V = [0.0, 0.5 * w * l * l, 0.0];
+    for _ in 0..30 {
+        let (ml, _) = shoot(m0);
+        if dot(ml, ml).sqrt() < 1e-12 * w * l * l {
+            break;
+        }
+        let mut jac = [[0.0; 3]; 3];
+        for j in 0..3 {
+            let mut mp = m0;
+            let eps = 1e-7 * w * l * l;
+            mp[j] += eps;
+            let (mlp, _) = shoot(mp);
+            for i in 0..3 {
+                jac[i][j] = (mlp[i] - ml[i]) / eps;
+            }
+        }
+        // Solve jac · δ = −ml (Cramer).
+        let d3 = |m: [[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let dj = d3(jac);
+        for j in 0..3 {
+            let mut mj = jac;
+            for i in 0..3 {
+                mj[i][j] = -ml[i];
+            }
+            m0[j] += d3(mj) / dj;
+        }
+    }
+    let (_, tip) = shoot(m0);
+    (-tip[2]).atan2(tip[0]).to_degrees()
 }
 
 /// Chord angle (degrees) of the inextensible heavy elastica with `q = w L³ / K` ([`Elastica`]).
