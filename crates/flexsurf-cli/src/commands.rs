@@ -253,21 +253,17 @@ pub fn bench(sizes: &[usize], steps: Option<usize>, repeat: usize, json: bool) -
 /// Side view of the strip hanging at the report's overhang (dark) over the heavy elastica of its nominal
 /// rigidity (red, set back behind it), on a ledge; and the strip's mesh. Returns (picture, mesh) paths.
 fn cantilever_picture(
-    fabric: &flexsurf::material::Fabric,
-    calibration: flexsurf::material::Calibration,
-    strip: flexsurf::lab::cantilever::Strip,
+    hang: &flexsurf::lab::cantilever::Hang,
     r: &flexsurf::lab::cantilever::CantileverReport,
     out: &Path,
 ) -> Result<(std::path::PathBuf, std::path::PathBuf)> {
     use flexsurf::math::Vec3;
     use flexsurf::surface::mesh::TriMesh;
-    let hang = flexsurf::lab::cantilever::hang(fabric, calibration, strip, r.overhang)
-        .context("cantilever picture: solving the strip at the reported overhang")?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mesh = hang.mesh();
     let obj = out.join("cantilever.obj");
     flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
-    let (l, w) = (r.overhang, strip.width);
+    let (l, w) = (r.overhang, hang.width);
     // The elastica drawn as a line along the strip's near edge.
     let reference = hang.elastica_mesh(-0.5 * w - 1e-3 * l, 0.012 * l);
     // The ledge: a block under x ≤ 0, the strip's clamp on top of it.
@@ -337,13 +333,13 @@ pub fn virtual_test(
                 bail!("--width: {b} m must be a positive length");
             }
         }
-        use flexsurf::lab::cantilever::{cantilever, Strip};
+        use flexsurf::lab::cantilever::{cantilever_with_hang, Strip};
         let d = direction;
         let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };
-        let r =
-            cantilever(&fabric, calibration, strip, overhang).with_context(|| format!("cantilever test of {name}"))?;
+        let (r, hang) = cantilever_with_hang(&fabric, calibration, strip, overhang)
+            .with_context(|| format!("cantilever test of {name}"))?;
         let seconds = t.elapsed().as_secs_f64();
-        let (png, obj) = cantilever_picture(&fabric, calibration, strip, &r, out)?;
+        let (png, obj) = cantilever_picture(&hang, &r, out)?;
         if json {
             let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,
                 "report": r, "picture": png, "mesh": obj, "wall_seconds": seconds });

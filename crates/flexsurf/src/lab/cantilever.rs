@@ -47,12 +47,9 @@ pub fn strip_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabE
         Direction::Warp => fabric.bending_warp,
         Direction::Weft => fabric.bending_weft,
         Direction::Bias => {
-            let c = bias_stiffness(fabric)?;
+            let c = strip_stiffness(fabric, Direction::Bias)?;
             // (C⁻¹)₁₁ = det / cofactor₁₁.
-            let det = c[0][0] * (c[1][1] * c[2][2] - c[1][2] * c[2][1])
-                - c[0][1] * (c[1][0] * c[2][2] - c[1][2] * c[2][0])
-                + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0]);
-            det / (c[1][1] * c[2][2] - c[1][2] * c[2][1])
+            det3(&c) / (c[1][1] * c[2][2] - c[1][2] * c[2][1])
         }
     })
 }
@@ -61,14 +58,15 @@ pub fn strip_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabE
 /// (`(K1 + K2 + 2 D12 + 4 D66)/4` on the bias).
 pub fn plate_rigidity(fabric: &Fabric, direction: Direction) -> Result<f64, LabError> {
     Ok(match direction {
-        Direction::Bias => bias_stiffness(fabric)?[0][0],
+        Direction::Bias => strip_stiffness(fabric, Direction::Bias)?[0][0],
         d => strip_rigidity(fabric, d)?,
     })
 }
 
-/// The bending stiffness on `(κ11, κ22, 2κ12)` in the axes of a strip cut at 45° to the warp.
-fn bias_stiffness(fabric: &Fabric) -> Result<[[f64; 3]; 3], LabError> {
-    strip_stiffness(fabric, Direction::Bias)
+/// Determinant of a 3×3 matrix (rows).
+fn det3(m: &[[f64; 3]; 3]) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
 /// The bending stiffness (consistent calibration) on `(κ11, κ22, 2κ12)` in the axes of a strip cut along
@@ -84,22 +82,34 @@ pub fn strip_stiffness(fabric: &Fabric, direction: Direction) -> Result<[[f64; 3
     Ok(Frame::new(Vec3::X, Vec3::Y, angle).pull_back(&dv))
 }
 
-/// The overhang (m) at which the Kirchhoff rod of stiffness `c` ([`rod_chord_deg`]) hangs at 41.5°: secant
-/// iteration on ln L from `guess`.
-fn rod_peirce_length(c: &[[f64; 3]; 3], w: f64, guess: f64) -> f64 {
-    let f = |l: f64| rod_chord_deg(c, w, l) - PEIRCE_ANGLE;
-    let (mut l0, mut l1) = (guess, guess * 1.05);
-    let (mut f0, mut f1) = (f(l0), f(l1));
-    for _ in 0..30 {
-        if (f1 - f0).abs() < 1e-14 || f1.abs() < 1e-9 {
+/// Secant iteration on ln L for `f(L) = 0` (`f` = chord angle − 41.5°), from `(l0, f0)` and `1.05 l0`: at most
+/// `iterations` updates, stopping when `|f| < tol` or two values differ by less than `flat` (degrees). Returns
+/// the last L.
+fn secant_on_log<E>(
+    (mut l0, mut f0): (f64, f64),
+    iterations: usize,
+    (tol, flat): (f64, f64),
+    mut f: impl FnMut(f64) -> Result<f64, E>,
+) -> Result<f64, E> {
+    let mut l1 = l0 * 1.05;
+    let mut f1 = f(l1)?;
+    for _ in 0..iterations {
+        if (f1 - f0).abs() < flat || f1.abs() < tol {
             break;
         }
         let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
         (l0, f0) = (l1, f1);
         l1 = next;
-        f1 = f(l1);
+        f1 = f(l1)?;
     }
-    l1
+    Ok(l1)
+}
+
+/// The overhang (m) at which the Kirchhoff rod of stiffness `c` ([`rod_chord_deg`]) hangs at 41.5°, from `guess`.
+fn rod_peirce_length(c: &[[f64; 3]; 3], w: f64, guess: f64) -> f64 {
+    let f = |l: f64| rod_chord_deg(c, w, l) - PEIRCE_ANGLE;
+    let Ok(l) = secant_on_log((guess, f(guess)), 30, (1e-9, 1e-14), |l| Ok::<f64, std::convert::Infallible>(f(l)));
+    l
 }
 
 /// The specimen of one cantilever test.
@@ -163,6 +173,16 @@ pub fn cantilever(
     strip: Strip,
     overhang: Option<f64>,
 ) -> Result<CantileverReport, LabError> {
+    cantilever_with_hang(fabric, calibration, strip, overhang).map(|(report, _)| report)
+}
+
+/// As [`cantilever`], with the strip as it hangs at the reported overhang (for pictures and meshes).
+pub fn cantilever_with_hang(
+    fabric: &Fabric,
+    calibration: Calibration,
+    strip: Strip,
+    overhang: Option<f64>,
+) -> Result<(CantileverReport, Hang), LabError> {
     if !(strip.width.is_finite() && strip.width > 0.0) {
         return Err(LabError::Input(format!("strip width {} m must be a positive length", strip.width)));
     }
@@ -171,36 +191,31 @@ pub fn cantilever(
     let k = strip_rigidity(fabric, strip.direction)?;
     let peirce = 2.0 * (k / w).cbrt();
     // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
-    let at_peirce = extrapolated(fabric, &s, strip, peirce)?;
-    let (mut l0, mut l1) = (peirce, peirce * 1.05);
-    let (mut f0, mut f1) = (at_peirce.0 - PEIRCE_ANGLE, extrapolated(fabric, &s, strip, l1)?.0 - PEIRCE_ANGLE);
-    for _ in 0..8 {
-        if (f1 - f0).abs() < 1e-12 || f1.abs() < 1e-6 {
-            break;
-        }
-        let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
-        (l0, f0) = (l1, f1);
-        l1 = next;
-        f1 = extrapolated(fabric, &s, strip, l1)?.0 - PEIRCE_ANGLE;
-    }
-    let c = 0.5 * l1;
+    let at_peirce = solve_pair(fabric, &s, strip, peirce)?;
+    let l_peirce = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), 8, (1e-6, 1e-12), |l| {
+        extrapolated(fabric, &s, strip, l).map(|r| r.0 - PEIRCE_ANGLE)
+    })?;
+    let c = 0.5 * l_peirce;
     let l = overhang.unwrap_or(peirce);
-    let (angle, fine, drop) = if overhang.is_some() { extrapolated(fabric, &s, strip, l)? } else { at_peirce };
-    Ok(CantileverReport {
+    let (angle, fine, drop, columns) = if overhang.is_some() { solve_pair(fabric, &s, strip, l)? } else { at_peirce };
+    let elastica = Elastica::new(w * l.powi(3) / k);
+    let rod = strip_stiffness(fabric, strip.direction)?;
+    let report = CantileverReport {
         direction: strip.direction,
         width: strip.width,
         overhang: l,
         chord_angle_deg: angle,
         chord_angle_fine_deg: fine,
         tip_drop: drop,
-        elastica_deg: elastica_chord_deg(w * l.powi(3) / k),
+        elastica_deg: elastica.chord_deg(),
         bending_length: c,
         implied_rigidity: w * c.powi(3),
         input_rigidity: k,
         plate_rigidity: plate_rigidity(fabric, strip.direction)?,
-        rod_chord_deg: rod_chord_deg(&strip_stiffness(fabric, strip.direction)?, w, l),
-        rod_bending_length: 0.5 * rod_peirce_length(&strip_stiffness(fabric, strip.direction)?, w, peirce),
-    })
+        rod_chord_deg: rod_chord_deg(&rod, w, l),
+        rod_bending_length: 0.5 * rod_peirce_length(&rod, w, peirce),
+    };
+    Ok((report, Hang { overhang: l, width: strip.width, columns, elastica }))
 }
 
 /// The grid-extrapolated chord angle (degrees) of `strip` with overhang `l`, without the search for the
@@ -267,18 +282,6 @@ fn ribbon(cols: &[Vec<Vec3>]) -> TriMesh {
         }
     }
     TriMesh { positions, normals: Vec::new(), triangles }
-}
-
-/// The strip hanging at overhang `l` (finer grid) with its elastica.
-pub fn hang(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f64) -> Result<Hang, LabError> {
-    if !(l.is_finite() && l > 0.0) {
-        return Err(LabError::Input(format!("overhang {l} m must be a positive length")));
-    }
-    let s = Stiffness::calibrate(fabric, calibration)?;
-    let (_, _, _, columns) = solve_pair(fabric, &s, strip, l)?;
-    let k = strip_rigidity(fabric, strip.direction)?;
-    let elastica = Elastica::new(fabric.density * G * l.powi(3) / k);
-    Ok(Hang { overhang: l, width: strip.width, columns, elastica })
 }
 
 /// Columns of the fine solution.
@@ -494,17 +497,13 @@ pub fn rod_chord_deg(c: &[[f64; 3]; 3], w: f64, l: f64) -> f64 {
             }
         }
         // Solve jac · δ = −ml (Cramer).
-        let d3 = |m: [[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-        };
-        let dj = d3(jac);
+        let dj = det3(&jac);
         for j in 0..3 {
             let mut mj = jac;
             for i in 0..3 {
                 mj[i][j] = -ml[i];
             }
-            m0[j] += d3(mj) / dj;
+            m0[j] += det3(&mj) / dj;
         }
     }
     let (_, tip) = shoot(m0);
