@@ -99,6 +99,25 @@ enum CalibrationArg {
     Paper,
 }
 
+impl From<CalibrationArg> for flexsurf::material::Calibration {
+    fn from(c: CalibrationArg) -> Self {
+        match c {
+            CalibrationArg::Kes => Self::Kes,
+            CalibrationArg::Paper => Self::Paper,
+        }
+    }
+}
+
+impl From<DirectionArg> for flexsurf::lab::cantilever::Direction {
+    fn from(d: DirectionArg) -> Self {
+        match d {
+            DirectionArg::Warp => Self::Warp,
+            DirectionArg::Weft => Self::Weft,
+            DirectionArg::Bias => Self::Bias,
+        }
+    }
+}
+
 #[derive(Debug, clap::Args)]
 struct BenchArgs {
     /// Nodes per side of the sheet (one run each).
@@ -211,28 +230,18 @@ fn main() -> ExitCode {
                 out: a.out.as_deref().unwrap_or(std::path::Path::new("out/cusick")),
             },
             a.material.as_deref(),
-            match a.calibration {
-                CalibrationArg::Kes => flexsurf::material::Calibration::Kes,
-                CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
-            },
+            a.calibration.into(),
             a.json,
         ),
         Command::Test(a) => commands::virtual_test(
             (a.name == TestName::Cantilever).then(|| commands::CantileverArgs {
-                direction: match a.direction {
-                    DirectionArg::Warp => flexsurf::lab::cantilever::Direction::Warp,
-                    DirectionArg::Weft => flexsurf::lab::cantilever::Direction::Weft,
-                    DirectionArg::Bias => flexsurf::lab::cantilever::Direction::Bias,
-                },
+                direction: a.direction.into(),
                 overhang: a.overhang,
                 width: a.width,
                 out: a.out.as_deref().unwrap_or(std::path::Path::new("out/cantilever")),
             }),
             a.material.as_deref(),
-            match a.calibration {
-                CalibrationArg::Kes => flexsurf::material::Calibration::Kes,
-                CalibrationArg::Paper => flexsurf::material::Calibration::Paper,
-            },
+            a.calibration.into(),
             a.json,
         ),
     };
