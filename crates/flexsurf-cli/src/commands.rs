@@ -3,10 +3,11 @@
 use crate::progress;
 use crate::{DemoScene, FormatArg, IntegratorArg, ModelArg, Overrides, SolverArg};
 use anyhow::{bail, Context, Result};
-use flexsurf::integrate::{linsolve::SolverKind, IntegratorKind};
+use flexsurf::integrate::linsolve::SolverKind;
 use flexsurf::io::render;
 use flexsurf::model::ModelKind;
 use flexsurf::scene::run::{self as scene_run, RunOutput};
+use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{FrameFormat, Scene, SceneSpec};
 use std::path::Path;
 
@@ -62,7 +63,7 @@ pub fn run(scene_path: &Path, out: &Path, overrides: &Overrides) -> Result<()> {
     let mut spec = SceneSpec::load(scene_path)?;
     overrides.apply(&mut spec);
     let scene = spec.build(scene_path)?;
-    let label = scene.model.elastic.kind.name();
+    let label = scene.model.kind.name();
     let output = run_built(&scene, out, label)?;
     print_table(&[(label, &output)]);
     println!("wrote {}", out.display());
@@ -79,13 +80,13 @@ pub fn check(scene_path: &Path) -> Result<()> {
         scene_path.display(),
         g.m,
         g.n,
-        scene.model.elastic.kind.name(),
-        scene.integrator.name(),
+        scene.model.kind.name(),
+        scene.method.name(),
         scene.dt,
         scene.steps,
-        scene.model.obstacles.len(),
-        scene.model.pinned.iter().filter(|p| **p).count(),
-        scene.model.springs.len(),
+        scene.model.obstacles().len(),
+        scene.model.potential.pins().count(),
+        scene.model.springs().len(),
         scene.material,
     );
     Ok(())

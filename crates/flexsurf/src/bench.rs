@@ -43,11 +43,11 @@ pub struct BenchRow {
 pub fn run(n: usize, steps: usize) -> Result<BenchRow, BenchError> {
     let scene = ball_drop(n)?;
     let mut state = scene.state.clone();
-    let mut stepper = Stepper::new(&scene.model, scene.integrator, scene.solver)?;
+    let mut stepper = Stepper::new(&scene.model, &scene.step_params())?;
     let mut times = Vec::with_capacity(steps);
     for _ in 0..steps {
         let t = Instant::now();
-        stepper.step(&scene.model, &mut state, scene.dt)?;
+        stepper.step(&scene.model, &mut state)?;
         times.push(t.elapsed().as_secs_f64());
     }
     let wall_seconds = times.iter().sum();

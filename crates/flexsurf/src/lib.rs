@@ -26,6 +26,7 @@ pub mod material;
 pub mod math;
 pub mod model;
 pub mod ops;
+pub mod potential;
 pub mod scene;
 pub mod sim;
 pub mod sparse;

@@ -1,36 +1,22 @@
-//! What stays fixed during a run: the grid, the elastic model (paper or Terzopoulos), lumped masses and
-//! damping, gravity, obstacles, pins and springs. A [`Model`] is built once (by `scene` or by hand) and read
-//! by the integrators.
+//! What stays fixed during a run: the grid and rest shape, the fabric, the lumped masses and damping, and the
+//! total potential ([`Potential`]: the elastic terms, gravity and loads, springs, contact, and the pinned nodes).
+//!
+//! A [`Model`] is built once, through one validated path: fill a [`ModelBuilder`] (by a scene or by hand) and
+//! call [`ModelBuilder::build`]. Afterwards it is read by the integrators and never changes.
 
-use crate::contact::{ContactParams, Obstacle};
-use crate::energy::frame::Warp;
-use crate::energy::{bending::Bending, membrane::Membrane, terzopoulos, Energy, Sink};
+use crate::contact::Obstacle;
 use crate::grid::Grid;
 use crate::material::{Fabric, Stiffness};
-use crate::math::Vec3;
-use crate::sparse::BlockPattern;
-use serde::{Deserialize, Serialize};
+use crate::math::{finite, Vec3};
+use crate::potential::contact::{ContactParams, PenaltyContact};
+use crate::potential::external::External;
+use crate::potential::springs::Springs;
+use crate::potential::{elastic, Part, Pins, Potential, Term};
+use serde::Serialize;
+use thiserror::Error;
 
-/// Which deformation model computes the elastic force.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum ModelKind {
-    /// The paper's model: the exact gradient of the discrete energy (default).
-    #[default]
-    Tfs,
-    /// Terzopoulos & Fleischer: bending through `x_ij` instead of `n`, no H term.
-    Terzopoulos,
-}
-
-impl ModelKind {
-    /// Name as used in scene files and summaries.
-    pub fn name(&self) -> &'static str {
-        match self {
-            ModelKind::Tfs => "tfs",
-            ModelKind::Terzopoulos => "terzopoulos",
-        }
-    }
-}
+pub use crate::potential::elastic::{ElasticOptions, ModelKind};
+pub use crate::potential::springs::Spring;
 
 /// Energies of a configuration, by term.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -39,83 +25,6 @@ pub struct Energies {
     pub membrane: f64,
     /// Bending and twist, J.
     pub bending: f64,
-}
-
-/// How the rest shape defines the stress-free state.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ElasticOptions {
-    /// Warp direction, radians from the `u1` tangent of the rest shape (ignored when `warp_direction` is set).
-    pub warp_angle: f64,
-    /// Warp along this fixed direction of the rest shape instead (a polar grid of one flat piece of fabric).
-    pub warp_direction: Option<Vec3>,
-    /// The rest shape is a flat pattern wrapped into shape (a sewn garment): it gives the metric `G⁰` only, and
-    /// the rest curvature is zero.
-    pub flat_pattern: bool,
-}
-
-/// Elastic part of a model: membrane and bending on one sparsity pattern.
-#[derive(Debug, Clone)]
-pub struct Elastic {
-    /// Which model.
-    pub kind: ModelKind,
-    /// Membrane term.
-    pub membrane: Membrane,
-    /// Bending term.
-    pub bending: Bending,
-    /// Block pattern of the Hessian (all stencils).
-    pub pattern: BlockPattern,
-}
-
-impl Elastic {
-    /// Builds both terms on `grid` with rest shape `rest`, warp along `u1`.
-    pub fn new(grid: &Grid, rest: &[Vec3], stiffness: &Stiffness, kind: ModelKind) -> Self {
-        Self::with_warp_angle(grid, rest, stiffness, kind, 0.0)
-    }
-
-    /// Both terms with the warp at `warp_angle` (radians) from the `u1` tangent of the rest shape.
-    pub fn with_warp_angle(
-        grid: &Grid,
-        rest: &[Vec3],
-        stiffness: &Stiffness,
-        kind: ModelKind,
-        warp_angle: f64,
-    ) -> Self {
-        Self::with_options(grid, rest, stiffness, kind, &ElasticOptions { warp_angle, ..Default::default() })
-    }
-
-    /// Both terms with explicit [`ElasticOptions`].
-    pub fn with_options(
-        grid: &Grid,
-        rest: &[Vec3],
-        stiffness: &Stiffness,
-        kind: ModelKind,
-        options: &ElasticOptions,
-    ) -> Self {
-        let warp = match options.warp_direction {
-            Some(d) => Warp::Direction(d),
-            None => Warp::Angle(options.warp_angle),
-        };
-        let mut membrane = Membrane::with_warp(grid, rest, stiffness, warp);
-        let mut bending = Bending::with_warp(grid, rest, stiffness, warp);
-        if options.flat_pattern {
-            bending.flatten_rest_curvature();
-        }
-        let pairs = membrane.pairs().into_iter().chain(bending.pairs());
-        let pattern = BlockPattern::from_pairs(grid.len(), pairs);
-        membrane.bind(&pattern);
-        bending.bind(&pattern);
-        Self { kind, membrane, bending, pattern }
-    }
-
-    /// Adds `∂E/∂x` (for Terzopoulos: minus its force) and the requested operator; returns the energies.
-    pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> Energies {
-        let membrane = self.membrane.evaluate(x, sink);
-        let bending = match self.kind {
-            ModelKind::Tfs => self.bending.evaluate(x, sink),
-            ModelKind::Terzopoulos => terzopoulos::bending(&self.bending, x, sink),
-        };
-        Energies { membrane, bending }
-    }
 }
 
 /// Rest area per node: each cell's rest area `|c1 × c2| h1 h2` (bilinear cell tangents of the rest shape)
@@ -135,15 +44,159 @@ pub fn rest_areas(grid: &Grid, rest: &[Vec3]) -> Vec<f64> {
     area
 }
 
-/// A spring holding a node near a target (the skirt's waist): force `k (target − x)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Spring {
-    /// Node.
-    pub node: usize,
-    /// Target point.
-    pub target: Vec3,
-    /// Stiffness (N/m).
-    pub stiffness: f64,
+/// A model that cannot be built: the builder's field and what is wrong.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("model: `{field}`: {message}")]
+pub struct ModelError {
+    /// The builder field.
+    pub field: &'static str,
+    /// What is wrong.
+    pub message: String,
+}
+
+fn model_error(field: &'static str, message: String) -> ModelError {
+    ModelError { field, message }
+}
+
+/// Everything a [`Model`] is made of, filled in before [`ModelBuilder::build`] validates it and builds the
+/// potential. `pinned`, `loads` start empty-handed (no pins, zero loads) with one entry per node.
+#[derive(Debug, Clone)]
+pub struct ModelBuilder {
+    /// The parametric grid.
+    pub grid: Grid,
+    /// Rest shape, one position per node.
+    pub rest: Vec<Vec3>,
+    /// The fabric.
+    pub fabric: Fabric,
+    /// Calibrated coefficients.
+    pub stiffness: Stiffness,
+    /// Which elastic model.
+    pub kind: ModelKind,
+    /// Warp direction and rest-shape options.
+    pub options: ElasticOptions,
+    /// Gravity (m/s²).
+    pub gravity: Vec3,
+    /// Obstacles.
+    pub obstacles: Vec<Obstacle>,
+    /// Contact parameters (used when there are obstacles).
+    pub contact: ContactParams,
+    /// Pinned nodes, held exactly at their position.
+    pub pinned: Vec<bool>,
+    /// Constraint springs.
+    pub springs: Vec<Spring>,
+    /// Constant external nodal loads (N), beyond gravity (the paper's `p`).
+    pub loads: Vec<Vec3>,
+    /// Further terms of the potential (appended to their stage).
+    pub extra_terms: Vec<Box<dyn Term>>,
+}
+
+impl ModelBuilder {
+    /// A builder with no obstacles, pins, springs or loads; warp along `u1`.
+    pub fn new(
+        grid: Grid,
+        rest: Vec<Vec3>,
+        fabric: Fabric,
+        stiffness: Stiffness,
+        kind: ModelKind,
+        gravity: Vec3,
+    ) -> Self {
+        Self::with_options(grid, rest, fabric, stiffness, kind, gravity, &ElasticOptions::default())
+    }
+
+    /// As [`ModelBuilder::new`] with explicit [`ElasticOptions`] (warp angle, flat pattern).
+    pub fn with_options(
+        grid: Grid,
+        rest: Vec<Vec3>,
+        fabric: Fabric,
+        stiffness: Stiffness,
+        kind: ModelKind,
+        gravity: Vec3,
+        options: &ElasticOptions,
+    ) -> Self {
+        let n = grid.len();
+        Self {
+            grid,
+            rest,
+            fabric,
+            stiffness,
+            kind,
+            options: *options,
+            gravity,
+            obstacles: Vec::new(),
+            contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0 },
+            pinned: vec![false; n],
+            springs: Vec::new(),
+            loads: vec![Vec3::ZERO; n],
+            extra_terms: Vec::new(),
+        }
+    }
+
+    fn validate(&self) -> Result<(), ModelError> {
+        let n = self.grid.len();
+        for (field, len) in [("rest", self.rest.len()), ("pinned", self.pinned.len()), ("loads", self.loads.len())] {
+            if len != n {
+                return Err(model_error(field, format!("has {len} entries for a grid of {n} nodes")));
+            }
+        }
+        if let Some(k) = self.rest.iter().position(|p| !finite(*p)) {
+            return Err(model_error("rest", format!("node {k} is not finite")));
+        }
+        if let Some(k) = self.loads.iter().position(|p| !finite(*p)) {
+            return Err(model_error("loads", format!("node {k} is not finite")));
+        }
+        if !finite(self.gravity) {
+            return Err(model_error("gravity", "must be finite".into()));
+        }
+        for s in &self.springs {
+            if s.node >= n || !finite(s.target) || !(s.stiffness.is_finite() && s.stiffness > 0.0) {
+                return Err(model_error(
+                    "springs",
+                    format!(
+                        "spring at node {} (target {}, k {}) is outside the grid or not finite",
+                        s.node, s.target, s.stiffness
+                    ),
+                ));
+            }
+        }
+        let c = &self.contact;
+        if ![c.stiffness, c.offset, c.friction].iter().all(|v| v.is_finite() && *v >= 0.0) {
+            return Err(model_error("contact", format!("{c:?}: every value must be finite and non-negative")));
+        }
+        Ok(())
+    }
+
+    /// Validates and builds the model: masses and damping from the rest areas, and the potential's terms in
+    /// order (membrane, bending, gravity and loads; springs; contact; then `extra_terms` in their stages).
+    pub fn build(self) -> Result<Model, ModelError> {
+        self.validate()?;
+        let n = self.grid.len();
+        let area = rest_areas(&self.grid, &self.rest);
+        let mass: Vec<f64> = area.iter().map(|a| a * self.fabric.density).collect();
+        let damping = area.iter().map(|a| a * self.fabric.damping).collect();
+        let mut terms = elastic::terms(&self.grid, &self.rest, &self.stiffness, self.kind, &self.options);
+        terms.push(Box::new(External::new(self.gravity, &mass, &self.loads)));
+        if !self.springs.is_empty() {
+            terms.push(Box::new(Springs::new(self.springs)));
+        }
+        if !self.obstacles.is_empty() {
+            terms.push(Box::new(PenaltyContact::new(self.obstacles, self.contact, area.clone())));
+        }
+        terms.extend(self.extra_terms);
+        let potential = Potential::new(n, terms, Pins::from_flags(self.pinned));
+        Ok(Model {
+            grid: self.grid,
+            rest: self.rest,
+            fabric: self.fabric,
+            stiffness: self.stiffness,
+            kind: self.kind,
+            mass,
+            damping,
+            area,
+            gravity: self.gravity,
+            contact: self.contact,
+            potential,
+        })
+    }
 }
 
 /// Everything that stays fixed during a run.
@@ -157,8 +210,8 @@ pub struct Model {
     pub fabric: Fabric,
     /// Calibrated coefficients.
     pub stiffness: Stiffness,
-    /// Elastic model.
-    pub elastic: Elastic,
+    /// Which elastic model.
+    pub kind: ModelKind,
     /// Lumped node masses ρ·area (kg).
     pub mass: Vec<f64>,
     /// Lumped node damping γ·area (kg/s).
@@ -167,78 +220,42 @@ pub struct Model {
     pub area: Vec<f64>,
     /// Gravity (m/s²).
     pub gravity: Vec3,
-    /// Obstacles.
-    pub obstacles: Vec<Obstacle>,
-    /// Contact parameters.
+    /// Contact parameters (as given; they act through the potential's contact term).
     pub contact: ContactParams,
-    /// Pinned nodes, held exactly at their position.
-    pub pinned: Vec<bool>,
-    /// Constraint springs.
-    pub springs: Vec<Spring>,
-    /// Constant external nodal loads (N), beyond gravity (the paper's `p`).
-    pub loads: Vec<Vec3>,
+    /// The total potential and the pinned nodes.
+    pub potential: Potential,
 }
 
 impl Model {
-    /// A model with no obstacles, pins or springs; the rest shape is `rest`.
-    pub fn new(
-        grid: Grid,
-        rest: Vec<Vec3>,
-        fabric: Fabric,
-        stiffness: Stiffness,
-        kind: ModelKind,
-        gravity: Vec3,
-    ) -> Self {
-        Self::with_options(grid, rest, fabric, stiffness, kind, gravity, &ElasticOptions::default())
-    }
-
-    /// As [`Model::new`] with explicit [`ElasticOptions`] (warp angle, flat pattern).
-    pub fn with_options(
-        grid: Grid,
-        rest: Vec<Vec3>,
-        fabric: Fabric,
-        stiffness: Stiffness,
-        kind: ModelKind,
-        gravity: Vec3,
-        options: &ElasticOptions,
-    ) -> Self {
-        let elastic = Elastic::with_options(&grid, &rest, &stiffness, kind, options);
-        let area = rest_areas(&grid, &rest);
-        let mass = area.iter().map(|a| a * fabric.density).collect();
-        let damping = area.iter().map(|a| a * fabric.damping).collect();
-        let n = grid.len();
-        Self {
-            grid,
-            rest,
-            fabric,
-            stiffness,
-            elastic,
-            mass,
-            damping,
-            area,
-            gravity,
-            obstacles: Vec::new(),
-            contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0 },
-            pinned: vec![false; n],
-            springs: Vec::new(),
-            loads: vec![Vec3::ZERO; n],
-        }
-    }
-
     /// Total mass (kg).
     pub fn total_mass(&self) -> f64 {
         self.mass.iter().sum()
     }
 
-    /// Potential energy of gravity and the constant loads, `−Σ (m g + p)·x` (J).
-    pub fn potential(&self, x: &[Vec3]) -> f64 {
-        -(0..x.len()).map(|k| self.external_force(k).dot(x[k])).sum::<f64>()
+    /// Pinned nodes, one flag per node.
+    pub fn pinned(&self) -> &[bool] {
+        self.potential.fixed()
     }
 
-    /// Constant external force on node `k`: gravity plus load (N).
-    #[inline]
-    pub fn external_force(&self, k: usize) -> Vec3 {
-        self.gravity * self.mass[k] + self.loads[k]
+    /// The obstacles of the potential.
+    pub fn obstacles(&self) -> Vec<Obstacle> {
+        self.potential.obstacles()
+    }
+
+    /// The springs of the potential.
+    pub fn springs(&self) -> Vec<Spring> {
+        self.potential.springs()
+    }
+
+    /// Potential energy of gravity and the constant loads, `−Σ (m g + p)·x` (J).
+    pub fn potential_energy(&self, x: &[Vec3]) -> f64 {
+        self.potential.value_of(x, |p| p == Part::Load, None).load
+    }
+
+    /// Elastic energies at `x`, adding `∂E/∂x` (for Terzopoulos: minus its force) into `grad` when given.
+    pub fn elastic(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> Energies {
+        let v = self.potential.value_of(x, Part::is_elastic, grad);
+        Energies { membrane: v.membrane, bending: v.bending }
     }
 
     /// A length scale of the sheet (diagonal of the rest pattern), for bounds and tolerances.

@@ -50,8 +50,8 @@ pub fn energies(model: &Model, state: &State, dt: f64) -> EnergyRecord {
         step: state.step,
         time: state.time,
         kinetic: state.kinetic_energy(&model.mass, dt),
-        energies: model.elastic.evaluate(&state.x, &mut crate::energy::Sink::none()),
-        potential: model.potential(&state.x),
+        energies: model.elastic(&state.x, None),
+        potential: model.potential_energy(&state.x),
     }
 }
 
@@ -83,19 +83,18 @@ pub struct RunStats {
     pub max_contacts: usize,
 }
 
-/// Takes `steps` steps of `dt`, calling `after(state, info)` after each; the callback may stop the run early.
+/// Takes `steps` steps of the stepper's `dt`, calling `after(state, info)` after each; the callback may stop the run early.
 pub fn run(
     model: &Model,
     state: &mut State,
     stepper: &mut Stepper,
-    dt: f64,
     steps: usize,
     mut after: impl FnMut(&State, &StepInfo) -> ControlFlow<()>,
 ) -> Result<RunStats, StepError> {
     let mut stats = RunStats { steps: 0, wall_seconds: 0.0, max_penetration_seen: 0.0, max_contacts: 0 };
     for _ in 0..steps {
         let t0 = Instant::now();
-        let info = stepper.step(model, state, dt)?;
+        let info = stepper.step(model, state)?;
         stats.wall_seconds += t0.elapsed().as_secs_f64();
         stats.steps += 1;
         stats.max_penetration_seen = stats.max_penetration_seen.max(info.max_penetration);

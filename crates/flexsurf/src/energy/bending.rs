@@ -9,7 +9,7 @@
 
 use super::curvature::NormalCurvature;
 use super::frame::{Frame, Warp};
-use super::{local_blocks, local_pairs, Energy, Operator, Sink};
+use super::{local_blocks, local_pairs, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::{outer, Mat3, Vec3};
@@ -296,18 +296,22 @@ impl Point {
     }
 }
 
-impl Energy for Bending {
-    fn pairs(&self) -> Vec<(usize, usize)> {
+/// The kernel interface; the [`crate::potential::Term`] impl in `potential/elastic.rs` wraps it.
+impl Bending {
+    /// The node pairs whose Hessian block this term touches.
+    pub fn pairs(&self) -> Vec<(usize, usize)> {
         self.points.iter().flat_map(|p| local_pairs(p.support.nodes()).collect::<Vec<_>>()).collect()
     }
 
-    fn bind(&mut self, pattern: &BlockPattern) {
+    /// Precomputes block ids for a pattern that contains [`Self::pairs`].
+    pub fn bind(&mut self, pattern: &BlockPattern) {
         for p in &mut self.points {
             p.blocks = local_blocks(pattern, p.support.nodes());
         }
     }
 
-    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy.
+    pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
         self.points.iter().map(|p| p.evaluate(x, sink)).sum()
     }
 }

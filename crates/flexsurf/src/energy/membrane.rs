@@ -7,7 +7,7 @@
 //! boundary edge half, exactly as scheme S, and Poisson coupling stays positive definite.
 
 use super::frame::{Frame, Warp};
-use super::{local_blocks, local_pairs, Energy, Operator, Sink};
+use super::{local_blocks, local_pairs, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::{diag, outer, Vec3};
@@ -99,18 +99,22 @@ impl Membrane {
     }
 }
 
-impl Energy for Membrane {
-    fn pairs(&self) -> Vec<(usize, usize)> {
+/// The kernel interface; the [`crate::potential::Term`] impl in `potential/elastic.rs` wraps it.
+impl Membrane {
+    /// The node pairs whose Hessian block this term touches.
+    pub fn pairs(&self) -> Vec<(usize, usize)> {
         self.cells.iter().flat_map(|c| local_pairs(&c.nodes).collect::<Vec<_>>()).collect()
     }
 
-    fn bind(&mut self, pattern: &BlockPattern) {
+    /// Precomputes block ids for a pattern that contains [`Self::pairs`].
+    pub fn bind(&mut self, pattern: &BlockPattern) {
         for c in &mut self.cells {
             c.blocks = local_blocks(pattern, &c.nodes);
         }
     }
 
-    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy.
+    pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
         let mut energy = 0.0;
         for cell in &self.cells {
             energy += cell.evaluate(x, sink);

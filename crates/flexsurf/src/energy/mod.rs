@@ -1,4 +1,5 @@
-//! The discrete energy `E_h` of MODEL.md §2 and §4 (scheme S) and the Terzopoulos force it is compared with.
+//! The discrete elastic energy `E_h` (scheme S) and the Terzopoulos force it is compared with: the kernels of the
+//! elastic terms of the total potential ([`crate::potential`]).
 //!
 //! Each term ([`membrane::Membrane`], [`bending::Bending`]) evaluates value, gradient and Hessian through one
 //! private local kernel per quadrature point, so the three cannot drift apart. The Hessian comes in named
@@ -11,49 +12,64 @@ pub mod frame;
 pub mod membrane;
 pub mod terzopoulos;
 
-use crate::math::Vec3;
+use crate::math::{Mat3, Vec3};
 use crate::sparse::{BlockMatrix, BlockPattern};
 
-/// Which second-derivative operator to assemble.
+/// Which second-derivative operator (Hessian approximation) to assemble. Each term documents what each variant
+/// contains for it; `tests/derivatives.rs` checks every one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Operator {
     /// `∇²E_h`, exact (finite-difference tested; may be indefinite).
     Exact,
-    /// `H⁺`: Gauss–Newton (`Jᵀ C J`) plus the positive part of each quadrature point's stress (geometric)
-    /// stiffness; positive semi-definite by construction (MODEL.md §5).
+    /// A positive semi-definite approximation, used by the implicit step and as the static solver's fallback:
+    /// for the membrane, Gauss–Newton (`Jᵀ C J`) plus the positive part of each strain's stress (geometric)
+    /// stiffness; for bending, Gauss–Newton (`Jᵀ D J` of the curvature changes) alone, the moment's second
+    /// derivative term dropped; for the Terzopoulos bending, its lagged operator (docs/model.md §5).
     Projected,
     /// The paper's lagged-coefficient secant operator: frozen (tension-clamped) stresses and frozen normals,
-    /// material stiffness left out (AUDIT.md §4). Used only by the `lagged` integrator.
+    /// material stiffness left out (docs/model.md §A4). Used only by the `lagged` integrator.
     Secant,
 }
 
-/// Where an evaluation writes: the gradient (added to), and optionally an operator (added to).
+/// Where an evaluation writes: the value (added to `energy`), the gradient (added to), and optionally an
+/// operator (added to). With a `journal`, every matrix block changed through [`Sink::add_block`] is first
+/// recorded, so that the change can be undone (the contact stage of a step).
 pub struct Sink<'a> {
     /// `∂E/∂x`, added to.
     pub grad: Option<&'a mut [Vec3]>,
     /// Second-derivative operator, added to.
     pub hess: Option<(&'a mut BlockMatrix, Operator)>,
+    /// Running total of the values of the terms evaluated into this sink.
+    pub energy: f64,
+    /// Old values of the blocks changed by [`Sink::add_block`].
+    pub journal: Option<&'a mut Vec<(u32, Mat3)>>,
 }
 
 impl<'a> Sink<'a> {
     /// Energy only.
     pub fn none() -> Self {
-        Self { grad: None, hess: None }
+        Self { grad: None, hess: None, energy: 0.0, journal: None }
     }
     /// Energy and gradient.
     pub fn grad(g: &'a mut [Vec3]) -> Self {
-        Self { grad: Some(g), hess: None }
+        Self { grad: Some(g), hess: None, energy: 0.0, journal: None }
     }
-}
+    /// Energy, gradient (when given) and an operator.
+    pub fn with(g: Option<&'a mut [Vec3]>, h: &'a mut BlockMatrix, op: Operator) -> Self {
+        Self { grad: g, hess: Some((h, op)), energy: 0.0, journal: None }
+    }
 
-/// One term of the discrete energy, defined on the nodes of a grid.
-pub trait Energy {
-    /// The node pairs whose Hessian block this term touches.
-    fn pairs(&self) -> Vec<(usize, usize)>;
-    /// Precomputes block ids for a pattern that contains [`Energy::pairs`].
-    fn bind(&mut self, pattern: &BlockPattern);
-    /// Adds gradient and operator into `sink`; returns the energy.
-    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64;
+    /// Adds `m` to block `id` (node pair `(a, b)`, see [`BlockMatrix::add`]) of the operator, recording the old
+    /// block in the journal when there is one. Does nothing without an operator.
+    #[inline]
+    pub fn add_block(&mut self, id: u32, a: usize, b: usize, m: Mat3) {
+        if let Some((h, _)) = self.hess.as_mut() {
+            if let Some(j) = self.journal.as_deref_mut() {
+                j.push((id, h.blocks[id as usize]));
+            }
+            h.add(id, a, b, m);
+        }
+    }
 }
 
 /// Block ids for all local pairs `p ≤ q` of a support (row-major over the upper triangle).

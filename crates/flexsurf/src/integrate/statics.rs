@@ -1,14 +1,15 @@
-//! Quasi-static equilibrium (MODEL.md §5, "Implicit Newton and static"): minimises the total potential
-//! `Π(x) = E_h(x) − Σ m g·x + contact penalty + springs` over the free nodes by Newton's method with the
-//! PSD-projected Hessian (plus a Levenberg shift when needed) and a backtracking (Armijo) line search on `Π`.
-//! Convergence is judged on the residual force relative to the total external load.
+//! Quasi-static equilibrium (docs/model.md, the static solve): minimises the total potential
+//! `Π(x) = E_h(x) − Σ m g·x + contact penalty + springs` ([`crate::potential`], the same assembly as the time
+//! step) over the free nodes by Newton's method: the exact Hessian where it is positive definite, else the
+//! positive semi-definite one (plus a Levenberg shift when needed), with a backtracking (Armijo) line search on
+//! `Π`. Convergence is judged on the residual force relative to the largest load. A potential with a
+//! non-conservative term (the Terzopoulos force) has no `Π` to minimise and is refused.
 
 use super::linsolve::{LinearSolver, SolverKind};
-use crate::contact;
-use crate::energy::{Operator, Sink};
+use crate::energy::Operator;
 use crate::math::{diag, Vec3};
 use crate::model::Model;
-use crate::sparse::BlockMatrix;
+use crate::potential::{Want, Workspace};
 use serde::Serialize;
 use thiserror::Error;
 
@@ -22,6 +23,15 @@ pub enum StaticError {
         iterations: usize,
         /// Relative residual reached.
         residual: f64,
+    },
+    /// A term of the potential is not the gradient of an energy: there is no potential to minimise.
+    #[error(
+        "static solve: the {term} force is not the gradient of an energy, so it has no equilibrium potential; \
+         use a dynamic integrator (integrator = \"linearized\") or the tfs model"
+    )]
+    NonConservative {
+        /// The term.
+        term: &'static str,
     },
     /// A linear solve failed even with regularisation.
     #[error("static solve: {0}")]
@@ -57,8 +67,7 @@ pub struct StaticReport {
 /// Newton solver workspace for one model.
 pub struct StaticSolver {
     solver: LinearSolver,
-    matrix: BlockMatrix,
-    diag: Vec<u32>,
+    ws: Workspace,
     /// Try the exact Hessian first (see [`StaticSolver::solve`]).
     exact: bool,
 }
@@ -66,69 +75,53 @@ pub struct StaticSolver {
 impl StaticSolver {
     /// Analyses the model's pattern.
     pub fn new(model: &Model) -> Result<Self, StaticError> {
-        let p = &model.elastic.pattern;
         Ok(Self {
-            solver: LinearSolver::new(SolverKind::Cholesky, p)?,
-            matrix: BlockMatrix::zeros(p),
-            diag: (0..model.grid.len()).map(|k| p.find(k, k) as u32).collect(),
+            solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern())?,
+            ws: Workspace::new(&model.potential),
             exact: true,
         })
     }
 
-    /// Total potential and (optionally) its gradient over free nodes.
+    /// Total potential and (optionally) its gradient over free nodes (written into `grad`), from cold contact
+    /// queries.
     pub fn potential(model: &Model, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
-        let mut contacts = Vec::new();
-        contact::detect(&model.obstacles, &model.contact, &model.area, x, &mut contacts);
-        let mut total = 0.0;
-        let has_grad = grad.is_some();
-        let mut g = grad;
-        let e = match g.as_deref_mut() {
-            Some(gr) => model.elastic.evaluate(x, &mut Sink::grad(gr)),
-            None => model.elastic.evaluate(x, &mut Sink::none()),
-        };
-        total += e.membrane + e.bending + model.potential(x);
-        for c in &contacts {
-            total += c.energy();
-        }
-        for s in &model.springs {
-            total += 0.5 * s.stiffness * (x[s.node] - s.target).length_squared();
-        }
-        if has_grad {
-            let gr = g.expect("gradient buffer");
-            for k in 0..gr.len() {
-                gr[k] -= model.external_force(k);
-            }
-            for c in &contacts {
-                gr[c.node] -= c.force_vector();
-            }
-            for s in &model.springs {
-                gr[s.node] += (x[s.node] - s.target) * s.stiffness;
-            }
-            for (k, &p) in model.pinned.iter().enumerate() {
-                if p {
-                    gr[k] = Vec3::ZERO;
-                }
-            }
-        }
-        total
+        Self::potential_in(&mut Workspace::new(&model.potential), model, x, grad)
     }
 
-    /// The step matrix at `x`: elastic Hessian (`op`), contact and spring stiffness.
-    fn assemble(&mut self, model: &Model, x: &[Vec3], contacts: &mut Vec<contact::Contact>, op: Operator) {
-        self.matrix.clear();
-        model.elastic.evaluate(x, &mut Sink { grad: None, hess: Some((&mut self.matrix, op)) });
-        contact::detect(&model.obstacles, &model.contact, &model.area, x, contacts);
-        for c in contacts.iter() {
-            self.matrix.blocks[self.diag[c.node] as usize] += c.stiffness_block();
+    fn potential_in(ws: &mut Workspace, model: &Model, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
+        ws.cold();
+        let want = if grad.is_some() { Want::GRADIENT } else { Want::VALUE };
+        let values = model.potential.assemble(x, &model.potential.context(None), None, want, ws);
+        if let Some(g) = grad {
+            g.copy_from_slice(&ws.grad);
         }
-        for s in &model.springs {
-            self.matrix.blocks[self.diag[s.node] as usize] += diag(s.stiffness);
-        }
+        values.total
+    }
+
+    /// The matrix at `x` (into the workspace): the Hessian approximation `op` of every term.
+    fn assemble(&mut self, model: &Model, x: &[Vec3], op: Operator) {
+        self.ws.cold();
+        let want = Want { grad: false, hess: Some(op) };
+        model.potential.assemble(x, &model.potential.context(None), None, want, &mut self.ws);
     }
 
     /// Size of the matrix entries, for relative shifts.
     fn scale(&self) -> f64 {
-        self.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max)
+        self.ws.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max)
+    }
+
+    /// Subtracts `s I` from every diagonal block.
+    fn unshift(&mut self, model: &Model, s: f64) {
+        for d in model.potential.diag_ids() {
+            self.ws.matrix.blocks[*d as usize] -= diag(s);
+        }
+    }
+
+    /// Adds `s I` to every diagonal block.
+    fn shift(&mut self, model: &Model, s: f64) {
+        for d in model.potential.diag_ids() {
+            self.ws.matrix.blocks[*d as usize] += diag(s);
+        }
     }
 
     /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
@@ -136,21 +129,22 @@ impl StaticSolver {
         let n = x.len();
         // Force scale of the residual: the largest external load, spring force scale, or (for a problem driven
         // by prescribed positions) the largest elastic force at the start, pinned nodes included.
+        if let Some(term) = model.potential.non_conservative() {
+            return Err(StaticError::NonConservative { term });
+        }
         let mut grad = vec![Vec3::ZERO; n];
-        model.elastic.evaluate(x, &mut Sink::grad(&mut grad));
-        let load = (0..n)
-            .map(|k| model.external_force(k).length())
-            .chain(model.springs.iter().map(|s| s.stiffness * model.length_scale() * 1e-3))
-            .chain(grad.iter().map(|g| g.length()))
-            .fold(0.0, f64::max)
+        model.elastic(x, Some(&mut grad));
+        let load = grad
+            .iter()
+            .map(|g| g.length())
+            .fold(model.potential.load_scale(None, model.length_scale()), f64::max)
             .max(f64::MIN_POSITIVE);
         let mut step = vec![Vec3::ZERO; n];
         let mut trial = x.to_vec();
-        let mut contacts = Vec::new();
         let mut shift: f64 = 0.0;
         for it in 0..opts.max_iterations {
             grad.fill(Vec3::ZERO);
-            let pi = Self::potential(model, x, Some(&mut grad));
+            let pi = Self::potential_in(&mut self.ws, model, x, Some(&mut grad));
             let res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
             if res <= opts.tolerance {
                 return Ok(StaticReport { iterations: it, residual: res, potential: pi });
@@ -160,41 +154,45 @@ impl StaticSolver {
             // PSD-projected Hessian with a Levenberg shift instead.
             let mut solved = false;
             if self.exact {
-                self.assemble(model, x, &mut contacts, Operator::Exact);
+                self.assemble(model, x, Operator::Exact);
                 let scale = self.scale();
-                for d in &self.diag {
-                    self.matrix.blocks[*d as usize] += diag(1e-12 * scale);
-                }
+                self.shift(model, 1e-12 * scale);
                 for k in 0..n {
                     step[k] = -grad[k];
                 }
-                if self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false).is_ok() {
+                if self
+                    .solver
+                    .solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), &mut step, false)
+                    .is_ok()
+                {
                     let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
                     solved = slope < 0.0;
                 }
             }
             if !solved {
-                self.assemble(model, x, &mut contacts, Operator::Projected);
+                self.assemble(model, x, Operator::Projected);
                 // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
                 let scale = self.scale();
                 for attempt in 0..8 {
                     let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (shift * 10.0).max(1e-8 * scale) };
-                    for d in &self.diag {
-                        self.matrix.blocks[*d as usize] += diag(s);
-                    }
+                    self.shift(model, s);
                     for k in 0..n {
                         step[k] = -grad[k];
                     }
-                    match self.solver.solve(&model.elastic.pattern, &self.matrix, &model.pinned, &mut step, false) {
+                    match self.solver.solve(
+                        model.potential.pattern(),
+                        &self.ws.matrix,
+                        model.pinned(),
+                        &mut step,
+                        false,
+                    ) {
                         Ok(_) => {
                             solved = true;
                             shift = s * 0.1;
                             break;
                         }
                         Err(_) => {
-                            for d in &self.diag {
-                                self.matrix.blocks[*d as usize] -= diag(s);
-                            }
+                            self.unshift(model, s);
                             shift = s;
                         }
                     }
@@ -215,7 +213,7 @@ impl StaticSolver {
                 for k in 0..n {
                     trial[k] = x[k] + step[k] * alpha;
                 }
-                let pt = Self::potential(model, &trial, None);
+                let pt = Self::potential_in(&mut self.ws, model, &trial, None);
                 if pt.is_finite() && pt <= pi + 1e-4 * alpha * slope {
                     accepted = true;
                     break;
@@ -229,7 +227,7 @@ impl StaticSolver {
             x.copy_from_slice(&trial);
         }
         grad.fill(Vec3::ZERO);
-        let _ = Self::potential(model, x, Some(&mut grad));
+        let _ = Self::potential_in(&mut self.ws, model, x, Some(&mut grad));
         let res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
         Err(StaticError::NotConverged { iterations: opts.max_iterations, residual: res })
     }

@@ -16,7 +16,7 @@ use crate::grid::{Grid, Topology};
 use crate::integrate::statics::{StaticOptions, StaticSolver};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
-use crate::model::{ElasticOptions, Model, ModelKind};
+use crate::model::{ElasticOptions, ModelBuilder, ModelKind};
 use crate::surface::mesh::TriMesh;
 use serde::Serialize;
 
@@ -337,11 +337,13 @@ fn chord(
     // On the bias the warp runs at 45° to the strip (u1).
     let warp_angle = if strip.direction == Direction::Bias { std::f64::consts::FRAC_PI_4 } else { 0.0 };
     let opts = ElasticOptions { warp_angle, ..Default::default() };
-    let mut model = Model::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G), &opts);
+    let mut model =
+        ModelBuilder::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G), &opts);
     for a in 0..n {
         model.pinned[node(0, a)] = true;
         model.pinned[node(1, a)] = true;
     }
+    let model = model.build()?;
     let mut x: Vec<Vec3> = rest.iter().map(|p| if p.x > 0.0 { start(p.x / l, p.y) } else { *p }).collect();
     let opts = StaticOptions { tolerance: 1e-9, max_iterations: 300 };
     StaticSolver::new(&model)

@@ -18,10 +18,10 @@ use super::LabError;
 use crate::grid::{Grid, Topology};
 use crate::integrate::linsolve::SolverKind;
 use crate::integrate::statics::StaticSolver;
-use crate::integrate::{IntegratorKind, Stepper};
+use crate::integrate::{StepParams, Stepper};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
-use crate::model::{ElasticOptions, Model, ModelKind};
+use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
 use crate::scene::run::projected_area_xy;
 use crate::state::State;
 use crate::surface::coons::CoonsSurface;
@@ -114,10 +114,11 @@ pub fn cusick_specimen(
         .collect();
     let opts = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
     let mut model =
-        Model::with_options(grid, rest.clone(), *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
+        ModelBuilder::with_options(grid, rest.clone(), *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
     for k in 0..grid.len() {
         model.pinned[k] = grid.coords(k).0 <= 1;
     }
+    let model = model.build()?;
     // A small droop with a many-mode wobble of the hem (deterministic phases).
     let start: Vec<Vec3> = rest
         .iter()
@@ -136,13 +137,13 @@ pub fn cusick_specimen(
     let damping = 5.0 * fabric.density; // 1/s · kg/m²
     dyn_model.damping = dyn_model.area.iter().map(|a| a * damping).collect();
     let mut state = State::at_rest(start);
-    let mut stepper = Stepper::new(&dyn_model, IntegratorKind::Linearized, SolverKind::Cholesky)
-        .map_err(|e| LabError::Step { test: "cusick", source: e })?;
-    // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
     let dt = 0.04;
+    let params = StepParams { dt, solver: SolverKind::Cholesky, ..StepParams::default() };
+    let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", source: e })?;
+    // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
     let mut steps = 0;
     for _ in 0..1500 {
-        stepper.step(&dyn_model, &mut state, dt).map_err(|e| LabError::Step { test: "cusick", source: e })?;
+        stepper.step(&dyn_model, &mut state).map_err(|e| LabError::Step { test: "cusick", source: e })?;
         steps += 1;
         let vmax = (0..state.x.len()).map(|k| state.velocity(k, dt).length()).fold(0.0, f64::max);
         if vmax < 1e-4 {

@@ -13,12 +13,11 @@
 //! `1/E(45°) = ¼ (1/E1 + 1/E2 + 1/G − 2ν12/E1)`.
 
 use super::LabError;
-use crate::energy::Sink;
 use crate::grid::Grid;
 use crate::integrate::statics::{StaticOptions, StaticSolver};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
-use crate::model::{ElasticOptions, Model, ModelKind};
+use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
 use serde::Serialize;
 
 /// The five constants the round trip compares.
@@ -106,7 +105,7 @@ fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
     let grid = Grid::sheet(m, n, len, width).expect("valid strip grid");
     let rest = grid.flat_positions(0.0);
     let opts = ElasticOptions { warp_angle: angle, ..Default::default() };
-    let mut model = Model::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO, &opts);
+    let mut model = ModelBuilder::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO, &opts);
     // Line load T small enough for a linear response: strain ~1e-5.
     let t = 1e-5 * f.tensile_warp.min(f.tensile_weft).min(f.shear);
     for k in 0..grid.len() {
@@ -116,6 +115,7 @@ fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
             model.loads[k] = Vec3::new(t * grid.h2 * grid.trapezoid(1, j), 0.0, 0.0);
         }
     }
+    let model = model.build()?;
     let mut x = rest.clone();
     solve(&model, &mut x, "tension")?;
     // Strain between columns a and b (middle of the strip), averaged across the width.
@@ -133,19 +133,19 @@ fn shear(f: &Fabric, s: &Stiffness) -> Result<f64, LabError> {
     let grid = Grid::sheet(m, m, side, side).expect("valid square grid");
     let rest = grid.flat_positions(0.0);
     let model = {
-        let mut model = Model::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
+        let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
         for k in 0..grid.len() {
             let (i, j) = grid.coords(k);
             model.pinned[k] = grid.on_free_edge(0, i) || grid.on_free_edge(1, j);
         }
-        model
+        model.build()?
     };
     let gamma = 1e-4;
     let mut x: Vec<Vec3> = rest.iter().map(|p| Vec3::new(p.x + gamma * p.y, p.y, p.z)).collect();
     solve(&model, &mut x, "shear")?;
     // Reaction of the top clamp along x: minus the elastic force on the top row.
     let mut g = vec![Vec3::ZERO; grid.len()];
-    model.elastic.evaluate(&x, &mut Sink::grad(&mut g));
+    model.elastic(&x, Some(&mut g));
     let top: f64 = (0..m).map(|i| g[grid.index(i, m - 1)].x).sum();
     Ok(top / side / gamma)
 }
@@ -160,7 +160,7 @@ fn bending(f: &Fabric, s: &Stiffness, along_weft: bool) -> Result<f64, LabError>
         (Grid::sheet(m, n, len, width).expect("valid strip grid"), 0)
     };
     let rest = grid.flat_positions(0.0);
-    let mut model = Model::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
+    let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
     let along = |k: usize| if d == 0 { grid.coords(k).0 } else { grid.coords(k).1 };
     let across = |k: usize| if d == 0 { grid.coords(k).1 } else { grid.coords(k).0 };
     let h = grid.spacing(d);
@@ -177,6 +177,7 @@ fn bending(f: &Fabric, s: &Stiffness, along_weft: bool) -> Result<f64, LabError>
             model.loads[k] = Vec3::new(0.0, 0.0, -force * w);
         }
     }
+    let model = model.build()?;
     let mut x = rest.clone();
     solve(&model, &mut x, "bending")?;
     let mid = n / 2;

@@ -26,6 +26,9 @@ pub enum LabError {
     /// A test option is out of range.
     #[error("{0}")]
     Input(String),
+    /// The test's model cannot be built.
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
     /// A dynamic relaxation step failed.
     #[error("{test}: {source}")]
     Step {

@@ -13,12 +13,14 @@ pub mod run;
 
 use crate::contact::nurbs::NurbsBody;
 use crate::contact::trimesh::TriMeshBody;
-use crate::contact::{mannequin, ContactParams, Obstacle};
+use crate::contact::{mannequin, Obstacle};
 use crate::grid::{Grid, Topology};
-use crate::integrate::{linsolve::SolverKind, IntegratorKind};
+use crate::integrate::statics::StaticOptions;
+use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
 use crate::material::{Calibration, Stiffness};
 use crate::math::{Mat3, Vec3};
-use crate::model::{ElasticOptions, Model, ModelKind, Spring};
+use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Spring};
+use crate::potential::contact::ContactParams;
 use crate::state::State;
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use material::{MaterialSpec, Preset, Units};
@@ -225,6 +227,43 @@ pub struct TimeSpec {
 
 fn default_dt() -> f64 {
     defaults::DT
+}
+
+// The `integrator.kind` of a scene: a time-stepping scheme, or `static` for a static solve (the doc line
+// below is the JSON schema's text, kept as it was).
+/// The time-stepping scheme.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorKind {
+    /// Linearised implicit step with `H⁺` (default).
+    #[default]
+    Linearized,
+    /// The paper's literal lagged-coefficient step.
+    Lagged,
+    /// No time stepping: the quasi-static equilibrium (drape) by projected Newton ([`statics`]). A run then
+    /// writes the initial and the equilibrium frame.
+    Static,
+}
+
+impl IntegratorKind {
+    /// Name used in scenes and summaries.
+    pub fn name(&self) -> &'static str {
+        match self {
+            IntegratorKind::Linearized => "linearized",
+            IntegratorKind::Lagged => "lagged",
+            IntegratorKind::Static => "static",
+        }
+    }
+
+    /// The run this kind asks for, with time step `dt` and linear solver `solver`.
+    pub fn method(&self, dt: f64, solver: SolverKind) -> Method {
+        let dynamic = |scheme| Method::Dynamic(StepParams { dt, scheme, solver, ..StepParams::default() });
+        match self {
+            IntegratorKind::Linearized => dynamic(Scheme::Linearized),
+            IntegratorKind::Lagged => dynamic(Scheme::Lagged),
+            IntegratorKind::Static => Method::Static(StaticOptions::default()),
+        }
+    }
 }
 
 /// `[integrator]`.
@@ -467,10 +506,8 @@ pub struct Scene {
     pub steps: usize,
     /// Frame cadence (steps).
     pub output_every: usize,
-    /// Time-stepping scheme.
-    pub integrator: IntegratorKind,
-    /// Linear solver.
-    pub solver: SolverKind,
+    /// A dynamic integration (its step parameters) or a static solve.
+    pub method: Method,
     /// Calibration used.
     pub calibration: Calibration,
     /// Material name.
@@ -479,6 +516,24 @@ pub struct Scene {
     pub output: OutputSpec,
     /// The garment, for garment scenes.
     pub garment: Option<GarmentInfo>,
+}
+
+impl Scene {
+    /// The step parameters of a dynamic scene (of a static one: the defaults with the scene's `dt`).
+    pub fn step_params(&self) -> StepParams {
+        match self.method {
+            Method::Dynamic(p) => p,
+            Method::Static(_) => StepParams::with_dt(self.dt),
+        }
+    }
+
+    /// The linear solver of the run (a static solve always factorises).
+    pub fn solver(&self) -> SolverKind {
+        match self.method {
+            Method::Dynamic(p) => p.solver,
+            Method::Static(_) => SolverKind::Cholesky,
+        }
+    }
 }
 
 /// Reads, parses and builds the scene file at `path`.
@@ -572,13 +627,13 @@ impl SceneSpec {
                 let center = finite3("sheet.center", s.center)?;
                 let angles = finite3("sheet.rotate_deg", s.rotate_deg)?;
                 let rest = initial_positions(&grid, center, angles);
-                let model = Model::new(grid, rest.clone(), material.fabric, stiffness, self.model.kind, gravity);
+                let model = ModelBuilder::new(grid, rest.clone(), material.fabric, stiffness, self.model.kind, gravity);
                 (model, rest, None)
             }
             (None, Some(g)) => {
                 let shape = g.shape(&obstacles, contact.offset, file)?;
                 let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true, ..Default::default() };
-                let mut model = Model::with_options(
+                let mut model = ModelBuilder::with_options(
                     shape.grid,
                     shape.rest,
                     material.fabric,
@@ -636,6 +691,7 @@ impl SceneSpec {
             .name
             .clone()
             .unwrap_or_else(|| file.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned()));
+        let model = model.build().map_err(|e| bad(e.field, e.message))?;
         Ok(Scene {
             name,
             file: file.to_path_buf(),
@@ -644,8 +700,7 @@ impl SceneSpec {
             dt,
             steps: self.time.steps,
             output_every,
-            integrator: self.integrator.kind,
-            solver: self.integrator.solver,
+            method: self.integrator.kind.method(dt, self.integrator.solver),
             calibration: self.calibration,
             material: material.name,
             output: self.output,

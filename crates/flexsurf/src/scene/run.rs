@@ -5,8 +5,8 @@
 
 use super::{FrameFormat, Scene};
 use crate::contact::Obstacle;
-use crate::integrate::statics::{StaticOptions, StaticReport, StaticSolver};
-use crate::integrate::{Counters, IntegratorKind, StepError, Stepper};
+use crate::integrate::statics::{StaticReport, StaticSolver};
+use crate::integrate::{Counters, Method, StepError, Stepper};
 use crate::io::render::{self, Drawable, View};
 use crate::io::{atomic, PlyFormat};
 use crate::math::Vec3;
@@ -207,7 +207,7 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
         _ => {}
     }
     // A static solve writes the initial state and the equilibrium (as step 1).
-    let outputs = if scene.integrator == IntegratorKind::Static {
+    let outputs = if matches!(scene.method, Method::Static(_)) {
         vec![0, 1]
     } else {
         output_steps(scene.steps, scene.output_every)
@@ -216,7 +216,7 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
     let k = scene.output.coons_subdivisions;
 
     let mut state = scene.state.clone();
-    let mut stepper = Stepper::new(model, scene.integrator, scene.solver)?;
+    let mut counters = Counters::default();
     let mut frames = Vec::new();
     let mut snapshots = Vec::new();
     let mut csv = String::from("step,time,kinetic,membrane,bending,potential\n");
@@ -240,34 +240,40 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
 
     record(&state, &mut csv)?;
     let mut static_report = None;
-    let stats = if scene.integrator == IntegratorKind::Static {
-        let t = std::time::Instant::now();
-        let report = StaticSolver::new(model)
-            .and_then(|mut s| s.solve(model, &mut state.x, &StaticOptions::default()))
-            .map_err(RunError::Static)?;
-        let wall = t.elapsed().as_secs_f64();
-        state.x_prev.copy_from_slice(&state.x);
-        state.step = 1;
-        static_report = Some(report);
-        progress(1);
-        record(&state, &mut csv)?;
-        Ok(sim::RunStats {
-            steps: 0,
-            wall_seconds: wall,
-            max_penetration_seen: crate::integrate::max_penetration(model, &state.x),
-            max_contacts: 0,
-        })
-    } else {
-        sim::run(model, &mut state, &mut stepper, scene.dt, scene.steps, |st, _info| {
-            progress(st.step);
-            match record(st, &mut csv) {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(e) => {
-                    failure = Some(e);
-                    ControlFlow::Break(())
+    let stats = match scene.method {
+        Method::Static(options) => {
+            let t = std::time::Instant::now();
+            let report = StaticSolver::new(model)
+                .and_then(|mut s| s.solve(model, &mut state.x, &options))
+                .map_err(RunError::Static)?;
+            let wall = t.elapsed().as_secs_f64();
+            state.x_prev.copy_from_slice(&state.x);
+            state.step = 1;
+            static_report = Some(report);
+            progress(1);
+            record(&state, &mut csv)?;
+            Ok(sim::RunStats {
+                steps: 0,
+                wall_seconds: wall,
+                max_penetration_seen: crate::integrate::max_penetration(model, &state.x),
+                max_contacts: 0,
+            })
+        }
+        Method::Dynamic(params) => {
+            let mut stepper = Stepper::new(model, &params)?;
+            let stats = sim::run(model, &mut state, &mut stepper, scene.steps, |st, _info| {
+                progress(st.step);
+                match record(st, &mut csv) {
+                    Ok(()) => ControlFlow::Continue(()),
+                    Err(e) => {
+                        failure = Some(e);
+                        ControlFlow::Break(())
+                    }
                 }
-            }
-        })
+            });
+            counters = stepper.counters;
+            stats
+        }
     };
     // The energy history up to a failure is still useful; it is complete as far as it goes.
     let csv_path = out.join("energy.csv");
@@ -281,9 +287,9 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
     let final_mesh = CoonsSurface::new(&model.grid, &state.x).tessellate(k);
     let summary = Summary {
         scene: scene.name.clone(),
-        model: model.elastic.kind.name().to_string(),
-        integrator: scene.integrator.name().to_string(),
-        solver: format!("{:?}", scene.solver).to_lowercase(),
+        model: model.kind.name().to_string(),
+        integrator: scene.method.name().to_string(),
+        solver: format!("{:?}", scene.solver()).to_lowercase(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),
         grid: [model.grid.m, model.grid.n],
@@ -293,7 +299,7 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
         simulated_seconds: state.time,
         wall_seconds: stats.wall_seconds,
         steps_per_second: if stats.wall_seconds > 0.0 { stats.steps as f64 / stats.wall_seconds } else { 0.0 },
-        timings: stepper.counters,
+        timings: counters,
         max_penetration_seen: stats.max_penetration_seen,
         max_contacts: stats.max_contacts,
         waist_drift_max: scene.garment.as_ref().map(|g| waist_drift(model, &g.waist_nodes, &state.x)),
@@ -323,7 +329,7 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
 /// Largest distance of a spring-held node among `nodes` from its spring's target (m; 0 without such springs).
 pub fn waist_drift(model: &Model, nodes: &[usize], x: &[Vec3]) -> f64 {
     model
-        .springs
+        .springs()
         .iter()
         .filter(|s| nodes.contains(&s.node))
         .map(|s| (x[s.node] - s.target).length())
@@ -410,11 +416,11 @@ pub fn projected_area_xy(mesh: &TriMesh, res: usize) -> f64 {
 /// Drawables of a model's obstacles.
 pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
     model
-        .obstacles
-        .iter()
+        .obstacles()
+        .into_iter()
         .map(|o| match o {
-            Obstacle::Sphere { center, radius } => Drawable::sphere(*center, *radius, OBSTACLE_COLOR),
-            Obstacle::Plane { point, normal } => Drawable::plane(*point, *normal, PLANE_COLOR),
+            Obstacle::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
+            Obstacle::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
             Obstacle::Nurbs(body) => Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR),
             Obstacle::Mesh(body) => Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR),
         })

@@ -1,0 +1,156 @@
+//! The elastic terms: the membrane and bending energies of scheme S ([`crate::energy`]), or the Terzopoulos &
+//! Fleischer bending force in place of the bending energy, built on one grid and rest shape.
+
+use super::{Context, Part, Scratch, Stage, Term};
+use crate::energy::bending::Bending;
+use crate::energy::frame::Warp;
+use crate::energy::membrane::Membrane;
+use crate::energy::{terzopoulos, Sink};
+use crate::grid::Grid;
+use crate::material::Stiffness;
+use crate::math::Vec3;
+use crate::sparse::BlockPattern;
+use serde::{Deserialize, Serialize};
+
+/// Which deformation model computes the elastic force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelKind {
+    /// The paper's model: the exact gradient of the discrete energy (default).
+    #[default]
+    Tfs,
+    /// Terzopoulos & Fleischer: bending through `x_ij` instead of `n`, no H term.
+    Terzopoulos,
+}
+
+impl ModelKind {
+    /// Name as used in scene files and summaries.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ModelKind::Tfs => "tfs",
+            ModelKind::Terzopoulos => "terzopoulos",
+        }
+    }
+}
+
+/// How the rest shape defines the stress-free state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ElasticOptions {
+    /// Warp direction, radians from the `u1` tangent of the rest shape (ignored when `warp_direction` is set).
+    pub warp_angle: f64,
+    /// Warp along this fixed direction of the rest shape instead (a polar grid of one flat piece of fabric).
+    pub warp_direction: Option<Vec3>,
+    /// The rest shape is a flat pattern wrapped into shape (a sewn garment): it gives the metric `G⁰` only, and
+    /// the rest curvature is zero.
+    pub flat_pattern: bool,
+}
+
+impl ElasticOptions {
+    fn warp(&self) -> Warp {
+        match self.warp_direction {
+            Some(d) => Warp::Direction(d),
+            None => Warp::Angle(self.warp_angle),
+        }
+    }
+}
+
+/// The elastic terms of `kind` on `grid` with rest shape `rest`: the membrane, then the bending energy (or the
+/// Terzopoulos bending force).
+pub fn terms(
+    grid: &Grid,
+    rest: &[Vec3],
+    stiffness: &Stiffness,
+    kind: ModelKind,
+    options: &ElasticOptions,
+) -> Vec<Box<dyn Term>> {
+    let membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
+    let mut bending = Bending::with_warp(grid, rest, stiffness, options.warp());
+    if options.flat_pattern {
+        bending.flatten_rest_curvature();
+    }
+    let bending: Box<dyn Term> = match kind {
+        ModelKind::Tfs => Box::new(bending),
+        ModelKind::Terzopoulos => Box::new(TerzopoulosBending(bending)),
+    };
+    vec![Box::new(membrane), bending]
+}
+
+/// Membrane: the three Hessian variants as documented on [`crate::energy::Operator`].
+impl Term for Membrane {
+    fn name(&self) -> &'static str {
+        "membrane"
+    }
+    fn stage(&self) -> Stage {
+        Stage::Field
+    }
+    fn part(&self) -> Part {
+        Part::Membrane
+    }
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        Membrane::pairs(self)
+    }
+    fn bind(&mut self, pattern: &BlockPattern) {
+        Membrane::bind(self, pattern)
+    }
+    fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let e = Membrane::evaluate(self, x, sink);
+        sink.energy += e;
+        e
+    }
+}
+
+/// Bending: the three Hessian variants as documented on [`crate::energy::Operator`].
+impl Term for Bending {
+    fn name(&self) -> &'static str {
+        "bending"
+    }
+    fn stage(&self) -> Stage {
+        Stage::Field
+    }
+    fn part(&self) -> Part {
+        Part::Bending
+    }
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        Bending::pairs(self)
+    }
+    fn bind(&mut self, pattern: &BlockPattern) {
+        Bending::bind(self, pattern)
+    }
+    fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let e = Bending::evaluate(self, x, sink);
+        sink.energy += e;
+        e
+    }
+}
+
+/// The Terzopoulos & Fleischer bending force on the quadrature points of a [`Bending`] term: not the gradient
+/// of an energy (its value is the bending energy of the same curvatures, a diagnostic), with its lagged operator
+/// `Σ D_ijᵀ diag(β⁺) D_ij` whatever Hessian is asked for.
+#[derive(Debug, Clone)]
+pub struct TerzopoulosBending(pub Bending);
+
+impl Term for TerzopoulosBending {
+    fn name(&self) -> &'static str {
+        "terzopoulos bending"
+    }
+    fn stage(&self) -> Stage {
+        Stage::Field
+    }
+    fn part(&self) -> Part {
+        Part::Bending
+    }
+    fn conservative(&self) -> bool {
+        false
+    }
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        self.0.pairs()
+    }
+    fn bind(&mut self, pattern: &BlockPattern) {
+        self.0.bind(pattern)
+    }
+    fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let e = terzopoulos::bending(&self.0, x, sink);
+        sink.energy += e;
+        e
+    }
+}

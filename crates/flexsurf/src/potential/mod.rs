@@ -1,0 +1,570 @@
+//! The total potential `Π(x)`: every energy and force acting on the sheet is a [`Term`] with value, gradient and
+//! Hessian side by side, held in one ordered, open list ([`Potential`]) by the model.
+//!
+//! The terms today: the elastic energy ([`crate::energy::membrane::Membrane`],
+//! [`crate::energy::bending::Bending`], or the Terzopoulos bending force [`elastic::TerzopoulosBending`]),
+//! gravity and nodal loads ([`external::External`]), springs ([`springs::Springs`]) and penalty contact with the
+//! obstacles ([`contact::PenaltyContact`]); the dynamic step adds its own [`inertia::Inertia`]. Pins are
+//! constraints, not terms: the fixed nodes of [`Pins`].
+//!
+//! Both solvers call the same assembly ([`Potential::assemble`]): the dynamic step minimises the incremental
+//! potential `Π(y) + inertia(y)` (docs/model.md §7), the static solver `Π(x)` itself (§8). Neither knows a
+//! concrete term: they see stages, energy parts and the capabilities a term declares (conservative or not, an
+//! active set to refine).
+//!
+//! **Order.** Terms are evaluated in [`Stage`] order (fields, the step's inertia, nodal attachments, contact),
+//! and in insertion order within a stage. The order of the floating-point additions is part of the
+//! bit-for-bit reproducibility of a run; a new term picks its stage and is appended to it.
+
+pub mod contact;
+pub mod elastic;
+pub mod external;
+pub mod inertia;
+pub mod springs;
+
+use crate::contact::Obstacle;
+use crate::energy::{Operator, Sink};
+use crate::math::{Mat3, Vec3};
+use crate::sparse::{BlockMatrix, BlockPattern};
+use std::any::Any;
+use std::fmt::Debug;
+
+/// Where a term sits in the evaluation order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Stage {
+    /// Distributed over the sheet: elastic energy, gravity, loads.
+    Field,
+    /// The dynamic step's inertia and damping (added by the integrator, never held by a model).
+    Inertia,
+    /// Nodal attachments: springs.
+    Attachment,
+    /// Terms with an active set that a step refines after each solve: contact.
+    Contact,
+}
+
+/// Which energy a term's value counts as, for records (`energy.csv`, summaries).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    /// Stretch and shear.
+    Membrane,
+    /// Bending and twist.
+    Bending,
+    /// Gravity and constant loads (`−Σ f·x`).
+    Load,
+    /// Springs.
+    Spring,
+    /// Obstacle contact.
+    Contact,
+    /// The step's inertia and damping.
+    Inertia,
+}
+
+impl Part {
+    /// True for the parts of the sheet's elastic energy.
+    pub fn is_elastic(self) -> bool {
+        matches!(self, Part::Membrane | Part::Bending)
+    }
+}
+
+/// The motion a dynamic step starts from: `x_t`, `x_{t−Δt}`, `Δt` and the lumped masses.
+#[derive(Debug, Clone, Copy)]
+pub struct Motion<'a> {
+    /// Positions at the start of the step.
+    pub x: &'a [Vec3],
+    /// Positions one step earlier.
+    pub x_prev: &'a [Vec3],
+    /// Time step (s).
+    pub dt: f64,
+    /// Lumped node masses (kg).
+    pub mass: &'a [f64],
+    /// Lumped node damping (kg/s).
+    pub damping: &'a [f64],
+    /// Contact candidates also come from the extrapolated positions `2x_t − x⁻` (the first assembly of a step).
+    pub predict: bool,
+}
+
+/// What a term may read besides the configuration.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    /// Fixed (pinned) nodes.
+    pub fixed: &'a [bool],
+    /// Block id of each node's diagonal block in the pattern.
+    pub diag: &'a [u32],
+    /// The step's motion (`None` in a static solve).
+    pub motion: Option<Motion<'a>>,
+}
+
+/// Per-run scratch of one term (a contact cache and its active set): created by [`Term::scratch`], kept by the
+/// caller's [`Workspace`] between evaluations.
+#[derive(Default)]
+pub struct Scratch(Option<Box<dyn Any + Send>>);
+
+impl Scratch {
+    /// The scratch as a `T`, created by `make` when absent (or of another type).
+    pub fn get_or<T: Any + Send>(&mut self, make: impl FnOnce() -> T) -> &mut T {
+        if !self.0.as_ref().is_some_and(|b| b.is::<T>()) {
+            self.0 = Some(Box::new(make()));
+        }
+        match self.0.as_mut().and_then(|b| b.downcast_mut::<T>()) {
+            Some(t) => t,
+            None => unreachable!("the scratch was just set to a T"),
+        }
+    }
+
+    /// Forgets everything (the next evaluation starts cold).
+    pub fn clear(&mut self) {
+        self.0 = None;
+    }
+}
+
+/// Cloning of boxed terms (implemented for every `Term + Clone`).
+pub trait TermClone {
+    /// A boxed copy.
+    fn clone_box(&self) -> Box<dyn Term>;
+}
+
+impl<T: Term + Clone + 'static> TermClone for T {
+    fn clone_box(&self) -> Box<dyn Term> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn Term> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+/// One term of the total potential.
+///
+/// `evaluate` adds the term's value to `sink.energy`, its gradient `∂/∂x` to `sink.grad` and the requested
+/// Hessian approximation ([`Operator`]) to `sink.hess`, all from one pass so the three cannot drift apart, and
+/// returns the term's value. A term that is not the gradient of its value says so ([`Term::conservative`]).
+pub trait Term: Send + Sync + Debug + TermClone {
+    /// Short name for messages and tests.
+    fn name(&self) -> &'static str;
+    /// Where the term is evaluated.
+    fn stage(&self) -> Stage;
+    /// Which energy its value counts as.
+    fn part(&self) -> Part;
+    /// False when the gradient is not the derivative of the value (the Terzopoulos force): the static solver
+    /// and line searches refuse such a potential.
+    fn conservative(&self) -> bool {
+        true
+    }
+    /// Node pairs whose Hessian block the term touches (its diagonal blocks are always in the pattern).
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        Vec::new()
+    }
+    /// Precomputes block ids for a pattern that contains [`Term::pairs`].
+    fn bind(&mut self, _pattern: &BlockPattern) {}
+    /// Finds the configuration-dependent support at `x` (contact detection) into `scratch`.
+    fn prepare(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) {}
+    /// Adds value, gradient and Hessian at `x` into `sink`; returns the value.
+    fn evaluate(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64;
+    /// After a solve proposing `x + delta`, updates the support (the contact active set); true if it changed.
+    fn refine(&self, _x: &[Vec3], _delta: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> bool {
+        false
+    }
+    /// Magnitude of the prescribed forces of this term for a sheet of size `length` (N), the scale of residual
+    /// tolerances; 0 for terms that only react.
+    fn load_scale(&self, _length: f64) -> f64 {
+        0.0
+    }
+    /// How many constraints are active in `scratch` (touching contacts).
+    fn active(&self, _scratch: &Scratch) -> usize {
+        0
+    }
+    /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
+    fn violation(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
+        0.0
+    }
+    /// Obstacles the term acts with (for pictures and outputs).
+    fn obstacles(&self) -> &[Obstacle] {
+        &[]
+    }
+    /// Nodal springs of the term (for outputs).
+    fn springs(&self) -> &[springs::Spring] {
+        &[]
+    }
+}
+
+/// Fixed (pinned) nodes: constraints held exactly at their position. The assembly zeroes their gradient rows
+/// and the linear solvers eliminate their unknowns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pins {
+    fixed: Vec<bool>,
+}
+
+impl Pins {
+    /// No node fixed among `n`.
+    pub fn none(n: usize) -> Self {
+        Self { fixed: vec![false; n] }
+    }
+
+    /// From one flag per node.
+    pub fn from_flags(fixed: Vec<bool>) -> Self {
+        Self { fixed }
+    }
+
+    /// One flag per node.
+    pub fn flags(&self) -> &[bool] {
+        &self.fixed
+    }
+
+    /// Number of fixed nodes.
+    pub fn count(&self) -> usize {
+        self.fixed.iter().filter(|&&f| f).count()
+    }
+}
+
+/// Values of the parts of a potential after an evaluation.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Values {
+    /// The total (every term, in evaluation order).
+    pub total: f64,
+    /// Membrane energy.
+    pub membrane: f64,
+    /// Bending energy.
+    pub bending: f64,
+    /// Load potential `−Σ f·x`.
+    pub load: f64,
+    /// Spring energy.
+    pub spring: f64,
+    /// Contact energy.
+    pub contact: f64,
+    /// Touching contacts.
+    pub contacts: usize,
+}
+
+impl Values {
+    fn add(&mut self, part: Part, v: f64) {
+        match part {
+            Part::Membrane => self.membrane += v,
+            Part::Bending => self.bending += v,
+            Part::Load => self.load += v,
+            Part::Spring => self.spring += v,
+            Part::Contact => self.contact += v,
+            Part::Inertia => {}
+        }
+    }
+}
+
+/// What an assembly computes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Want {
+    /// The gradient (into [`Workspace::grad`]).
+    pub grad: bool,
+    /// A Hessian approximation (into [`Workspace::matrix`]).
+    pub hess: Option<Operator>,
+}
+
+impl Want {
+    /// Value only.
+    pub const VALUE: Want = Want { grad: false, hess: None };
+    /// Value and gradient.
+    pub const GRADIENT: Want = Want { grad: true, hess: None };
+}
+
+/// Buffers of an assembly, reused between evaluations: the gradient, the matrix on the potential's pattern, one
+/// [`Scratch`] per term and the saved state that lets the contact stage be re-applied after its active set changes.
+pub struct Workspace {
+    /// `∂Φ/∂x` of the last assembly (rows of fixed nodes zero).
+    pub grad: Vec<Vec3>,
+    /// The Hessian approximation of the last assembly.
+    pub matrix: BlockMatrix,
+    /// Seconds spent in the contact stage (detection, contact terms, active-set refinement), summed.
+    pub contact_seconds: f64,
+    scratch: Vec<Scratch>,
+    extra: Scratch,
+    base_grad: Vec<Vec3>,
+    journal: Vec<(u32, Mat3)>,
+}
+
+impl Workspace {
+    /// Buffers for `potential`.
+    pub fn new(potential: &Potential) -> Self {
+        let n = potential.fixed().len();
+        Self {
+            grad: vec![Vec3::ZERO; n],
+            matrix: BlockMatrix::zeros(&potential.pattern),
+            contact_seconds: 0.0,
+            scratch: potential.terms.iter().map(|_| Scratch::default()).collect(),
+            extra: Scratch::default(),
+            base_grad: vec![Vec3::ZERO; n],
+            journal: Vec::new(),
+        }
+    }
+
+    /// Forgets every term's warm-start and active set.
+    pub fn cold(&mut self) {
+        self.scratch.iter_mut().for_each(Scratch::clear);
+        self.extra.clear();
+    }
+}
+
+/// The total potential: an ordered list of terms on one sparsity pattern, and the fixed nodes.
+#[derive(Debug, Clone)]
+pub struct Potential {
+    terms: Vec<Box<dyn Term>>,
+    pins: Pins,
+    pattern: BlockPattern,
+    diag: Vec<u32>,
+}
+
+impl Potential {
+    /// The potential of `terms` (evaluated in [`Stage`] order, stable within a stage) on `nodes` nodes with
+    /// the fixed nodes `pins`; builds the pattern from every term's pairs and binds the terms to it.
+    pub fn new(nodes: usize, mut terms: Vec<Box<dyn Term>>, pins: Pins) -> Self {
+        terms.sort_by_key(|t| t.stage());
+        let pattern = BlockPattern::from_pairs(nodes, terms.iter().flat_map(|t| t.pairs()));
+        for t in &mut terms {
+            t.bind(&pattern);
+        }
+        let diag = (0..nodes).map(|k| pattern.find(k, k) as u32).collect();
+        Self { terms, pins, pattern, diag }
+    }
+
+    /// The terms, in evaluation order.
+    pub fn terms(&self) -> &[Box<dyn Term>] {
+        &self.terms
+    }
+
+    /// Block pattern of every term's Hessian.
+    pub fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+
+    /// Block id of node `k`'s diagonal block.
+    pub fn diag_ids(&self) -> &[u32] {
+        &self.diag
+    }
+
+    /// The fixed nodes.
+    pub fn pins(&self) -> &Pins {
+        &self.pins
+    }
+
+    /// Fixed nodes, one flag per node.
+    pub fn fixed(&self) -> &[bool] {
+        self.pins.flags()
+    }
+
+    /// True when every term is the gradient of its value.
+    pub fn conservative(&self) -> bool {
+        self.terms.iter().all(|t| t.conservative())
+    }
+
+    /// The first term that is not conservative.
+    pub fn non_conservative(&self) -> Option<&'static str> {
+        self.terms.iter().find(|t| !t.conservative()).map(|t| t.name())
+    }
+
+    /// True when some term has an active set.
+    pub fn has_active_set(&self) -> bool {
+        self.terms.iter().any(|t| t.stage() == Stage::Contact)
+    }
+
+    /// Every obstacle of every term.
+    pub fn obstacles(&self) -> Vec<Obstacle> {
+        self.terms.iter().flat_map(|t| t.obstacles().iter().cloned()).collect()
+    }
+
+    /// Every spring of every term.
+    pub fn springs(&self) -> Vec<springs::Spring> {
+        self.terms.iter().flat_map(|t| t.springs().iter().copied()).collect()
+    }
+
+    /// Largest load scale of the terms of `stage` (all stages when `None`).
+    pub fn load_scale(&self, stage: Option<Stage>, length: f64) -> f64 {
+        self.terms
+            .iter()
+            .filter(|t| stage.is_none_or(|s| t.stage() == s))
+            .map(|t| t.load_scale(length))
+            .fold(0.0, f64::max)
+    }
+
+    /// The context of an evaluation with `motion` (`None`: static).
+    pub fn context<'a>(&'a self, motion: Option<Motion<'a>>) -> Context<'a> {
+        Context { fixed: self.pins.flags(), diag: &self.diag, motion }
+    }
+
+    /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x`: the value of each
+    /// part, and what `want` asks into `ws.grad` and `ws.matrix`. Terms with an active set detect it here.
+    /// Fixed nodes' gradient rows are zero afterwards.
+    pub fn assemble(
+        &self,
+        x: &[Vec3],
+        cx: &Context,
+        extra: Option<&dyn Term>,
+        want: Want,
+        ws: &mut Workspace,
+    ) -> Values {
+        ws.grad.fill(Vec3::ZERO);
+        if want.hess.is_some() {
+            ws.matrix.clear();
+        }
+        let mut values = Values::default();
+        let mut energy = 0.0;
+        let mut extra_done = extra.is_none();
+        let mut contact_started = false;
+        for (t, term) in self.terms.iter().enumerate() {
+            if !extra_done && term.stage() > Stage::Inertia {
+                energy = self.run_extra(extra, x, cx, want, ws, energy, &mut values);
+                extra_done = true;
+            }
+            let t0 = (term.stage() == Stage::Contact).then(std::time::Instant::now);
+            if term.stage() == Stage::Contact {
+                if !contact_started {
+                    ws.journal.clear();
+                    ws.base_grad.copy_from_slice(&ws.grad);
+                    contact_started = true;
+                }
+                term.prepare(x, cx, &mut ws.scratch[t]);
+            }
+            energy = self.run_term(t, x, cx, want, ws, energy, &mut values);
+            if let Some(t0) = t0 {
+                ws.contact_seconds += t0.elapsed().as_secs_f64();
+            }
+        }
+        if !extra_done {
+            energy = self.run_extra(extra, x, cx, want, ws, energy, &mut values);
+        }
+        values.total = energy;
+        self.zero_fixed(&mut ws.grad);
+        values
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_term(
+        &self,
+        t: usize,
+        x: &[Vec3],
+        cx: &Context,
+        want: Want,
+        ws: &mut Workspace,
+        energy: f64,
+        values: &mut Values,
+    ) -> f64 {
+        let term = &self.terms[t];
+        let journal = (term.stage() == Stage::Contact).then_some(&mut ws.journal);
+        let (grad, hess) = sink_parts(&mut ws.grad, &mut ws.matrix, want);
+        let mut sink = Sink { grad, hess, energy, journal };
+        let v = term.evaluate(x, cx, &mut ws.scratch[t], &mut sink);
+        let energy = sink.energy;
+        values.add(term.part(), v);
+        values.contacts += term.active(&ws.scratch[t]);
+        energy
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_extra(
+        &self,
+        extra: Option<&dyn Term>,
+        x: &[Vec3],
+        cx: &Context,
+        want: Want,
+        ws: &mut Workspace,
+        energy: f64,
+        values: &mut Values,
+    ) -> f64 {
+        let Some(term) = extra else { return energy };
+        let (grad, hess) = sink_parts(&mut ws.grad, &mut ws.matrix, want);
+        let mut sink = Sink { grad, hess, energy, journal: None };
+        let v = term.evaluate(x, cx, &mut ws.extra, &mut sink);
+        values.add(term.part(), v);
+        sink.energy
+    }
+
+    /// After a solve proposing `x + delta`: refines every active set; if one changed, undoes the contact stage
+    /// of the last assembly (gradient and matrix) and re-applies it with the new sets. Returns true if anything
+    /// changed (the caller solves again).
+    pub fn refine(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, want: Want, ws: &mut Workspace) -> bool {
+        let t0 = std::time::Instant::now();
+        let changed = self.refine_untimed(x, delta, cx, want, ws);
+        ws.contact_seconds += t0.elapsed().as_secs_f64();
+        changed
+    }
+
+    fn refine_untimed(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, want: Want, ws: &mut Workspace) -> bool {
+        let mut changed = false;
+        for (t, term) in self.terms.iter().enumerate() {
+            if term.stage() == Stage::Contact {
+                changed |= term.refine(x, delta, cx, &mut ws.scratch[t]);
+            }
+        }
+        if !changed {
+            return false;
+        }
+        self.undo_contact(ws);
+        let mut energy = 0.0;
+        let mut values = Values::default();
+        for (t, term) in self.terms.iter().enumerate() {
+            if term.stage() == Stage::Contact {
+                energy = self.run_term(t, x, cx, want, ws, energy, &mut values);
+            }
+        }
+        self.zero_fixed(&mut ws.grad);
+        true
+    }
+
+    /// Restores the gradient and the matrix blocks the contact stage changed (last change first).
+    pub fn undo_contact(&self, ws: &mut Workspace) {
+        ws.grad.copy_from_slice(&ws.base_grad);
+        for &(id, blk) in ws.journal.iter().rev() {
+            ws.matrix.blocks[id as usize] = blk;
+        }
+        ws.journal.clear();
+    }
+
+    /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.
+    pub fn violation(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
+        let mut worst: f64 = 0.0;
+        for (t, term) in self.terms.iter().enumerate() {
+            worst = worst.max(term.violation(x, cx, &mut ws.scratch[t]));
+        }
+        worst
+    }
+
+    /// Largest violation over every term at `x` (penetration, m), from cold queries.
+    pub fn violation_cold(&self, x: &[Vec3]) -> f64 {
+        let cx = self.context(None);
+        let mut worst: f64 = 0.0;
+        for term in &self.terms {
+            worst = worst.max(term.violation(x, &cx, &mut Scratch::default()));
+        }
+        worst
+    }
+
+    /// Value of the terms whose part satisfies `which` at `x`, gradient into `grad` (added to, when given);
+    /// no active set is detected (contact terms are skipped).
+    pub fn value_of(&self, x: &[Vec3], which: impl Fn(Part) -> bool, grad: Option<&mut [Vec3]>) -> Values {
+        let cx = self.context(None);
+        let mut values = Values::default();
+        let mut sink = Sink { grad, hess: None, energy: 0.0, journal: None };
+        for term in self.terms.iter().filter(|t| which(t.part()) && t.stage() != Stage::Contact) {
+            let v = term.evaluate(x, &cx, &mut Scratch::default(), &mut sink);
+            values.add(term.part(), v);
+        }
+        values.total = sink.energy;
+        values
+    }
+
+    fn zero_fixed(&self, grad: &mut [Vec3]) {
+        for (g, &f) in grad.iter_mut().zip(self.pins.flags()) {
+            if f {
+                *g = Vec3::ZERO;
+            }
+        }
+    }
+}
+
+fn sink_parts<'a>(
+    grad: &'a mut [Vec3],
+    matrix: &'a mut BlockMatrix,
+    want: Want,
+) -> (Option<&'a mut [Vec3]>, Option<(&'a mut BlockMatrix, Operator)>) {
+    let g = if want.grad { Some(grad) } else { None };
+    let h = want.hess.map(|op| (matrix, op));
+    (g, h)
+}
