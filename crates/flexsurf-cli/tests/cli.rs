@@ -73,3 +73,32 @@ fn cantilever_command() {
         assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");
     }
 }
+
+/// `flexsurf test` has one subcommand per virtual test, and each accepts only its own options: an option of
+/// another test, a missing or unknown test are usage errors (exit code 2) naming what is wrong.
+#[test]
+fn test_options_belong_to_their_test() {
+    for args in [
+        ["kes", "--direction", "weft"],
+        ["kes", "--width", "0.02"],
+        ["kes", "--out", "unused"],
+        ["kes", "--specimens", "2"],
+        ["cantilever", "--specimen", "0.30"],
+        ["cantilever", "--level", "0"],
+        ["cusick", "--direction", "bias"],
+        ["cusick", "--overhang", "0.08"],
+    ] {
+        let (code, stdout, stderr) = flexsurf(&[&["test"][..], &args].concat());
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stdout.is_empty(), "{args:?}: {stdout}");
+        assert!(stderr.contains(&format!("unexpected argument '{}'", args[1])), "{args:?}: {stderr}");
+        assert!(stderr.contains(&format!("flexsurf test {}", args[0])), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let (code, _, stderr) = flexsurf(&["test"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(["kes", "cantilever", "cusick"].iter().all(|t| stderr.contains(t)), "{stderr}");
+    let (code, _, stderr) = flexsurf(&["test", "drape"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("unrecognized subcommand 'drape'"), "{stderr}");
+}

@@ -1,0 +1,81 @@
+//! `flexsurf test`: the virtual textile tests of `flexsurf::lab` as typed subcommands, one module each
+//! ([`kes`], [`cantilever`], [`cusick`]). Each takes the options they all share ([`FabricArgs`]: the material,
+//! the calibration and `--json`, flattened into it) and only its own; this module holds those shared options and
+//! the dispatch.
+
+pub mod cantilever;
+pub mod cusick;
+pub mod kes;
+
+use anyhow::Result;
+use clap::{Subcommand, ValueEnum};
+use flexsurf::material::{Calibration, Fabric};
+use std::path::PathBuf;
+
+/// The virtual tests.
+#[derive(Debug, Subcommand)]
+pub enum TestCommand {
+    /// KES: tension (warp, weft, 45° bias), simple shear and pure bending (warp, weft) on small specimens, solved
+    /// to equilibrium; prints the recovered constants and their errors.
+    Kes(kes::KesArgs),
+    /// The Peirce / ASTM D1388 strip hanging off a ledge; chord angle, tip drop, bending length.
+    Cantilever(cantilever::CantileverArgs),
+    /// The Cusick drape meter (18 cm disc); drape coefficient, nodes, a top-view picture and the mesh.
+    Cusick(cusick::CusickArgs),
+}
+
+/// The options every virtual test takes.
+#[derive(Debug, clap::Args)]
+pub struct FabricArgs {
+    /// Material file (materials/*.toml, SI or KES units); default the paper's non-woven cotton.
+    #[arg(long)]
+    material: Option<PathBuf>,
+    /// Calibration of the energy coefficients.
+    #[arg(long, value_enum, default_value_t = CalibrationArg::Kes)]
+    calibration: CalibrationArg,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum CalibrationArg {
+    Kes,
+    Paper,
+}
+
+impl From<CalibrationArg> for Calibration {
+    fn from(c: CalibrationArg) -> Self {
+        match c {
+            CalibrationArg::Kes => Self::Kes,
+            CalibrationArg::Paper => Self::Paper,
+        }
+    }
+}
+
+impl FabricArgs {
+    /// The fabric of `--material FILE`, or the paper's non-woven cotton, with its display name.
+    fn load(&self) -> Result<(Fabric, String)> {
+        Ok(match &self.material {
+            Some(path) => {
+                let m = flexsurf::scene::material::load_material_file(path)?;
+                (m.fabric, m.name)
+            }
+            None => (Fabric::paper_cotton(), "paper-cotton".to_string()),
+        })
+    }
+
+    /// The chosen calibration.
+    fn calibration(&self) -> Calibration {
+        self.calibration.into()
+    }
+}
+
+/// `flexsurf test <kes|cantilever|cusick>`.
+pub fn execute(test: &TestCommand) -> Result<()> {
+    match test {
+        TestCommand::Kes(args) => kes::execute(args),
+        TestCommand::Cantilever(args) => cantilever::execute(args),
+        TestCommand::Cusick(args) => cusick::execute(args),
+    }
+}
