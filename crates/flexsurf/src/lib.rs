@@ -32,3 +32,5 @@ pub mod sim;
 pub mod sparse;
 pub mod state;
 pub mod surface;
+#[cfg(feature = "testing")]
+pub mod testing;

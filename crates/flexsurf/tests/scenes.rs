@@ -3,7 +3,8 @@
 //! library (atomic outputs, no temporary leftovers, no summary after a diverging run).
 
 use flexsurf::contact::Obstacle;
-use flexsurf::integrate::IntegratorKind;
+use flexsurf::integrate::{Method, Scheme};
+use flexsurf::scene::IntegratorKind;
 use flexsurf::material::Fabric;
 use flexsurf::math::Vec3;
 use flexsurf::model::ModelKind;
@@ -62,19 +63,19 @@ fn ball_drop_builds_the_canonical_scene() {
     assert_eq!((g.m, g.n), (21, 21));
     assert!((g.h1 - 0.05).abs() < 1e-15 && (g.h2 - 0.05).abs() < 1e-15);
     assert_eq!((s.dt, s.steps, s.output_every), (0.01, 300, 100));
-    assert_eq!(s.integrator, IntegratorKind::Linearized);
-    assert_eq!(s.model.elastic.kind, ModelKind::Tfs);
+    assert!(matches!(s.method, Method::Dynamic(p) if p.scheme == Scheme::Linearized && p.dt == 0.01));
+    assert_eq!(s.model.kind, ModelKind::Tfs);
     assert_eq!(s.model.fabric, Fabric::paper_cotton());
-    assert_eq!(s.model.obstacles, vec![Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }]);
+    assert_eq!(s.model.obstacles(), vec![Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }]);
     assert_eq!((s.model.contact.stiffness, s.model.contact.offset, s.model.contact.friction), (1e4, 0.005, 0.3));
     assert_eq!(s.model.gravity, Vec3::new(0.0, 0.0, -9.81));
     assert!(s.state.x.iter().all(|p| (p.z - 0.35).abs() < 1e-15));
     let (lo, hi) = s.state.x.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.x), b.max(p.x)));
     assert!((lo + 0.5).abs() < 1e-15 && (hi - 0.5).abs() < 1e-15);
-    assert!(!s.model.pinned.iter().any(|p| *p) && s.model.springs.is_empty());
+    assert!(!s.model.pinned().iter().any(|p| *p) && s.model.springs().is_empty());
 
     let t = scene::load(&repo().join("scenes/ball_drop_terzopoulos.toml")).unwrap();
-    assert_eq!(t.model.elastic.kind, ModelKind::Terzopoulos);
+    assert_eq!(t.model.kind, ModelKind::Terzopoulos);
     assert_eq!(t.state.x, s.state.x);
 
     let schema = SceneSpec::json_schema().to_string();
@@ -95,16 +96,16 @@ fn pins_springs_materials_and_topology() {
     let path = d.join("features.toml");
     std::fs::write(&path, text).unwrap();
     let s = scene::load(&path).unwrap();
-    assert_eq!(s.model.pinned.iter().filter(|p| **p).count(), 5);
-    assert!(s.model.pinned[s.model.grid.index(4, 4)] && s.model.pinned[s.model.grid.index(2, 2)]);
-    assert_eq!(s.model.springs.len(), 6);
+    assert_eq!(s.model.pinned().iter().filter(|p| **p).count(), 5);
+    assert!(s.model.pinned()[s.model.grid.index(4, 4)] && s.model.pinned()[s.model.grid.index(2, 2)]);
+    assert_eq!(s.model.springs().len(), 6);
     let top = s.model.grid.index(3, 4);
-    let spring = s.model.springs.iter().find(|sp| sp.node == top).unwrap();
+    let spring = s.model.springs().into_iter().find(|sp| sp.node == top).unwrap();
     assert_eq!((spring.target, spring.stiffness), (s.state.x[top], 80.0));
-    assert_eq!(s.model.springs[5].target, Vec3::Z);
+    assert_eq!(s.model.springs()[5].target, Vec3::Z);
     assert_eq!((s.model.fabric.density, s.model.fabric.damping, s.model.fabric.shear), (0.1, 0.5, 10.0));
     assert_eq!(s.material, "cloth");
-    assert_eq!(s.model.obstacles[0], Obstacle::Plane { point: Vec3::new(0.0, 0.0, -1.0), normal: Vec3::Z });
+    assert_eq!(s.model.obstacles()[0], Obstacle::Plane { point: Vec3::new(0.0, 0.0, -1.0), normal: Vec3::Z });
 
     // One periodic direction: a cylinder of circumference L1 about z, stress-free at rest.
     let cyl = format!("{}\n", MINIMAL.replace("nodes = [5, 5]", "nodes = [8, 4]\ntopology = [\"periodic\", \"free\"]"));

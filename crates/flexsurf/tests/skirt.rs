@@ -70,14 +70,14 @@ fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     let m = &s.model;
     assert_eq!((m.grid.m, m.grid.n), (28, 14));
     assert!(m.grid.periodic(0) && !m.grid.periodic(1));
-    assert_eq!(m.springs.len(), 28);
-    for (i, sp) in m.springs.iter().enumerate() {
+    assert_eq!(m.springs().len(), 28);
+    for (i, sp) in m.springs().iter().enumerate() {
         assert_eq!(sp.node, m.grid.index(i, 0), "spring {i} holds a waist node");
         assert_eq!(sp.stiffness, 80.0);
         assert_eq!(sp.target, s.state.x[sp.node], "spring {i} pulls to the initial position");
     }
-    assert_eq!(m.obstacles.len(), 1);
-    assert!(matches!(m.obstacles[0], Obstacle::Nurbs(_)));
+    assert_eq!(m.obstacles().len(), 1);
+    assert!(matches!(m.obstacles()[0], Obstacle::Nurbs(_)));
     assert_eq!(m.contact.stiffness, 120.0);
     assert_eq!((s.dt, s.steps, s.output_every), (0.01, 600, 200));
     // The rest shape is the cone (flat pattern), polygonal with M = 28 sides: each cell is a planar isosceles
@@ -103,11 +103,11 @@ fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     assert!(g.initial_min_distance >= 0.0, "{}", g.initial_min_distance);
     assert!(g.waist_strain.abs() < 0.01, "waist strain {}", g.waist_strain);
     for (k, p) in s.state.x.iter().enumerate() {
-        let (d, _) = contact::closest(&m.obstacles, *p).unwrap();
+        let (d, _) = contact::closest(&m.obstacles(), *p).unwrap();
         assert!(d >= m.contact.offset - 1e-4, "node {:?} at {d} m from the body", m.grid.coords(k));
     }
     for &k in &g.waist_nodes {
-        let (d, _) = contact::closest(&m.obstacles, s.state.x[k]).unwrap();
+        let (d, _) = contact::closest(&m.obstacles(), s.state.x[k]).unwrap();
         assert!((d - m.contact.offset).abs() < 1e-4, "waist node {k} at {d} m, not on the offset surface");
     }
     assert_eq!(flexsurf::integrate::max_penetration(m, &s.state.x), 0.0);
@@ -174,7 +174,7 @@ fn body_files_load_relative_to_the_scene_and_match_the_builtin() {
     std::fs::write(&path, &text).unwrap();
     let from_file = scene::load(&path).unwrap();
     let builtin = SceneSpec::from_toml(GARMENT, Path::new("builtin.toml")).unwrap().build(&path).unwrap();
-    assert_eq!(from_file.model.obstacles, builtin.model.obstacles);
+    assert_eq!(from_file.model.obstacles(), builtin.model.obstacles());
     assert_eq!(from_file.state.x, builtin.state.x);
 
     // A closed triangle mesh (a cube 1 m on a side below the skirt) from an OBJ file.
@@ -187,7 +187,7 @@ fn body_files_load_relative_to_the_scene_and_match_the_builtin() {
     let path = d.join("mesh.toml");
     std::fs::write(&path, text.replace(r#"waist_fit = "body""#, "")).unwrap();
     let s = scene::load(&path).unwrap();
-    assert!(matches!(s.model.obstacles[0], Obstacle::Mesh(_)));
+    assert!(matches!(s.model.obstacles()[0], Obstacle::Mesh(_)));
     assert_eq!(s.garment.unwrap().waist_fitted, 0, "the box is far below the waist");
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -209,7 +209,7 @@ impl Term for PenaltyContact {
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
     }
 
-    fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let s = self.scratch(scratch);
         let mut total = 0.0;
         for c in &s.contacts {
@@ -219,15 +219,20 @@ impl Term for PenaltyContact {
         }
         for c in &s.contacts {
             let k = c.node;
+            // Friction from the step's start velocity is a constant force within the step: its potential
+            // `−f·y` keeps the step's incremental potential exact (it is not a contact energy).
+            let force = match cx.motion {
+                Some(m) if !cx.fixed[k] => {
+                    let v = (m.x[k] - m.x_prev[k]) / m.dt;
+                    let f = friction(c, self.params.friction, v, m.mass[k], m.dt);
+                    sink.energy -= f.dot(y[k]);
+                    c.force_vector() + f
+                }
+                _ => c.force_vector(),
+            };
             if let Some(g) = sink.grad.as_deref_mut() {
                 if !cx.fixed[k] {
-                    g[k] -= match cx.motion {
-                        Some(m) => {
-                            let v = (m.x[k] - m.x_prev[k]) / m.dt;
-                            c.force_vector() + friction(c, self.params.friction, v, m.mass[k], m.dt)
-                        }
-                        None => c.force_vector(),
-                    };
+                    g[k] -= force;
                 }
             }
             sink.add_block(cx.diag[k], k, k, c.stiffness_block());

@@ -1,0 +1,121 @@
+//! Test support (feature `testing`): the one finite-difference checker of the crate, used by every derivative
+//! test in `tests/` over every term of the potential, alone or assembled, with or without the step's inertia.
+//!
+//! [`check`] compares, on the free degrees of freedom, the gradient with central differences of the value, and
+//! the assembled Hessian approximation with central differences of the gradient, each relative to the largest
+//! entry; it refuses a vacuous check (a gradient that is identically zero).
+
+use crate::energy::Operator;
+use crate::math::Vec3;
+use crate::potential::{Motion, Potential, Term, Want, Workspace};
+
+/// The worst relative errors found by [`check`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FdReport {
+    /// Largest `|FD(value) − gradient|` over free dofs, relative to the largest gradient entry.
+    pub gradient_error: f64,
+    /// The dof of that error (`3·node + component`).
+    pub gradient_dof: usize,
+    /// Largest `|FD(gradient) − Hessian|` over free dof pairs, relative to the largest Hessian entry.
+    pub hessian_error: f64,
+    /// The `(row, column)` dofs of that error.
+    pub hessian_entry: (usize, usize),
+    /// Largest gradient entry.
+    pub gradient_norm: f64,
+    /// Largest Hessian entry.
+    pub hessian_norm: f64,
+}
+
+impl FdReport {
+    /// Panics with `name` and the worst entries unless both errors are below `tol` and the gradient is not
+    /// identically zero.
+    pub fn assert_below(&self, name: &str, tol: f64) {
+        assert!(self.gradient_norm > 0.0, "{name}: the gradient is identically zero; the check would be vacuous");
+        assert!(
+            self.gradient_error < tol,
+            "{name}: gradient error {:.2e} at dof {} (tolerance {tol:.0e})",
+            self.gradient_error,
+            self.gradient_dof
+        );
+        assert!(
+            self.hessian_error < tol,
+            "{name}: Hessian error {:.2e} at entry {:?} (tolerance {tol:.0e})",
+            self.hessian_error,
+            self.hessian_entry
+        );
+    }
+}
+
+/// Value and gradient of `potential` (plus `extra`) at `x`, from a cold workspace.
+fn value_gradient(
+    potential: &Potential,
+    ws: &mut Workspace,
+    x: &[Vec3],
+    motion: Option<Motion>,
+    extra: Option<&dyn Term>,
+) -> (f64, Vec<Vec3>) {
+    ws.cold();
+    let v = potential.assemble(x, &potential.context(motion), extra, Want::GRADIENT, ws);
+    (v.total, ws.grad.clone())
+}
+
+/// Finite-difference check of `potential` (and `extra`, an integrator's term such as the inertia, with the step's
+/// `motion`) at `x` with the Hessian approximation `op`, step `1e-6` relative to the size of `x`.
+pub fn check(
+    potential: &Potential,
+    x: &[Vec3],
+    motion: Option<Motion>,
+    extra: Option<&dyn Term>,
+    op: Operator,
+) -> FdReport {
+    let n = x.len();
+    let mut ws = Workspace::new(potential);
+    let (_, g) = value_gradient(potential, &mut ws, x, motion, extra);
+    ws.cold();
+    potential.assemble(x, &potential.context(motion), extra, Want { grad: false, hess: Some(op) }, &mut ws);
+    let dense = ws.matrix.to_dense(potential.pattern());
+    let fixed = potential.fixed();
+    let free: Vec<usize> = (0..3 * n).filter(|d| !fixed[d / 3]).collect();
+    let gradient_norm = free.iter().map(|&d| g[d / 3][d % 3].abs()).fold(0.0, f64::max);
+    let hessian_norm = free
+        .iter()
+        .flat_map(|&r| free.iter().map(move |&c| (r, c)))
+        .map(|(r, c)| dense[r][c].abs())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let scale = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(1e-3);
+    let eps = 1e-6 * scale;
+    let mut report = FdReport {
+        gradient_error: 0.0,
+        gradient_dof: 0,
+        hessian_error: 0.0,
+        hessian_entry: (0, 0),
+        gradient_norm,
+        hessian_norm,
+    };
+    for &dof in &free {
+        let (k, c) = (dof / 3, dof % 3);
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[k][c] += eps;
+        xm[k][c] -= eps;
+        let (vp, gp) = value_gradient(potential, &mut ws, &xp, motion, extra);
+        let (vm, gm) = value_gradient(potential, &mut ws, &xm, motion, extra);
+        let err = ((vp - vm) / (2.0 * eps) - g[k][c]).abs() / gradient_norm.max(f64::MIN_POSITIVE);
+        if err > report.gradient_error {
+            (report.gradient_error, report.gradient_dof) = (err, dof);
+        }
+        for &r in &free {
+            let fd = (gp[r / 3][r % 3] - gm[r / 3][r % 3]) / (2.0 * eps);
+            let err = (fd - dense[r][dof]).abs() / hessian_norm;
+            if err > report.hessian_error {
+                (report.hessian_error, report.hessian_entry) = (err, (r, dof));
+            }
+        }
+    }
+    report
+}
+
+/// A potential of the single term `term` on `n` nodes, no node fixed.
+pub fn alone(n: usize, term: Box<dyn Term>) -> Potential {
+    Potential::new(n, vec![term], crate::potential::Pins::none(n))
+}
