@@ -4,12 +4,12 @@
 
 use flexsurf::contact::Obstacle;
 use flexsurf::integrate::{Method, Scheme};
-use flexsurf::scene::IntegratorKind;
 use flexsurf::material::Fabric;
 use flexsurf::math::Vec3;
 use flexsurf::model::ModelKind;
 use flexsurf::scene::material::load_material_file;
 use flexsurf::scene::run::run_scene;
+use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{self, SceneError, SceneSpec};
 use std::path::{Path, PathBuf};
 

@@ -5,8 +5,8 @@ use super::shared::{print_table, run_built};
 use anyhow::Result;
 use clap::ValueEnum;
 use flexsurf::integrate::linsolve::SolverKind;
-use flexsurf::scene::IntegratorKind;
 use flexsurf::model::ModelKind;
+use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{FrameFormat, SceneSpec};
 use std::path::PathBuf;
 

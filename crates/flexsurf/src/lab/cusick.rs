@@ -101,7 +101,31 @@ pub fn cusick_specimen(
     let s = Stiffness::calibrate(fabric, calibration)?;
     let (rd, rs) = (0.5 * DISC, 0.5 * specimen);
     let hr = (rs - rd) / radial as f64;
-    let m = radial + 2;
+    let ring = Annulus { rd, rs, hr };
+    let (model, start) = clamped_specimen(fabric, s, &ring, radial + 2, angular, index)?;
+    let (x, steps) = relax(fabric, &model, start)?;
+    Ok(measure(model, x, &ring, specimen, steps))
+}
+
+/// The specimen's annulus on the polar grid: disc radius `rd`, specimen radius `rs`, radial cell `hr` (m).
+#[derive(Clone, Copy)]
+struct Annulus {
+    rd: f64,
+    rs: f64,
+    hr: f64,
+}
+
+/// The flat specimen on an `m × angular` polar grid, its inner two rings clamped, and the start positions: a
+/// small droop with a many-mode wobble of the hem whose phases depend on `index`.
+fn clamped_specimen(
+    fabric: &Fabric,
+    s: Stiffness,
+    ring: &Annulus,
+    m: usize,
+    angular: usize,
+    index: usize,
+) -> Result<(Model, Vec<Vec3>), LabError> {
+    let Annulus { rd, rs, hr } = *ring;
     let grid = Grid::new(m, angular, hr, 2.0 * PI / angular as f64, [Topology::Free, Topology::Periodic])
         .expect("valid polar grid");
     let radius = |i: usize| rd - hr + i as f64 * hr;
@@ -132,6 +156,11 @@ pub fn cusick_specimen(
             *p + Vec3::new(0.0, 0.0, -0.01 * sr * sr * (1.0 + 0.5 * wobble))
         })
         .collect();
+    Ok((model, start))
+}
+
+/// Damped implicit dynamics of `model` from `start` to rest; returns the positions and the steps taken.
+fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>, usize), LabError> {
     // Damped dynamics towards rest (heavy damping: the path does not matter, the drape does).
     let mut dyn_model = model.clone();
     let damping = 5.0 * fabric.density; // 1/s · kg/m²
@@ -150,7 +179,13 @@ pub fn cusick_specimen(
             break;
         }
     }
-    let x = state.x;
+    Ok((state.x, steps))
+}
+
+/// The drape `x` of `model` with its report: equilibrium residual, shadow, drape coefficient and folds.
+fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usize) -> Drape {
+    let Annulus { rd, rs, hr } = *ring;
+    let (grid, m, angular) = (model.grid, model.grid.m, model.grid.n);
     // Equilibrium residual: largest nodal force imbalance relative to the largest nodal weight.
     let mut g = vec![Vec3::ZERO; x.len()];
     StaticSolver::potential(&model, &x, Some(&mut g));
@@ -171,7 +206,7 @@ pub fn cusick_specimen(
         steps,
         residual,
     };
-    Ok(Drape { report, model, x })
+    Drape { report, model, x }
 }
 
 /// Local maxima of the (periodic) hem radius, after a 3-point smoothing, that stand out by more than 2% of the

@@ -12,6 +12,7 @@
 //! The bias test is reported against the orthotropic prediction
 //! `1/E(45°) = ¼ (1/E1 + 1/E2 + 1/G − 2ν12/E1)`.
 
+use super::dense::{det3, with_column};
 use super::LabError;
 use crate::grid::Grid;
 use crate::integrate::statics::{StaticOptions, StaticSolver};
@@ -204,15 +205,7 @@ fn parabola(pts: &[(f64, f64)]) -> f64 {
         }
     }
     // Cramer's rule on the 3×3 normal equations.
-    let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let mut a0 = a;
-    for i in 0..3 {
-        a0[i][0] = r[i];
-    }
-    det(&a0) / det(&a)
+    det3(&with_column(&a, 0, r)) / det3(&a)
 }
 
 #[cfg(test)]

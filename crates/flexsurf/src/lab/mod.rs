@@ -5,6 +5,8 @@ pub mod cantilever;
 pub mod cusick;
 pub mod kes;
 
+mod dense;
+
 use crate::integrate::statics::StaticError;
 use crate::material::MaterialError;
 use thiserror::Error;

@@ -1,0 +1,194 @@
+//! The cantilever bending test (ASTM D1388 / Peirce): a strip clamped level on a ledge, hanging under its own
+//! weight. The chord from the ledge edge to the tip makes the angle θ below horizontal; the overhang at which
+//! θ = 41.5° is twice the bending length `c`, and the rigidity it implies is `w c³`.
+//!
+//! The strip ([`Strip`]: 2 cm wide by default, 3 nodes across) is clamped by pinning its first two node columns
+//! and solved to static equilibrium on two grids (64 and 128 cells over the overhang), Newton starting from the
+//! elastica and the coarse solution starting the fine one; the clamp's discretisation error is first order in
+//! `h`, so the reported angle is the Richardson extrapolation `2 θ₁₂₈ − θ₆₄`. The reference is the inextensible
+//! heavy elastica `K θ'' = −w (L − s) cos θ`, `θ(0) = 0`, `θ'(L) = 0` ([`Elastica`]) with `K` = K1, K2, or on the
+//! 45° bias the free narrow strip's rigidity ([`strip_rigidity`]; a clamped strip of finite width is stiffer,
+//! up to [`plate_rigidity`]).
+//!
+//! This module is the procedure: the specimen, the search for the bending length and the report. The plate
+//! solve of the strip is in `plate`, the rigidities it is compared with in `rigidity`, the hanging strip's
+//! meshes in `hang`; the independent references, the planar [`Elastica`] and the Kirchhoff rod
+//! ([`rod_chord_deg`]), are in `elastica` and `rod`, both integrated by the one fixed-step RK4 in `rk4`.
+
+mod elastica;
+mod hang;
+mod plate;
+mod rigidity;
+mod rk4;
+mod rod;
+
+pub use elastica::{elastica_chord_deg, Elastica};
+pub use hang::Hang;
+pub use rigidity::{plate_rigidity, strip_rigidity, strip_stiffness};
+pub use rod::rod_chord_deg;
+
+use super::LabError;
+use crate::lab::dense::Mat3;
+use crate::material::{Calibration, Fabric, Stiffness};
+use plate::{extrapolated, solve_pair};
+use serde::Serialize;
+
+/// Standard gravity of the test (m/s²).
+pub const G: f64 = 9.80665;
+/// The Peirce chord angle (degrees).
+pub const PEIRCE_ANGLE: f64 = 41.5;
+
+/// Which way the strip is cut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    /// Along the warp (rigidity K1).
+    Warp,
+    /// Along the weft (rigidity K2).
+    Weft,
+    /// At 45° to both (rigidity: the orthotropic narrow-strip prediction, [`strip_rigidity`]).
+    Bias,
+}
+
+/// Secant iteration on ln L for `f(L) = 0` (`f` = chord angle − 41.5°), from `(l0, f0)` and `1.05 l0`: at most
+/// `iterations` updates, stopping when `|f| < tol` or two values differ by less than `flat` (degrees). Returns
+/// the last L.
+fn secant_on_log<E>(
+    (mut l0, mut f0): (f64, f64),
+    iterations: usize,
+    (tol, flat): (f64, f64),
+    mut f: impl FnMut(f64) -> Result<f64, E>,
+) -> Result<f64, E> {
+    let mut l1 = l0 * 1.05;
+    let mut f1 = f(l1)?;
+    for _ in 0..iterations {
+        if (f1 - f0).abs() < flat || f1.abs() < tol {
+            break;
+        }
+        let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
+        (l0, f0) = (l1, f1);
+        l1 = next;
+        f1 = f(l1)?;
+    }
+    Ok(l1)
+}
+
+/// The overhang (m) at which the Kirchhoff rod of stiffness `c` ([`rod_chord_deg`]) hangs at 41.5°, from `guess`.
+fn rod_peirce_length(c: &Mat3, w: f64, guess: f64) -> f64 {
+    let f = |l: f64| rod_chord_deg(c, w, l) - PEIRCE_ANGLE;
+    let Ok(l) = secant_on_log((guess, f(guess)), 30, (1e-9, 1e-14), |l| Ok::<f64, std::convert::Infallible>(f(l)));
+    l
+}
+
+/// The specimen of one cantilever test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Strip {
+    /// Which way it is cut.
+    pub direction: Direction,
+    /// Width (m); ASTM D1388 uses 25 mm.
+    pub width: f64,
+}
+
+impl Strip {
+    /// Default width (m).
+    pub const WIDTH: f64 = 0.02;
+    /// Nodes across the width.
+    pub const ACROSS: usize = 3;
+
+    /// A strip of the default width.
+    pub fn new(direction: Direction) -> Self {
+        Self { direction, width: Self::WIDTH }
+    }
+}
+
+/// What the test reports.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CantileverReport {
+    /// Direction of the strip.
+    pub direction: Direction,
+    /// Strip width (m).
+    pub width: f64,
+    /// Overhang L (m).
+    pub overhang: f64,
+    /// Chord angle below horizontal (degrees), grid-extrapolated.
+    pub chord_angle_deg: f64,
+    /// Chord angle on the finer grid alone (degrees).
+    pub chord_angle_fine_deg: f64,
+    /// Tip drop below the ledge (m), finer grid.
+    pub tip_drop: f64,
+    /// The exact heavy elastica's chord angle at this overhang for the input rigidity (degrees).
+    pub elastica_deg: f64,
+    /// Bending length c = L(41.5°)/2 (m).
+    pub bending_length: f64,
+    /// Rigidity implied by the bending length, `w c³` (N·m).
+    pub implied_rigidity: f64,
+    /// The rigidity the strip should show (N·m): the input K1 or K2, on the bias [`strip_rigidity`].
+    pub input_rigidity: f64,
+    /// On the bias, the wide-plate rigidity `D'₁₁` (N·m), the upper bound of what a clamped strip of finite
+    /// width shows (see [`plate_rigidity`]); along warp or weft the same as `input_rigidity`.
+    pub plate_rigidity: f64,
+    /// The chord angle (degrees) at this overhang of the narrow-strip, large-deflection reference: the
+    /// bend–twist coupled Kirchhoff rod ([`rod_chord_deg`]); along warp or weft it is the planar elastica's.
+    pub rod_chord_deg: f64,
+    /// The bending length (m) of that rod: half the overhang at which it hangs at 41.5°.
+    pub rod_bending_length: f64,
+}
+
+/// Runs the cantilever test on `strip`, at `overhang` (default: the Peirce length of the input).
+pub fn cantilever(
+    fabric: &Fabric,
+    calibration: Calibration,
+    strip: Strip,
+    overhang: Option<f64>,
+) -> Result<CantileverReport, LabError> {
+    cantilever_with_hang(fabric, calibration, strip, overhang).map(|(report, _)| report)
+}
+
+/// As [`cantilever`], with the strip as it hangs at the reported overhang (for pictures and meshes).
+pub fn cantilever_with_hang(
+    fabric: &Fabric,
+    calibration: Calibration,
+    strip: Strip,
+    overhang: Option<f64>,
+) -> Result<(CantileverReport, Hang), LabError> {
+    if !(strip.width.is_finite() && strip.width > 0.0) {
+        return Err(LabError::Input(format!("strip width {} m must be a positive length", strip.width)));
+    }
+    let s = Stiffness::calibrate(fabric, calibration)?;
+    let w = fabric.density * G;
+    let k = strip_rigidity(fabric, strip.direction)?;
+    let peirce = 2.0 * (k / w).cbrt();
+    // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
+    let at_peirce = solve_pair(fabric, &s, strip, peirce)?;
+    let l_peirce = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), 8, (1e-6, 1e-12), |l| {
+        extrapolated(fabric, &s, strip, l).map(|r| r.0 - PEIRCE_ANGLE)
+    })?;
+    let c = 0.5 * l_peirce;
+    let l = overhang.unwrap_or(peirce);
+    let (angle, fine, drop, columns) = if overhang.is_some() { solve_pair(fabric, &s, strip, l)? } else { at_peirce };
+    let elastica = Elastica::new(w * l.powi(3) / k);
+    let rod = strip_stiffness(fabric, strip.direction)?;
+    let report = CantileverReport {
+        direction: strip.direction,
+        width: strip.width,
+        overhang: l,
+        chord_angle_deg: angle,
+        chord_angle_fine_deg: fine,
+        tip_drop: drop,
+        elastica_deg: elastica.chord_deg(),
+        bending_length: c,
+        implied_rigidity: w * c.powi(3),
+        input_rigidity: k,
+        plate_rigidity: plate_rigidity(fabric, strip.direction)?,
+        rod_chord_deg: rod_chord_deg(&rod, w, l),
+        rod_bending_length: 0.5 * rod_peirce_length(&rod, w, peirce),
+    };
+    Ok((report, Hang { overhang: l, width: strip.width, columns, elastica }))
+}
+
+/// The grid-extrapolated chord angle (degrees) of `strip` with overhang `l`, without the search for the
+/// bending length: (extrapolated, finest grid) angles.
+pub fn chord_angle(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f64) -> Result<(f64, f64), LabError> {
+    let s = Stiffness::calibrate(fabric, calibration)?;
+    extrapolated(fabric, &s, strip, l).map(|(a, f, _)| (a, f))
+}
