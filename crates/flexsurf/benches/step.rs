@@ -12,9 +12,9 @@ fn ball_drop_300_steps(c: &mut Criterion) {
     g.bench_function("21x21_300_steps", |b| {
         b.iter(|| {
             let mut state = scene.state.clone();
-            let mut st = Stepper::new(&scene.model, scene.integrator, scene.solver).expect("stepper");
+            let mut st = Stepper::new(&scene.model, &scene.step_params()).expect("stepper");
             for _ in 0..300 {
-                st.step(&scene.model, &mut state, scene.dt).expect("stable step");
+                st.step(&scene.model, &mut state).expect("stable step");
             }
             state
         })
@@ -29,14 +29,14 @@ fn single_step(c: &mut Criterion) {
         let scene = ball_drop(n).expect("embedded scene builds");
         // Time a step in the middle of the drape (after the impact).
         let mut state = scene.state.clone();
-        let mut st = Stepper::new(&scene.model, scene.integrator, scene.solver).expect("stepper");
+        let mut st = Stepper::new(&scene.model, &scene.step_params()).expect("stepper");
         for _ in 0..30 {
-            st.step(&scene.model, &mut state, scene.dt).expect("stable step");
+            st.step(&scene.model, &mut state).expect("stable step");
         }
         g.bench_function(format!("{n}x{n}"), |b| {
             b.iter(|| {
                 let mut s = state.clone();
-                st.step(&scene.model, &mut s, scene.dt).expect("stable step");
+                st.step(&scene.model, &mut s).expect("stable step");
                 s
             })
         });

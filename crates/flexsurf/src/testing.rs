@@ -119,3 +119,15 @@ pub fn check(
 pub fn alone(n: usize, term: Box<dyn Term>) -> Potential {
     Potential::new(n, vec![term], crate::potential::Pins::none(n))
 }
+
+/// The elastic terms alone (membrane and bending, or the Terzopoulos force) of a sheet on `grid` with rest shape
+/// `rest`, warp along `u1`, no node fixed.
+pub fn elastic(
+    grid: &crate::grid::Grid,
+    rest: &[Vec3],
+    stiffness: &crate::material::Stiffness,
+    kind: crate::model::ModelKind,
+) -> Potential {
+    let terms = crate::potential::elastic::terms(grid, rest, stiffness, kind, &Default::default());
+    Potential::new(grid.len(), terms, crate::potential::Pins::none(grid.len()))
+}

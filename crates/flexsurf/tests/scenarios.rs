@@ -4,14 +4,15 @@
 //! the continuous solution, rigid-motion invariance, the canonical ball drop and the lagged scheme's stability
 //! limits, and grid convergence of the pure-bending energy.
 
-use flexsurf::contact::{ContactParams, Obstacle};
-use flexsurf::energy::{terzopoulos, Energy, Sink};
+use flexsurf::contact::Obstacle;
+use flexsurf::energy::{Sink, bending::Bending, membrane::Membrane, terzopoulos};
+use flexsurf::potential::contact::ContactParams;
 use flexsurf::grid::{Grid, Topology};
 use flexsurf::integrate::statics::{StaticOptions, StaticSolver};
-use flexsurf::integrate::{linsolve::SolverKind, IntegratorKind, StepError, Stepper};
+use flexsurf::integrate::{Scheme, StepError, StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
-use flexsurf::model::{Model, ModelKind};
+use flexsurf::model::{Model, ModelBuilder, ModelKind};
 use flexsurf::state::State;
 use rand::{Rng, SeedableRng};
 use std::ops::ControlFlow;
@@ -81,11 +82,12 @@ fn cantilever_chord_deg(calibration: Calibration, weft: bool, overhang: f64, m_a
             rest[node(i, a)] = Vec3::new((i as f64 - 1.0) * h, a as f64 * hw - 0.5 * width, 0.0);
         }
     }
-    let mut model = Model::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    let mut model = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
     for a in 0..n_across {
         model.pinned[node(0, a)] = true;
         model.pinned[node(1, a)] = true;
     }
+    let model = model.build().unwrap();
     // A slightly bent start (z = −0.01 s²) so Newton does not start exactly at the flat state.
     let mut x: Vec<Vec3> = rest
         .iter()
@@ -200,12 +202,12 @@ fn hanging_sheet(lambda: f64, kind: ModelKind) -> (Model, State) {
     let stiffness = Stiffness::calibrate(&base, Calibration::Kes).unwrap().scaled(lambda);
     let grid = Grid::sheet(9, 9, 0.5 * lambda, 0.5 * lambda).unwrap();
     let rest = grid.flat_positions(0.0);
-    let mut model = Model::new(grid, rest.clone(), fabric, stiffness, kind, Vec3::new(0.0, 0.0, -G * lambda));
+    let mut model = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, kind, Vec3::new(0.0, 0.0, -G * lambda));
     model.pinned[grid.index(0, 0)] = true;
     model.pinned[grid.index(8, 0)] = true;
     model.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.2), normal: Vec3::Z }.scaled(lambda).unwrap());
     model.contact = ContactParams { stiffness: 1e4 / l2, offset: 0.005 * lambda, friction: 0.3 };
-    (model, State::at_rest(rest))
+    (model.build().unwrap(), State::at_rest(rest))
 }
 
 /// Largest nodal difference between the metre run and the scaled run (divided by λ), relative to the sheet size,
@@ -214,13 +216,13 @@ fn unit_change_deviation(kind: ModelKind, lambda: f64, steps: usize) -> Vec<f64>
     let (dt, size) = (0.01, 0.5);
     let (m1, mut s1) = hanging_sheet(1.0, kind);
     let (m2, mut s2) = hanging_sheet(lambda, kind);
-    let mut st1 = Stepper::new(&m1, IntegratorKind::Linearized, SolverKind::Cholesky).unwrap();
-    let mut st2 = Stepper::new(&m2, IntegratorKind::Linearized, SolverKind::Cholesky).unwrap();
+    let mut st1 = Stepper::new(&m1, &StepParams::with_dt(dt)).unwrap();
+    let mut st2 = Stepper::new(&m2, &StepParams::with_dt(dt)).unwrap();
     let mut dev = Vec::new();
     let mut touched = false;
     for _ in 0..steps {
-        let i1 = st1.step(&m1, &mut s1, dt).unwrap();
-        let i2 = st2.step(&m2, &mut s2, dt).unwrap();
+        let i1 = st1.step(&m1, &mut s1).unwrap();
+        let i2 = st2.step(&m2, &mut s2).unwrap();
         if kind == ModelKind::Tfs {
             assert_eq!(i1.contacts, i2.contacts);
         }
@@ -280,15 +282,17 @@ fn damped_free_fall_follows_the_recurrence() {
     let grid = Grid::sheet(7, 5, 0.3, 0.2).unwrap();
     let z0 = 1.0;
     let start = grid.flat_positions(z0);
-    let model = Model::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G))
+        .build()
+        .unwrap();
     let mut state = State::at_rest(start.clone());
-    let mut stepper = Stepper::new(&model, IntegratorKind::Linearized, SolverKind::Cholesky).unwrap();
     let (dt, steps) = (0.01, 100);
+    let mut stepper = Stepper::new(&model, &StepParams::with_dt(dt)).unwrap();
     let reference = free_fall_recurrence(fabric.density, fabric.damping, -G, z0, dt, steps);
     let mut worst_rel: f64 = 0.0;
     let mut worst_strain: f64 = 0.0;
     for zr in &reference {
-        stepper.step(&model, &mut state, dt).unwrap();
+        stepper.step(&model, &mut state).unwrap();
         let fall = (zr - z0).abs();
         for (k, p) in state.x.iter().enumerate() {
             worst_rel = worst_rel.max((p.z - zr).abs() / fall);
@@ -328,16 +332,18 @@ fn damped_free_fall_follows_the_recurrence() {
 /// Largest membrane and bending gradient entries and the energies at `x`, each term separately.
 fn gradient_parts(model: &Model, x: &[Vec3]) -> (f64, f64, f64, f64) {
     let n = x.len();
+    let s = &model.stiffness;
     let mut gm = vec![Vec3::ZERO; n];
-    let em = model.elastic.membrane.evaluate(x, &mut Sink::grad(&mut gm));
+    let em = Membrane::new(&model.grid, &model.rest, s).evaluate(x, &mut Sink::grad(&mut gm));
     let mut gb = vec![Vec3::ZERO; n];
-    let eb = match model.elastic.kind {
-        ModelKind::Tfs => model.elastic.bending.evaluate(x, &mut Sink::grad(&mut gb)),
-        ModelKind::Terzopoulos => terzopoulos::bending(&model.elastic.bending, x, &mut Sink::grad(&mut gb)),
+    let bending = Bending::new(&model.grid, &model.rest, s);
+    let eb = match model.kind {
+        ModelKind::Tfs => bending.evaluate(x, &mut Sink::grad(&mut gb)),
+        ModelKind::Terzopoulos => terzopoulos::bending(&bending, x, &mut Sink::grad(&mut gb)),
     };
-    // The combined evaluation must be the sum of its parts.
+    // The combined evaluation (the model's elastic terms) must be the sum of its parts.
     let mut g = vec![Vec3::ZERO; n];
-    let e = model.elastic.evaluate(x, &mut Sink::grad(&mut g));
+    let e = model.elastic(x, Some(&mut g));
     for k in 0..n {
         assert!((g[k] - gm[k] - gb[k]).length() <= 1e-12 * (gm[k].length() + gb[k].length() + 1e-300));
     }
@@ -375,7 +381,7 @@ fn rigid_motions_give_zero_elastic_force() {
         let membrane_scale = s.a11 * grid.h1.min(grid.h2) * 1e-3;
         let bending_scale = s.d11 * 1.0;
         for kind in [ModelKind::Tfs, ModelKind::Terzopoulos] {
-            let model = Model::new(grid, rest.clone(), fabric, s, kind, Vec3::ZERO);
+            let model = ModelBuilder::new(grid, rest.clone(), fabric, s, kind, Vec3::ZERO).build().unwrap();
             for trial in 0..3 {
                 let x = random_rigid_motion(&mut rng, &rest);
                 let (gm, gb, em, eb) = gradient_parts(&model, &x);
@@ -408,20 +414,20 @@ fn ball_drop() -> (Model, State) {
     let fabric = Fabric::paper_cotton();
     let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
     let rest = grid.flat_positions(0.0);
-    let mut model = Model::new(grid, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    let mut model = ModelBuilder::new(grid, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
     model.obstacles.push(Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 });
     model.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3 };
     let start = rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.35)).collect();
-    (model, State::at_rest(start))
+    (model.build().unwrap(), State::at_rest(start))
 }
 
 /// Runs the canonical ball drop (linearised, Δt = 0.01 s, 300 steps); returns the final state and, per step, the
 /// max strain and the penetration below the sphere's surface.
 fn run_ball_drop() -> (Model, State, Vec<(f64, f64)>) {
     let (model, mut state) = ball_drop();
-    let mut stepper = Stepper::new(&model, IntegratorKind::Linearized, SolverKind::Cholesky).unwrap();
+    let mut stepper = Stepper::new(&model, &StepParams::with_dt(0.01)).unwrap();
     let mut history = Vec::new();
-    let stats = flexsurf::sim::run(&model, &mut state, &mut stepper, 0.01, 300, |st, info| {
+    let stats = flexsurf::sim::run(&model, &mut state, &mut stepper, 300, |st, info| {
         history.push((model.max_strain(&st.x), info.max_penetration));
         ControlFlow::Continue(())
     })
@@ -465,8 +471,9 @@ fn ball_drop_strain_stays_below_two_percent() {
 #[test]
 fn lagged_scheme_diverges_at_demo_step_and_says_so() {
     let (model, mut state) = ball_drop();
-    let mut stepper = Stepper::new(&model, IntegratorKind::Lagged, SolverKind::Cholesky).unwrap();
-    let r = flexsurf::sim::run(&model, &mut state, &mut stepper, 0.01, 100, |_, _| ControlFlow::Continue(()));
+    let params = StepParams { scheme: Scheme::Lagged, ..StepParams::with_dt(0.01) };
+    let mut stepper = Stepper::new(&model, &params).unwrap();
+    let r = flexsurf::sim::run(&model, &mut state, &mut stepper, 100, |_, _| ControlFlow::Continue(()));
     match r {
         Err(e @ StepError::Diverged { step, .. }) => {
             let msg = e.to_string();
@@ -485,19 +492,20 @@ fn lagged_scheme_is_stable_at_a_small_step_and_agrees() {
     let fabric = Fabric::paper_cotton();
     let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
     let rest = grid.flat_positions(0.0);
-    let mut model = Model::new(grid, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    let mut model = ModelBuilder::new(grid, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
     model.pinned[grid.index(0, 0)] = true;
     model.pinned[grid.index(20, 0)] = true;
+    let model = model.build().unwrap();
     let (dt, steps) = (5e-5, 200);
-    let run = |kind| {
+    let run = |scheme| {
         let mut state = State::at_rest(rest.clone());
-        let mut stepper = Stepper::new(&model, kind, SolverKind::Cholesky).unwrap();
-        flexsurf::sim::run(&model, &mut state, &mut stepper, dt, steps, |_, _| ControlFlow::Continue(()))
-            .unwrap_or_else(|e| panic!("{kind:?} at dt = {dt}: {e}"));
+        let mut stepper = Stepper::new(&model, &StepParams { scheme, ..StepParams::with_dt(dt) }).unwrap();
+        flexsurf::sim::run(&model, &mut state, &mut stepper, steps, |_, _| ControlFlow::Continue(()))
+            .unwrap_or_else(|e| panic!("{scheme:?} at dt = {dt}: {e}"));
         state
     };
-    let lagged = run(IntegratorKind::Lagged);
-    let linear = run(IntegratorKind::Linearized);
+    let lagged = run(Scheme::Lagged);
+    let linear = run(Scheme::Linearized);
     let diff = lagged.x.iter().zip(&linear.x).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
     let fall = rest.iter().zip(&linear.x).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
     let strain = model.max_strain(&lagged.x);
@@ -518,7 +526,7 @@ fn bent_cylinder_energies(m: usize, l1: f64, l2: f64, r: f64) -> (f64, f64, f64)
     let fabric = Fabric::paper_cotton();
     let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
     let grid = Grid::sheet(m, 5, l1, l2).unwrap();
-    let model = Model::new(grid, grid.flat_positions(0.0), fabric, s, ModelKind::Tfs, Vec3::ZERO);
+    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, s, ModelKind::Tfs, Vec3::ZERO).build().unwrap();
     let phi = 2.0 * (grid.h1 / (2.0 * r)).asin();
     let x: Vec<Vec3> = (0..grid.len())
         .map(|k| {
@@ -527,7 +535,7 @@ fn bent_cylinder_energies(m: usize, l1: f64, l2: f64, r: f64) -> (f64, f64, f64)
             Vec3::new(r * a.sin(), j as f64 * grid.h2, r * (1.0 - a.cos()))
         })
         .collect();
-    let e = model.elastic.evaluate(&x, &mut Sink::none());
+    let e = model.elastic(&x, None);
     (e.bending, e.membrane, grid.h1)
 }
 
@@ -588,11 +596,12 @@ fn same_sheet_on_a_curvilinear_grid_sags_the_same() {
             Warp::Angle(t) => ElasticOptions { warp_angle: t, ..Default::default() },
         };
         let mut model =
-            Model::with_options(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
+            ModelBuilder::with_options(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
         for j in 0..n {
             model.pinned[g.index(0, j)] = true;
             model.pinned[g.index(1, j)] = true;
         }
+        let model = model.build().unwrap();
         let mut x: Vec<Vec3> = rest.iter().map(|p| *p - Vec3::Z * (0.3 * (p.x + 0.5 * l).powi(2) / l)).collect();
         for j in 0..n {
             x[g.index(0, j)] = rest[g.index(0, j)];

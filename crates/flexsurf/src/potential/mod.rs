@@ -526,6 +526,23 @@ impl Potential {
         worst
     }
 
+    /// Evaluates every term at `x` in a static context into a caller's `sink` (value added to `sink.energy`,
+    /// gradient and operator added to), active sets detected cold; fixed rows are not zeroed. Returns the
+    /// values by part.
+    pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> Values {
+        let cx = self.context(None);
+        let mut values = Values::default();
+        for term in &self.terms {
+            let mut scratch = Scratch::default();
+            term.prepare(x, &cx, &mut scratch);
+            let v = term.evaluate(x, &cx, &mut scratch, sink);
+            values.add(term.part(), v);
+            values.contacts += term.active(&scratch);
+        }
+        values.total = sink.energy;
+        values
+    }
+
     /// Largest violation over every term at `x` (penetration, m), from cold queries.
     pub fn violation_cold(&self, x: &[Vec3]) -> f64 {
         let cx = self.context(None);
