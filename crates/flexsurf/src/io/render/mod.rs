@@ -15,7 +15,7 @@
 //! * `shadow`: the shadow map seen from the light.
 //! * `shade`: Lambert + ambient shading, sRGB conversion and the resolve of the supersamples into pixels.
 //! * `frame`: [`render`] itself, with the per-thread buffers it reuses.
-//! * `text`, `panel`, `png`: the 5×7 font ([`draw_text`]), the captioned [`panel`] of several pictures and
+//! * `text`, `panel`, `png`: the 5×7 font ([`draw_text`]), the captioned [`panel()`] of several pictures and
 //!   PNG output ([`save_png`]).
 
 mod camera;
