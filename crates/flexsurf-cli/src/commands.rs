@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use flexsurf::integrate::{linsolve::SolverKind, IntegratorKind};
 use flexsurf::io::render;
 use flexsurf::model::ModelKind;
-use flexsurf::scene::run::{self as scene_run, RunOutput};
+use flexsurf::runner::{self, RunOutput};
 use flexsurf::scene::{FrameFormat, Scene, SceneSpec};
 use std::path::Path;
 
@@ -52,7 +52,7 @@ impl Overrides {
 /// Runs one built scene into `out` with a progress bar.
 fn run_built(scene: &Scene, out: &Path, label: &str) -> Result<RunOutput> {
     let bar = progress::bar(scene.steps, label);
-    let result = scene_run::run_scene(scene, out, |step| bar.set_position(step as u64));
+    let result = runner::run_scene(scene, out, |step| bar.set_position(step as u64));
     bar.finish_and_clear();
     result.with_context(|| format!("running {} ({} model) into {}", scene.file.display(), label, out.display()))
 }
@@ -120,7 +120,7 @@ pub fn demo(which: DemoScene, out: Option<&Path>, steps: Option<usize>) -> Resul
     }
     // One camera for every picture, so the two rows compare directly.
     let first = &runs[0].1;
-    let view = scene_run::view_for(&first.model, runs.iter().flat_map(|r| r.2.snapshots.iter().map(|s| &s.mesh)));
+    let view = runner::view_for(&first.model, runs.iter().flat_map(|r| r.2.snapshots.iter().map(|s| &s.mesh)));
     let [w, h] = first.output.image_size;
     let mut images = Vec::new();
     let mut labels = Vec::new();
@@ -130,7 +130,7 @@ pub fn demo(which: DemoScene, out: Option<&Path>, steps: Option<usize>) -> Resul
             ModelKind::Terzopoulos => "Terzopoulos",
         };
         for s in &output.snapshots {
-            images.push(scene_run::render_frame(&scene.model, &s.mesh, &view, w, h));
+            images.push(runner::render_frame(&scene.model, &s.mesh, &view, w, h));
             labels.push(format!("{name}, step {}", s.step));
         }
     }
