@@ -8,9 +8,11 @@
 //! operators of the quadratic patch, fundamental forms) → [`material`] (measured fabric constants and their
 //! calibration) → [`energy`] (membrane and bending energy of scheme S with exact gradient and Hessian, and the
 //! Terzopoulos force) → [`contact`] (obstacles, penalty contact) → [`integrate`] (the linearised implicit step and
-//! the paper's lagged step, sparse solvers) → [`surface`] (the Coons display surface) → [`scene`] (TOML scenes)
-//! → [`io`] (meshes, pictures, summaries). [`model::Model`] holds what is fixed during a run, [`state::State`]
-//! what changes, and [`sim`] drives the time loop.
+//! the paper's lagged step, sparse solvers) → [`surface`] (the Coons display surface, the xy footprint) →
+//! [`garment`] (garment patterns fitted onto a body) → [`scene`] (TOML scenes, checked and built into a model)
+//! → [`runner`] (a built scene run into frames, `energy.csv`, `summary.json` and pictures) → [`io`] (meshes,
+//! pictures). [`model::Model`] holds what is fixed during a run, [`state::State`] what changes, and [`sim`]
+//! drives the time loop.
 #![warn(missing_docs)]
 // Index loops over small fixed-size stencil arrays mirror the formulas (Σ_ab Q_ab …) they implement.
 #![allow(clippy::needless_range_loop)]
@@ -18,6 +20,7 @@
 pub mod bench;
 pub mod contact;
 pub mod energy;
+pub mod garment;
 pub mod grid;
 pub mod integrate;
 pub mod io;
@@ -27,6 +30,7 @@ pub mod math;
 pub mod model;
 pub mod ops;
 pub mod potential;
+pub mod runner;
 pub mod scene;
 pub mod sim;
 pub mod sparse;

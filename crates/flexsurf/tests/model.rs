@@ -4,8 +4,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use flexsurf::energy::{bending::Bending, membrane::Membrane, Operator, Sink};
-use flexsurf::potential::Term;
-use flexsurf::testing;
 use flexsurf::grid::{Grid, Topology};
 use flexsurf::integrate::linsolve::SolverKind;
 use flexsurf::integrate::statics::{StaticOptions, StaticSolver};
@@ -13,9 +11,11 @@ use flexsurf::integrate::{StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind, Spring};
-use flexsurf::testing::elastic;
+use flexsurf::potential::Term;
 use flexsurf::sparse::{BlockMatrix, BlockPattern};
 use flexsurf::state::State;
+use flexsurf::testing;
+use flexsurf::testing::elastic;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -5,14 +5,14 @@
 //! limits, and grid convergence of the pure-bending energy.
 
 use flexsurf::contact::Obstacle;
-use flexsurf::energy::{Sink, bending::Bending, membrane::Membrane, terzopoulos};
-use flexsurf::potential::contact::ContactParams;
+use flexsurf::energy::{bending::Bending, membrane::Membrane, terzopoulos, Sink};
 use flexsurf::grid::{Grid, Topology};
 use flexsurf::integrate::statics::{StaticOptions, StaticSolver};
 use flexsurf::integrate::{Scheme, StepError, StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind};
+use flexsurf::potential::contact::ContactParams;
 use flexsurf::state::State;
 use rand::{Rng, SeedableRng};
 use std::ops::ControlFlow;
@@ -282,9 +282,10 @@ fn damped_free_fall_follows_the_recurrence() {
     let grid = Grid::sheet(7, 5, 0.3, 0.2).unwrap();
     let z0 = 1.0;
     let start = grid.flat_positions(z0);
-    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G))
-        .build()
-        .unwrap();
+    let model =
+        ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G))
+            .build()
+            .unwrap();
     let mut state = State::at_rest(start.clone());
     let (dt, steps) = (0.01, 100);
     let mut stepper = Stepper::new(&model, &StepParams::with_dt(dt)).unwrap();
@@ -526,7 +527,8 @@ fn bent_cylinder_energies(m: usize, l1: f64, l2: f64, r: f64) -> (f64, f64, f64)
     let fabric = Fabric::paper_cotton();
     let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
     let grid = Grid::sheet(m, 5, l1, l2).unwrap();
-    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, s, ModelKind::Tfs, Vec3::ZERO).build().unwrap();
+    let model =
+        ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, s, ModelKind::Tfs, Vec3::ZERO).build().unwrap();
     let phi = 2.0 * (grid.h1 / (2.0 * r)).asin();
     let x: Vec<Vec3> = (0..grid.len())
         .map(|k| {

@@ -7,8 +7,8 @@ use flexsurf::integrate::{Method, Scheme};
 use flexsurf::material::Fabric;
 use flexsurf::math::Vec3;
 use flexsurf::model::ModelKind;
+use flexsurf::runner::run_scene;
 use flexsurf::scene::material::load_material_file;
-use flexsurf::scene::run::run_scene;
 use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{self, SceneError, SceneSpec};
 use std::path::{Path, PathBuf};
@@ -377,7 +377,7 @@ set = "edge_u1_1"
     .unwrap();
     let scene = flexsurf::scene::load(&scene_path).unwrap();
     let out = dir.join("out");
-    flexsurf::scene::run::run_scene(&scene, &out, |_| {}).unwrap();
+    flexsurf::runner::run_scene(&scene, &out, |_| {}).unwrap();
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["integrator"], "static");
@@ -396,7 +396,7 @@ set = "edge_u1_1"
 fn static_drape_over_the_ball() {
     let scene = flexsurf::scene::load(&repo().join("scenes/drape_static.toml")).unwrap();
     let out = scratch("drape_static");
-    flexsurf::scene::run::run_scene(&scene, &out, |_| {}).unwrap();
+    flexsurf::runner::run_scene(&scene, &out, |_| {}).unwrap();
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let residual = summary["static_solve"]["residual"].as_f64().unwrap();

@@ -4,7 +4,7 @@
 //! names the file and the dotted key. Run with `--release` (about 10 s).
 
 use flexsurf::contact::{self, Obstacle};
-use flexsurf::scene::run::run_scene;
+use flexsurf::runner::run_scene;
 use flexsurf::scene::{self, SceneError, SceneSpec};
 use std::path::{Path, PathBuf};
 

@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use flexsurf::io::render;
 use flexsurf::model::ModelKind;
-use flexsurf::scene::run::{self as scene_run, RunOutput};
+use flexsurf::runner::{self, RunOutput};
 use flexsurf::scene::SceneSpec;
 use std::path::{Path, PathBuf};
 
@@ -63,7 +63,7 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
     }
     // One camera for every picture, so the two rows compare directly.
     let first = &runs[0].1;
-    let view = scene_run::view_for(&first.model, runs.iter().flat_map(|r| r.2.snapshots.iter().map(|s| &s.mesh)));
+    let view = runner::view_for(&first.model, runs.iter().flat_map(|r| r.2.snapshots.iter().map(|s| &s.mesh)));
     let [w, h] = first.output.image_size;
     let mut images = Vec::new();
     let mut labels = Vec::new();
@@ -73,7 +73,7 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
             ModelKind::Terzopoulos => "Terzopoulos",
         };
         for s in &output.snapshots {
-            images.push(scene_run::render_frame(&scene.model, &s.mesh, &view, w, h));
+            images.push(runner::render_frame(&scene.model, &s.mesh, &view, w, h));
             labels.push(format!("{name}, step {}", s.step));
         }
     }

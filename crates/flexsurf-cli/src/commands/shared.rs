@@ -3,7 +3,7 @@
 
 use crate::progress;
 use anyhow::{Context, Result};
-use flexsurf::scene::run::{self as scene_run, RunOutput};
+use flexsurf::runner::{self, RunOutput};
 use flexsurf::scene::Scene;
 use std::path::Path;
 
@@ -16,7 +16,7 @@ pub fn print_json(value: &serde_json::Value) -> Result<()> {
 /// Runs one built scene into `out` with a progress bar.
 pub fn run_built(scene: &Scene, out: &Path, label: &str) -> Result<RunOutput> {
     let bar = progress::bar(scene.steps, label);
-    let result = scene_run::run_scene(scene, out, |step| bar.set_position(step as u64));
+    let result = runner::run_scene(scene, out, |step| bar.set_position(step as u64));
     bar.finish_and_clear();
     result.with_context(|| format!("running {} ({} model) into {}", scene.file.display(), label, out.display()))
 }

@@ -2,7 +2,8 @@
 //! preset, a file, or gives the constants inline, in SI or in native KES-F units. Inline constants override the
 //! preset's or the file's. Everything is converted to an SI [`Fabric`] here; the model never sees units.
 
-use super::SceneError;
+use super::error::{parse_toml, SceneError};
+use super::validate::Validator;
 use crate::material::{units, Fabric};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -165,18 +166,17 @@ impl MaterialSpec {
     /// Resolves to SI constants. `file` is the file this table was read from (for relative paths and messages),
     /// `prefix` the dotted key of the table in it (`material` in a scene, empty in a material file).
     pub fn resolve(&self, file: &Path, prefix: &str) -> Result<ResolvedMaterial, SceneError> {
-        let key = |k: &str| if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
-        let invalid = |k: &str, message: String| SceneError::invalid(file, key(k), message);
+        let v = Validator::within(file, prefix);
         let (base, base_file, base_name) = match (&self.preset, &self.file) {
             (Some(_), Some(_)) => {
-                return Err(invalid("file", "give either `preset` or `file`, not both".into()));
+                return Err(v.bad("file", "give either `preset` or `file`, not both".into()));
             }
             (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string())),
             (None, Some(rel)) => {
                 let path = relative_to(file, rel);
                 let m = load_material_file(&path).map_err(|e| match e {
                     SceneError::Io { source, .. } => {
-                        invalid("file", format!("cannot read material file {}: {source}", path.display()))
+                        v.bad("file", format!("cannot read material file {}: {source}", path.display()))
                     }
                     other => other,
                 })?;
@@ -188,7 +188,7 @@ impl MaterialSpec {
             && self.density.is_none()
             && (self.bending_warp.is_some() || self.bending_weft.is_some())
         {
-            return Err(invalid(
+            return Err(v.bad(
                 "density",
                 "missing value: FAST bending lengths (mm) need the weight W (g/m²) as `density` in the same table"
                     .into(),
@@ -205,7 +205,7 @@ impl MaterialSpec {
             None => {
                 let required = ["density", "tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"];
                 if let Some(missing) = required.iter().find(|r| !given.iter().any(|(k, _, _)| k == *r)) {
-                    return Err(invalid(
+                    return Err(v.bad(
                         missing,
                         "missing value: give `preset`, `file`, or all of density, tensile_warp, tensile_weft, \
                          shear, bending_warp and bending_weft"
@@ -224,8 +224,8 @@ impl MaterialSpec {
             // Blame the table that set the value: this one if it gave the key, else the file it extends.
             let here = given.iter().any(|(k, _, _)| *k == bad);
             return Err(match (&base_file, here) {
-                (Some(bf), false) => SceneError::invalid(bf, bad.to_string(), format!("{value}: {what}")),
-                _ => invalid(bad, format!("{value}: {what}")),
+                (Some(bf), false) => Validator::new(bf).bad(bad, format!("{value}: {what}")),
+                _ => v.bad(bad, format!("{value}: {what}")),
             });
         }
         let name = self.name.clone().or(base_name).unwrap_or_else(|| "inline".to_string());
@@ -236,14 +236,10 @@ impl MaterialSpec {
 /// Reads and resolves a material file (`materials/*.toml`).
 pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
-    let spec: MaterialSpec = super::parse_toml(&text, path)?;
+    let spec: MaterialSpec = parse_toml(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
-        return Err(SceneError::invalid(
-            path,
-            k.into(),
-            "a material file gives constants; it cannot extend another".into(),
-        ));
+        return Err(Validator::new(path).bad(k, "a material file gives constants; it cannot extend another".into()));
     }
     let mut m = spec.resolve(path, "")?;
     if spec.name.is_none() {

@@ -1,0 +1,182 @@
+//! The files of a run besides `summary.json`: a Coons-tessellated frame at every output step (OBJ, PLY or
+//! glTF), one `energy.csv` row per step, and `snapshots.png`, a panel of shaded pictures of up to
+//! [`MAX_SNAPSHOTS`] output steps with the obstacles, all from one camera.
+
+use super::{io_err, RunError};
+use crate::contact::Obstacle;
+use crate::io::render::{self, Drawable, View};
+use crate::io::PlyFormat;
+use crate::math::Vec3;
+use crate::model::Model;
+use crate::scene::{FrameFormat, Scene};
+use crate::sim;
+use crate::state::State;
+use crate::surface::{Aabb, CoonsSurface, TriMesh};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Most pictures in `snapshots.png`; with more output steps an evenly spread subset is drawn.
+pub const MAX_SNAPSHOTS: usize = 8;
+/// Cloth colour in pictures (sRGB).
+pub const CLOTH_COLOR: [u8; 3] = [196, 86, 62];
+/// Obstacle colour in pictures (sRGB).
+pub const OBSTACLE_COLOR: [u8; 3] = [150, 160, 175];
+/// Ground plane colour in pictures (sRGB).
+pub const PLANE_COLOR: [u8; 3] = [215, 215, 215];
+
+/// One written frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameRecord {
+    /// Step.
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Path relative to the output directory.
+    pub file: String,
+}
+
+/// The Coons mesh of one output step, kept for pictures.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    /// Step.
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Coons-tessellated mesh with normals.
+    pub mesh: TriMesh,
+}
+
+/// The output steps of a run: 0, every `every` steps, and the last step.
+pub fn output_steps(steps: usize, every: usize) -> Vec<usize> {
+    let mut v: Vec<usize> = (0..=steps).step_by(every.max(1)).collect();
+    if v.last() != Some(&steps) {
+        v.push(steps);
+    }
+    v
+}
+
+/// At most `max` entries of `all`, evenly spread, first and last included.
+pub(super) fn spread(all: &[usize], max: usize) -> Vec<usize> {
+    if all.len() <= max || max < 2 {
+        return all.to_vec();
+    }
+    let mut v: Vec<usize> = (0..max).map(|i| all[i * (all.len() - 1) / (max - 1)]).collect();
+    v.dedup();
+    v
+}
+
+/// What a run records as it goes: the energy rows, the frames written and the meshes kept for pictures.
+pub(super) struct Recorder<'a> {
+    scene: &'a Scene,
+    frames_dir: PathBuf,
+    /// Steps that write a frame (sorted).
+    outputs: Vec<usize>,
+    /// Steps pictured in `snapshots.png`.
+    pictured: Vec<usize>,
+    /// `energy.csv` so far.
+    pub csv: String,
+    /// Frames written.
+    pub frames: Vec<FrameRecord>,
+    /// Meshes of the pictured steps.
+    pub snapshots: Vec<Snapshot>,
+}
+
+impl<'a> Recorder<'a> {
+    /// A recorder writing frames of `scene` into `frames_dir` at the steps `outputs`.
+    pub fn new(scene: &'a Scene, frames_dir: PathBuf, outputs: Vec<usize>) -> Self {
+        let pictured = spread(&outputs, MAX_SNAPSHOTS);
+        let csv = String::from("step,time,kinetic,membrane,bending,potential\n");
+        Self { scene, frames_dir, outputs, pictured, csv, frames: Vec::new(), snapshots: Vec::new() }
+    }
+
+    /// Records `state`: its energy row, and its frame (and picture mesh) at an output step.
+    pub fn record(&mut self, state: &State) -> Result<(), RunError> {
+        let (scene, model) = (self.scene, &self.scene.model);
+        // Only the energies: penetration and strain of every step are not written, so not computed here.
+        csv_row(&mut self.csv, &sim::energies(model, state, scene.dt));
+        if self.outputs.binary_search(&state.step).is_ok() {
+            let mesh = CoonsSurface::new(&model.grid, &state.x).tessellate(scene.output.coons_subdivisions);
+            let name = format!("frame_{:05}.{}", state.step, scene.output.format.extension());
+            let path = self.frames_dir.join(&name);
+            write_mesh(&path, &mesh, scene.output.format).map_err(io_err(&path))?;
+            self.frames.push(FrameRecord { step: state.step, time: state.time, file: format!("frames/{name}") });
+            if self.pictured.contains(&state.step) {
+                self.snapshots.push(Snapshot { step: state.step, time: state.time, mesh });
+            }
+        }
+        Ok(())
+    }
+}
+
+fn csv_row(csv: &mut String, d: &sim::EnergyRecord) {
+    use std::fmt::Write as _;
+    let _ = writeln!(
+        csv,
+        "{},{},{:.9e},{:.9e},{:.9e},{:.9e}",
+        d.step, d.time, d.kinetic, d.energies.membrane, d.energies.bending, d.potential
+    );
+}
+
+/// Writes `mesh` in `format` (atomically).
+pub fn write_mesh(path: &Path, mesh: &TriMesh, format: FrameFormat) -> std::io::Result<()> {
+    match format {
+        FrameFormat::Obj => crate::io::write_obj(path, mesh),
+        FrameFormat::Ply => crate::io::write_ply(path, mesh, PlyFormat::BinaryLittleEndian),
+        FrameFormat::Gltf => crate::io::write_gltf(path, mesh, [0.77, 0.34, 0.24, 1.0]),
+    }
+}
+
+/// Writes `snapshots.png` into `out`: the pictures of `snapshots`, `image_size` pixels each, four a row.
+pub(super) fn write_snapshots(
+    out: &Path,
+    model: &Model,
+    snapshots: &[Snapshot],
+    image_size: [u32; 2],
+) -> Result<(), RunError> {
+    let view = view_for(model, snapshots.iter().map(|s| &s.mesh));
+    let [w, h] = image_size;
+    let images: Vec<_> = snapshots.iter().map(|s| render_frame(model, &s.mesh, &view, w, h)).collect();
+    let labels: Vec<String> = snapshots.iter().map(|s| format!("step {}  t = {:.2} s", s.step, s.time)).collect();
+    let png = out.join("snapshots.png");
+    render::save_png(&png, &render::panel(&images, &labels, images.len().min(4))).map_err(io_err(&png))
+}
+
+/// Drawables of a model's obstacles.
+pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
+    model
+        .obstacles()
+        .into_iter()
+        .map(|o| match o {
+            Obstacle::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
+            Obstacle::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
+            Obstacle::Nurbs(body) => Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR),
+            Obstacle::Mesh(body) => Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR),
+        })
+        .collect()
+}
+
+/// One camera that frames all `meshes` and the model's bounded obstacles.
+pub fn view_for<'a>(model: &Model, meshes: impl Iterator<Item = &'a TriMesh>) -> View {
+    let obstacles = obstacle_drawables(model);
+    let bbox = meshes.filter_map(TriMesh::bbox).chain(obstacles.iter().filter_map(Drawable::bbox)).reduce(Aabb::union);
+    render::default_view_for(&bbox.unwrap_or(Aabb { min: Vec3::splat(-0.5), max: Vec3::splat(0.5) }))
+}
+
+/// A shaded picture of `mesh` with the model's obstacles.
+pub fn render_frame(model: &Model, mesh: &TriMesh, view: &View, width: u32, height: u32) -> image::RgbImage {
+    let mut drawables = vec![Drawable::mesh(mesh, CLOTH_COLOR)];
+    drawables.extend(obstacle_drawables(model));
+    render::render(view, &drawables, width, height)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn output_steps_and_their_spread() {
+        assert_eq!(output_steps(300, 100), vec![0, 100, 200, 300]);
+        assert_eq!(output_steps(250, 100), vec![0, 100, 200, 250]);
+        assert_eq!(spread(&(0..=20).collect::<Vec<_>>(), 5), vec![0, 5, 10, 15, 20]);
+    }
+}

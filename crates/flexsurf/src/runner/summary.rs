@@ -1,0 +1,180 @@
+//! `summary.json`: what a finished run reports ([`Summary`]), the measures of its final configuration
+//! ([`FinalState`]: heights, bounding box, xy footprint, energies, penetration, strain) and, for garment
+//! scenes, the drift of the spring-held waist.
+
+use super::outputs::FrameRecord;
+use crate::integrate::statics::StaticReport;
+use crate::integrate::Counters;
+use crate::math::Vec3;
+use crate::model::Model;
+use crate::scene::{defaults, Scene};
+use crate::sim::{self, Diagnostics, RunStats};
+use crate::state::State;
+use crate::surface::{footprint, Aabb, TriMesh};
+use serde::Serialize;
+
+/// The configuration at the end of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FinalState {
+    /// Lowest node height (m).
+    pub min_z: f64,
+    /// Highest node height (m).
+    pub max_z: f64,
+    /// Mean node position (m).
+    pub centroid: [f64; 3],
+    /// Bounding box of the Coons mesh, low corner (m).
+    pub bbox_min: [f64; 3],
+    /// Bounding box of the Coons mesh, high corner (m).
+    pub bbox_max: [f64; 3],
+    /// Area of the union of the Coons mesh's triangles projected onto the xy plane (m²), measured on a raster
+    /// of `projected_area_resolution²` cells over the footprint's bounding box.
+    pub projected_area_xy: f64,
+    /// Raster cells per side used for `projected_area_xy`.
+    pub projected_area_resolution: usize,
+    /// Kinetic energy (J).
+    pub kinetic_energy: f64,
+    /// Membrane energy (J).
+    pub membrane_energy: f64,
+    /// Bending energy (J).
+    pub bending_energy: f64,
+    /// Gravitational potential energy (J).
+    pub potential_energy: f64,
+    /// Deepest penetration into an obstacle (m).
+    pub max_penetration: f64,
+    /// Largest engineering edge strain.
+    pub max_strain: f64,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// Scene name.
+    pub scene: String,
+    /// `tfs` or `terzopoulos`.
+    pub model: String,
+    /// `linearized` or `lagged`.
+    pub integrator: String,
+    /// `cholesky` or `pcg`.
+    pub solver: String,
+    /// `kes` or `paper`.
+    pub calibration: String,
+    /// Material name.
+    pub material: String,
+    /// Nodes `[M, N]`.
+    pub grid: [usize; 2],
+    /// Time step (s).
+    pub dt: f64,
+    /// Steps taken.
+    pub steps: usize,
+    /// Frame cadence (steps).
+    pub output_every: usize,
+    /// `steps · dt` (s).
+    pub simulated_seconds: f64,
+    /// Wall time of the time stepping only (s), from [`sim::RunStats`].
+    pub wall_seconds: f64,
+    /// `steps / wall_seconds`.
+    pub steps_per_second: f64,
+    /// Per-stage wall times of the stepper (s).
+    pub timings: Counters,
+    /// Deepest penetration after any step (m).
+    pub max_penetration_seen: f64,
+    /// Most simultaneous contacts.
+    pub max_contacts: usize,
+    /// Garment scenes: the largest distance of a waist node from its spring target at the end (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_drift_max: Option<f64>,
+    /// Garment scenes: waist nodes moved outward onto the body when the garment was placed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_fitted: Option<usize>,
+    /// Garment scenes: strain of the fitted waist row against the pattern's waist girth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub waist_strain: Option<f64>,
+    /// Garment scenes: smallest signed distance of the initial shape from the obstacles (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial_min_distance: Option<f64>,
+    /// `integrator = "static"`: Newton iterations, final relative residual (residual force over the largest
+    /// load) and total potential.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub static_solve: Option<StaticReport>,
+    /// Frames written.
+    pub frames: Vec<FrameRecord>,
+    /// The final configuration.
+    #[serde(rename = "final")]
+    pub final_state: FinalState,
+}
+
+/// What the run loop hands to [`summarize`] besides the scene and the final state.
+pub(super) struct Finished {
+    /// Steps, wall time, penetration and contacts of the stepping.
+    pub stats: RunStats,
+    /// The stepper's per-stage wall times.
+    pub timings: Counters,
+    /// The static solve's report (`integrator = "static"`).
+    pub static_report: Option<StaticReport>,
+    /// Frames written.
+    pub frames: Vec<FrameRecord>,
+}
+
+/// The summary of `scene` run to `state`; `final_mesh` is the Coons mesh of `state`.
+pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
+    let model = &scene.model;
+    let Finished { stats, timings, static_report, frames } = done;
+    let d = sim::diagnose(model, state, scene.dt, 0);
+    Summary {
+        scene: scene.name.clone(),
+        model: model.kind.name().to_string(),
+        integrator: scene.method.name().to_string(),
+        solver: format!("{:?}", scene.solver()).to_lowercase(),
+        calibration: format!("{:?}", scene.calibration).to_lowercase(),
+        material: scene.material.clone(),
+        grid: [model.grid.m, model.grid.n],
+        dt: scene.dt,
+        steps: stats.steps,
+        output_every: scene.output_every,
+        simulated_seconds: state.time,
+        wall_seconds: stats.wall_seconds,
+        steps_per_second: if stats.wall_seconds > 0.0 { stats.steps as f64 / stats.wall_seconds } else { 0.0 },
+        timings,
+        max_penetration_seen: stats.max_penetration_seen,
+        max_contacts: stats.max_contacts,
+        waist_drift_max: scene.garment.as_ref().map(|g| waist_drift(model, &g.waist_nodes, &state.x)),
+        waist_fitted: scene.garment.as_ref().map(|g| g.waist_fitted),
+        waist_strain: scene.garment.as_ref().map(|g| g.waist_strain),
+        initial_min_distance: scene.garment.as_ref().map(|g| g.initial_min_distance),
+        static_solve: static_report,
+        frames,
+        final_state: final_state(model, &state.x, final_mesh, &d),
+    }
+}
+
+/// Largest distance of a spring-held node among `nodes` from its spring's target (m; 0 without such springs).
+pub fn waist_drift(model: &Model, nodes: &[usize], x: &[Vec3]) -> f64 {
+    model
+        .springs()
+        .iter()
+        .filter(|s| nodes.contains(&s.node))
+        .map(|s| (x[s.node] - s.target).length())
+        .fold(0.0, f64::max)
+}
+
+fn final_state(model: &Model, x: &[Vec3], mesh: &TriMesh, d: &Diagnostics) -> FinalState {
+    let n = x.len().max(1) as f64;
+    let centroid = x.iter().fold(Vec3::ZERO, |a, p| a + *p) / n;
+    let bbox = mesh.bbox().unwrap_or(Aabb { min: Vec3::ZERO, max: Vec3::ZERO });
+    let res = defaults::FOOTPRINT_RESOLUTION;
+    FinalState {
+        min_z: x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min),
+        max_z: x.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max),
+        centroid: centroid.to_array(),
+        bbox_min: bbox.min.to_array(),
+        bbox_max: bbox.max.to_array(),
+        projected_area_xy: footprint::projected_area_xy(mesh, res),
+        projected_area_resolution: res,
+        kinetic_energy: d.kinetic,
+        membrane_energy: d.energies.membrane,
+        bending_energy: d.energies.bending,
+        potential_energy: d.potential,
+        max_penetration: d.max_penetration,
+        max_strain: model.max_strain(x),
+    }
+}

@@ -1,0 +1,79 @@
+//! Scene errors: [`SceneError`] names the file, the dotted key (`time.dt`, `obstacle[0].sphere.radius`) and what
+//! is wrong; [`parse_toml`] reads TOML into a serde type and turns a parse error's byte span into a line, a
+//! column and a key (through [`super::keys`]).
+
+use super::keys;
+use std::path::Path;
+use thiserror::Error;
+
+/// A scene that cannot be read or used. Each message names the file and the dotted key.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    /// The file cannot be read.
+    #[error("{file}: cannot read the file")]
+    Io {
+        /// The file.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// Malformed TOML, an unknown key, a missing key, or a value of the wrong type or an unknown name.
+    #[error("{file}:{line}:{column}: `{key}`: {message}")]
+    Parse {
+        /// The file.
+        file: String,
+        /// Line (1-based).
+        line: usize,
+        /// Column (1-based).
+        column: usize,
+        /// Dotted key path.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value that parses but cannot be used (non-finite, non-positive, out of range, inconsistent).
+    #[error("{file}: `{key}`: {message}")]
+    Invalid {
+        /// The file.
+        file: String,
+        /// Dotted key path.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl SceneError {
+    pub(crate) fn io(file: &Path, source: std::io::Error) -> Self {
+        SceneError::Io { file: file.display().to_string(), source }
+    }
+
+    pub(crate) fn invalid(file: &Path, key: String, message: String) -> Self {
+        SceneError::Invalid { file: file.display().to_string(), key, message }
+    }
+
+    /// The dotted key the error is about (empty for an unreadable file).
+    pub fn key(&self) -> &str {
+        match self {
+            SceneError::Io { .. } => "",
+            SceneError::Parse { key, .. } | SceneError::Invalid { key, .. } => key,
+        }
+    }
+}
+
+/// Parses TOML text read from `file` into `T`, turning the error span into a line, a column and a key path.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
+    toml::from_str(text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        let (line, column) = keys::line_col(text, span.start);
+        let message = e.message().trim().to_string();
+        let mut key = keys::key_at(text, span.start);
+        if let Some(field) = message.strip_prefix("missing field `").and_then(|s| s.split('`').next()) {
+            key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
+        }
+        if key.is_empty() {
+            key = "(top level)".to_string();
+        }
+        SceneError::Parse { file: file.display().to_string(), line, column, key, message }
+    })
+}

@@ -1,0 +1,421 @@
+//! The scene file's data: plain serde types for every table of a scene (`deny_unknown_fields`), every default
+//! in [`defaults`], and the JSON schema of the format (`flexsurf schema`, through `schemars`). Nothing here
+//! checks a value beyond its type: [`SceneSpec::build`] (in `build.rs`) does. The `[material]` and `[garment]`
+//! tables have their types in `material.rs` and `garment.rs`.
+
+use super::error::{parse_toml, SceneError};
+use super::garment::GarmentSpec;
+use super::material::{MaterialSpec, Preset};
+use crate::grid::Topology;
+use crate::integrate::statics::StaticOptions;
+use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
+use crate::material::Calibration;
+use crate::model::ModelKind;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Every default of the scene format, in one place.
+pub mod defaults {
+    /// Gravity (m/s²).
+    pub const GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
+    /// Time step (s).
+    pub const DT: f64 = 0.01;
+    /// Penalty contact stiffness `c` (N/m³).
+    pub const CONTACT_STIFFNESS: f64 = 1e4;
+    /// Contact offset `δ` (m).
+    pub const CONTACT_OFFSET: f64 = 0.005;
+    /// Coulomb friction coefficient.
+    pub const CONTACT_FRICTION: f64 = 0.0;
+    /// Coons sub-quads per cell edge in frames and pictures.
+    pub const COONS_SUBDIVISIONS: usize = 4;
+    /// Size of one picture of the snapshot panel (pixels).
+    pub const IMAGE_SIZE: [u32; 2] = [480, 360];
+    /// Resolution of the raster that measures the projected (footprint) area.
+    pub const FOOTPRINT_RESOLUTION: usize = 1024;
+}
+
+/// A whole scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// A name for summaries (default: the file stem).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// How measured constants become energy coefficients (`kes`, default, or `paper`).
+    #[serde(default)]
+    pub calibration: Calibration,
+    /// Gravity (m/s²), default `[0, 0, -9.81]`.
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// The sheet: size, nodes, placement, topology. Exactly one of `sheet` and `garment` is given.
+    #[serde(default)]
+    pub sheet: Option<SheetSpec>,
+    /// A garment (a skirt) fitted onto the obstacles, in place of `sheet`.
+    #[serde(default)]
+    pub garment: Option<GarmentSpec>,
+    /// The fabric (default: the `paper-cotton` preset).
+    #[serde(default = "default_material")]
+    pub material: MaterialSpec,
+    /// The deformation model.
+    #[serde(default)]
+    pub model: ModelSpec,
+    /// Time step, steps and output cadence.
+    pub time: TimeSpec,
+    /// Time-stepping scheme and linear solver.
+    #[serde(default)]
+    pub integrator: IntegratorSpec,
+    /// Rigid obstacles (`[[obstacle]]`).
+    #[serde(default, rename = "obstacle")]
+    pub obstacles: Vec<ObstacleSpec>,
+    /// Penalty contact with the obstacles.
+    #[serde(default)]
+    pub contact: ContactSpec,
+    /// Pinned nodes (`[[pin]]`), held exactly at their initial position.
+    #[serde(default, rename = "pin")]
+    pub pins: Vec<NodeSetSpec>,
+    /// Constraint springs (`[[spring]]`).
+    #[serde(default, rename = "spring")]
+    pub springs: Vec<SpringSpec>,
+    /// What a run writes.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+fn default_gravity() -> [f64; 3] {
+    defaults::GRAVITY
+}
+
+fn default_material() -> MaterialSpec {
+    MaterialSpec { preset: Some(Preset::PaperCotton), ..MaterialSpec::default() }
+}
+
+/// The sheet: a rectangle of `size` metres with `nodes` grid nodes, centred at `center`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SheetSpec {
+    /// Pattern lengths `[L1, L2]` along u1 (warp) and u2 (weft), metres. Along a periodic direction, the
+    /// circumference.
+    pub size: [f64; 2],
+    /// Nodes `[M, N]` along u1 and u2, at least 3 each.
+    pub nodes: [usize; 2],
+    /// Position of the sheet's centre (m), default the origin.
+    #[serde(default)]
+    pub center: [f64; 3],
+    /// `free` or `periodic` per direction, default both `free`. One periodic direction rolls the sheet into a
+    /// cylinder about the z axis (radius circumference/2π), the other direction running along z.
+    #[serde(default)]
+    pub topology: [Topology; 2],
+    /// Initial rotation about the x, then y, then z axis through the centre (degrees), default none. The
+    /// rotated flat sheet is its own rest shape.
+    #[serde(default)]
+    pub rotate_deg: [f64; 3],
+}
+
+/// `[model]`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    /// `tfs` (the paper's model, default) or `terzopoulos`.
+    #[serde(default)]
+    pub kind: ModelKind,
+}
+
+/// `[time]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// Time step Δt (s), default 0.01.
+    #[serde(default = "default_dt")]
+    pub dt: f64,
+    /// Number of steps.
+    pub steps: usize,
+    /// Write a frame every this many steps (and at step 0 and the last step); default: only the first and last.
+    #[serde(default)]
+    pub output_every: Option<usize>,
+}
+
+fn default_dt() -> f64 {
+    defaults::DT
+}
+
+// The `integrator.kind` of a scene: a time-stepping scheme, or `static` for a static solve (the doc line
+// below is the JSON schema's text, kept as it was).
+/// The time-stepping scheme.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorKind {
+    /// Linearised implicit step with `H⁺` (default).
+    #[default]
+    Linearized,
+    /// The paper's literal lagged-coefficient step.
+    Lagged,
+    /// No time stepping: the quasi-static equilibrium (drape) by projected Newton ([`statics`]). A run then
+    /// writes the initial and the equilibrium frame.
+    Static,
+}
+
+impl IntegratorKind {
+    /// Name used in scenes and summaries.
+    pub fn name(&self) -> &'static str {
+        match self {
+            IntegratorKind::Linearized => "linearized",
+            IntegratorKind::Lagged => "lagged",
+            IntegratorKind::Static => "static",
+        }
+    }
+
+    /// The run this kind asks for, with time step `dt` and linear solver `solver`.
+    pub fn method(&self, dt: f64, solver: SolverKind) -> Method {
+        let dynamic = |scheme| Method::Dynamic(StepParams { dt, scheme, solver, ..StepParams::default() });
+        match self {
+            IntegratorKind::Linearized => dynamic(Scheme::Linearized),
+            IntegratorKind::Lagged => dynamic(Scheme::Lagged),
+            IntegratorKind::Static => Method::Static(StaticOptions::default()),
+        }
+    }
+}
+
+/// `[integrator]`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    /// `linearized` (default, unconditionally stable) or `lagged` (the paper's literal scheme, needs tiny steps).
+    #[serde(default)]
+    pub kind: IntegratorKind,
+    /// `cholesky` (default) or `pcg`.
+    #[serde(default)]
+    pub solver: SolverKind,
+}
+
+/// A rigid obstacle, written `sphere = { ... }`, `plane = { ... }`, `nurbs = { ... }` or `mesh = { ... }` inside
+/// `[[obstacle]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ObstacleSpec {
+    /// A solid ball.
+    Sphere(SphereSpec),
+    /// A half-space.
+    Plane(PlaneSpec),
+    /// A closed body of NURBS patches: a body file or a built-in body.
+    Nurbs(NurbsSpec),
+    /// A closed triangle mesh from a Wavefront OBJ file.
+    Mesh(MeshSpec),
+}
+
+/// A built-in body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BuiltinBody {
+    /// The paper's 22-patch lower-body mannequin (`docs/mannequin.md`).
+    Mannequin,
+}
+
+/// A NURBS body: exactly one of `file` (a body file in the format of `bodies/mannequin.toml`, relative to the
+/// scene file) and `builtin`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NurbsSpec {
+    /// Body file, relative to the scene file.
+    #[serde(default)]
+    pub file: Option<PathBuf>,
+    /// `mannequin`: the built-in mannequin.
+    #[serde(default)]
+    pub builtin: Option<BuiltinBody>,
+}
+
+/// A closed triangle mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Wavefront OBJ file, relative to the scene file.
+    pub file: PathBuf,
+}
+
+/// A solid ball.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    /// Centre (m).
+    pub center: [f64; 3],
+    /// Radius (m).
+    pub radius: f64,
+}
+
+/// The half-space below a plane.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSpec {
+    /// A point on the plane (m).
+    pub point: [f64; 3],
+    /// Outward normal (normalised on load), default `[0, 0, 1]`.
+    #[serde(default = "default_normal")]
+    pub normal: [f64; 3],
+}
+
+fn default_normal() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// `[contact]`: penalty pressure `c (δ − d)` below distance `δ`, times the node's area.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContactSpec {
+    /// Penalty `c`, pressure per penetration depth (N/m³), default 1e4.
+    pub stiffness: f64,
+    /// Contact offset `δ` (m), default 0.005.
+    pub offset: f64,
+    /// Coulomb friction coefficient μ, default 0.
+    pub friction: f64,
+}
+
+impl Default for ContactSpec {
+    fn default() -> Self {
+        Self {
+            stiffness: defaults::CONTACT_STIFFNESS,
+            offset: defaults::CONTACT_OFFSET,
+            friction: defaults::CONTACT_FRICTION,
+        }
+    }
+}
+
+/// A named set of nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub enum NamedSet {
+    /// The four corners (free directions only).
+    #[serde(rename = "corners")]
+    Corners,
+    /// The edge u1 = 0 (nodes `[0, j]`).
+    #[serde(rename = "edge_u1_0")]
+    EdgeU1Start,
+    /// The edge u1 = L1 (nodes `[M−1, j]`).
+    #[serde(rename = "edge_u1_1")]
+    EdgeU1End,
+    /// The edge u2 = 0 (nodes `[i, 0]`).
+    #[serde(rename = "edge_u2_0")]
+    EdgeU2Start,
+    /// The edge u2 = L2 (nodes `[i, N−1]`).
+    #[serde(rename = "edge_u2_1")]
+    EdgeU2End,
+    /// Every node.
+    #[serde(rename = "all")]
+    All,
+}
+
+/// Nodes given by a named set and/or explicit `[i, j]` pairs (`i` along u1, `j` along u2, from 0).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NodeSetSpec {
+    /// A named set.
+    #[serde(default)]
+    pub set: Option<NamedSet>,
+    /// Explicit nodes `[[i, j], ...]`.
+    #[serde(default)]
+    pub nodes: Vec<[usize; 2]>,
+}
+
+/// The word `initial`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Initial {
+    /// Each node's initial position.
+    Initial,
+}
+
+/// Where a spring pulls.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum SpringTarget {
+    /// `"initial"`: each node's own initial position.
+    Initial(Initial),
+    /// One point (m) for all the spring's nodes.
+    Point([f64; 3]),
+}
+
+/// `[[spring]]`: force `k (target − x)` on each node of the set.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// A named set.
+    #[serde(default)]
+    pub set: Option<NamedSet>,
+    /// Explicit nodes `[[i, j], ...]`.
+    #[serde(default)]
+    pub nodes: Vec<[usize; 2]>,
+    /// `"initial"` (default) or a point `[x, y, z]`.
+    #[serde(default = "default_target")]
+    pub target: SpringTarget,
+    /// Stiffness k per node (N/m).
+    pub stiffness: f64,
+}
+
+fn default_target() -> SpringTarget {
+    SpringTarget::Initial(Initial::Initial)
+}
+
+/// Mesh format of the frames.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameFormat {
+    /// Wavefront OBJ with normals (default).
+    #[default]
+    Obj,
+    /// Binary little-endian PLY with normals.
+    Ply,
+    /// glTF 2.0 with embedded buffers.
+    Gltf,
+}
+
+impl FrameFormat {
+    /// File extension.
+    pub fn extension(&self) -> &'static str {
+        match self {
+            FrameFormat::Obj => "obj",
+            FrameFormat::Ply => "ply",
+            FrameFormat::Gltf => "gltf",
+        }
+    }
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    /// Coons sub-quads per cell edge in frames and pictures, default 4.
+    pub coons_subdivisions: usize,
+    /// Pixel size `[width, height]` of one picture of the snapshot panel, default `[480, 360]`.
+    pub image_size: [u32; 2],
+    /// Mesh format of the frames: `obj` (default), `ply` or `gltf`.
+    pub format: FrameFormat,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            coons_subdivisions: defaults::COONS_SUBDIVISIONS,
+            image_size: defaults::IMAGE_SIZE,
+            format: FrameFormat::Obj,
+        }
+    }
+}
+
+impl SceneSpec {
+    /// Reads and parses a scene file (no validation beyond types: see [`SceneSpec::build`]).
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
+        Self::from_toml(&text, path)
+    }
+
+    /// Parses scene text; `file` names it in messages.
+    pub fn from_toml(text: &str, file: &Path) -> Result<Self, SceneError> {
+        parse_toml(text, file)
+    }
+
+    /// The JSON schema of the scene format.
+    pub fn json_schema() -> serde_json::Value {
+        serde_json::to_value(schemars::schema_for!(SceneSpec)).unwrap_or(serde_json::Value::Null)
+    }
+}
