@@ -79,9 +79,9 @@ fn eigenvalues(d: &[Vec<f64>]) -> Vec<f64> {
 
 fn rest_hessian_spectrum(g: &Grid, rest: &[Vec3], s: &Stiffness) -> Vec<f64> {
     let el = elastic(g, rest, s, ModelKind::Tfs);
-    let mut h = BlockMatrix::zeros(&el.pattern());
+    let mut h = BlockMatrix::zeros(el.pattern());
     el.evaluate(rest, &mut Sink { grad: None, hess: Some((&mut h, Operator::Exact)), ..Sink::none() });
-    eigenvalues(&h.to_dense(&el.pattern()))
+    eigenvalues(&h.to_dense(el.pattern()))
 }
 
 #[test]
@@ -120,9 +120,9 @@ fn no_soft_checkerboard_modes() {
     let g = Grid::new(n, n, 1.0, 1.0, [Topology::Free; 2]).unwrap();
     let rest = g.flat_positions(0.0);
     let el = elastic(&g, &rest, &s, ModelKind::Tfs);
-    let mut h = BlockMatrix::zeros(&el.pattern());
+    let mut h = BlockMatrix::zeros(el.pattern());
     el.evaluate(&rest, &mut Sink { grad: None, hess: Some((&mut h, Operator::Exact)), ..Sink::none() });
-    let d = h.to_dense(&el.pattern());
+    let d = h.to_dense(el.pattern());
     // The pure checkerboard in-plane pattern x += ε (−1)^(i+j) e_x has a Rayleigh quotient far from zero.
     let v: Vec<f64> = (0..3 * g.len())
         .map(|r| {
@@ -323,9 +323,9 @@ fn projected_operator_is_positive_semidefinite() {
     let x: Vec<Vec3> = perturbed(&rest.iter().map(|p| *p * 0.97).collect::<Vec<_>>(), 0.005, 4);
     let el = elastic(&g, &rest, &s, ModelKind::Tfs);
     for op in [Operator::Exact, Operator::Projected] {
-        let mut h = BlockMatrix::zeros(&el.pattern());
+        let mut h = BlockMatrix::zeros(el.pattern());
         el.evaluate(&x, &mut Sink { grad: None, hess: Some((&mut h, op)), ..Sink::none() });
-        let ev = eigenvalues(&h.to_dense(&el.pattern()));
+        let ev = eigenvalues(&h.to_dense(el.pattern()));
         let top = ev.last().copied().unwrap();
         if op == Operator::Projected {
             assert!(ev[0] > -1e-12 * top, "projected operator has eigenvalue {}", ev[0]);
