@@ -1,4 +1,4 @@
-//! The ball-drop benchmark (MODEL.md §8 at several grid sizes): wall time of the time stepping and its
+//! The ball-drop benchmark (docs/model.md §13.1 at several grid sizes): wall time of the time stepping and its
 //! per-stage breakdown, as reported by `flexsurf bench` and the criterion bench `cargo bench -p flexsurf`.
 
 use crate::integrate::{Counters, StepError, Stepper};

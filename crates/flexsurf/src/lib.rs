@@ -2,7 +2,7 @@
 //!
 //! A simulator of thin flexible surfaces (cloth, paper, non-wovens) implementing the variational deformation
 //! model of Wang, Wu, Sun and Yuen, "A deformation model of thin flexible surfaces", in the corrected form of
-//! `shared/spec/MODEL.md`.
+//! `docs/model.md`.
 //!
 //! The modules follow the model's pipeline: [`grid`] (the `M × N` parametric grid) → [`ops`] (difference
 //! operators of the quadratic patch, fundamental forms) → [`material`] (measured fabric constants and their

@@ -86,7 +86,7 @@ fn rest_hessian_spectrum(g: &Grid, rest: &[Vec3], s: &Stiffness) -> Vec<f64> {
 
 #[test]
 fn exactly_six_zero_modes_flat_and_periodic() {
-    // Isotropic O(1) constants as in AUDIT.md §3.2, plus the demo fabric.
+    // Isotropic O(1) constants as in docs/model.md §A5, plus the demo fabric.
     let iso = Stiffness { a11: 1.0, a22: 1.0, a12: 0.3, a66: 0.35, d11: 1.0, d22: 1.0, d12: 0.3, d66: 0.35 };
     // Orthotropic with the demo's ratios but O(1) magnitudes (the demo's D/A ~ 1e-8 m² would put bending
     // eigenvalues at the eigensolver's round-off on a unit grid).
@@ -113,7 +113,7 @@ fn exactly_six_zero_modes_flat_and_periodic() {
 
 #[test]
 fn no_soft_checkerboard_modes() {
-    // AUDIT.md §3.2: central differences leave odd–even in-plane modes far softer than smooth ones. Scheme S:
+    // docs/model.md §A5: central differences leave odd–even in-plane modes far softer than smooth ones. Scheme S:
     // the in-plane membrane spectrum of a 21×21 sheet has no checkerboard-like mode below 5% of the top.
     let s = Stiffness { a11: 1.0, a22: 1.0, a12: 0.0, a66: 0.5, d11: 0.0, d22: 0.0, d12: 0.0, d66: 0.0 };
     let n = 13;
@@ -179,7 +179,7 @@ fn patch_test_uniform_stretch_and_shear() {
         assert!((f[k].x - expect).abs() < 1e-9 * traction, "stretch node ({i},{j}): {} vs {expect}", f[k].x);
         assert!(f[k].y.abs() < 1e-9 * traction && f[k].z.abs() < 1e-12, "stretch: lateral force at ({i},{j})");
     }
-    // Total edge force 21.33 N/m × width (AUDIT.md §7.3).
+    // Total edge force 21.33 N/m × width (docs/model.md §A10 item 3).
     let right: f64 = -(0..g.len()).filter(|&k| g.coords(k).0 == g.m - 1).map(|k| f[k].x).sum::<f64>();
     assert!((right / l2 - 21.33).abs() < 5e-3, "edge force per width {}", right / l2);
 
@@ -200,7 +200,7 @@ fn patch_test_uniform_stretch_and_shear() {
     let top: f64 = -(0..g.len()).filter(|&k| g.coords(k).1 == g.n - 1).map(|k| f[k].x).sum::<f64>();
     let n12 = s.a66 * phi;
     assert!((top / l1 - n12).abs() < 1e-2 * n12, "shear resultant {} vs A66 φ = {n12}", top / l1);
-    // The paper-literal calibration gives half (AUDIT.md §7.4: 0.27 N/m).
+    // The paper-literal calibration gives half (docs/model.md §A10 item 4: 0.27 N/m).
     let p = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Paper).unwrap();
     let elp = elastic(&g, &rest, &p, ModelKind::Tfs);
     let fp = forces(&elp, &x);
@@ -430,7 +430,7 @@ fn same_input_same_output_bit_for_bit() {
     assert!(a.iter().zip(&b).all(|(p, q)| p.to_array() == q.to_array()));
 }
 
-/// Issue 3 (MODEL.md §1): strains are measured in the material frame of the flat pattern, whatever the
+/// Issue 3 (docs/model.md §6): strains are measured in the material frame of the flat pattern, whatever the
 /// parametrisation. A homogeneous deformation of one piece of the (strongly anisotropic) paper fabric, warp along
 /// x, must store the same energy per area on a Cartesian grid, on a rotated Cartesian grid and on a polar grid
 /// (quarter annulus): the analytic ½[A11 E11² + A22 E22² + A66 γ²] with E the Green strain in x/y.

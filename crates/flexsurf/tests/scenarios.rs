@@ -1,4 +1,4 @@
-//! Physical scenarios with independently derived reference values (MODEL.md §2, §4, §5, §8; AUDIT.md §4, §6, §7):
+//! Physical scenarios with independently derived reference values (docs/model.md §4, §5, §8, §13; §A7, §A9, §A10):
 //! the Peirce cantilever against a heavy-elastica shooting solution computed here, unit invariance of the paper's
 //! model (and its absence in Terzopoulos'), damped free fall against the scalar central-difference recurrence and
 //! the continuous solution, rigid-motion invariance, the canonical ball drop and the lagged scheme's stability
@@ -114,7 +114,7 @@ fn overhang_for(q: f64, rigidity: f64) -> f64 {
 
 #[test]
 fn elastica_reference_matches_audit_table() {
-    // AUDIT.md §7 item 7: the exact heavy elastica.
+    // docs/model.md §A10 item 7: the exact heavy elastica.
     for (q, deg) in [(1.0, 7.10), (2.0, 13.86), (4.0, 25.53), (8.0, 41.49), (16.0, 57.39)] {
         let r = elastica_chord_deg(q);
         eprintln!("elastica q = {q}: {r:.4}° (table {deg})");
@@ -459,7 +459,7 @@ fn ball_drop_is_stable_and_drapes() {
     assert!(zmax > 0.3 && zmax <= 0.3 + model.contact.offset, "top of the drape at {zmax:.5} m");
 }
 
-/// MODEL.md §8 / the issue: the ball drop's strain stays below 2% at every step, the impact included.
+/// docs/model.md §13.1 / the issue: the ball drop's strain stays below 2% at every step, the impact included.
 #[test]
 fn ball_drop_strain_stays_below_two_percent() {
     let (_, _, history) = run_ball_drop();

@@ -1,4 +1,4 @@
-//! The skirt on the mannequin (the paper's demo 2, MODEL.md §8.2) through the scene format: `scenes/skirt.toml`
+//! The skirt on the mannequin (the paper's demo 2, docs/model.md §13.2) through the scene format: `scenes/skirt.toml`
 //! parses and builds as the paper's setup, its initial shape is outside the body, the full 600-step run keeps
 //! the skirt out of the body and the waist near its springs' targets, and every garment or body-obstacle error
 //! names the file and the dotted key. Run with `--release` (about 10 s).

@@ -1,4 +1,4 @@
-//! Bending energy of scheme S (MODEL.md §4): normal curvatures `B11 = n·T11x`, `B22 = n·T22x` at nodes with
+//! Bending energy of scheme S (docs/model.md §5): normal curvatures `B11 = n·T11x`, `B22 = n·T22x` at nodes with
 //! the paper's 3-point second differences and nodal normals from (51)–(52) (one-sided on free edges), and the
 //! twist `B12` at cell centres from the bilinear cell tangents. The rest curvature `B⁰` comes from the same
 //! operators on the rest shape, so a curved rest shape holds with zero force.

@@ -1,6 +1,6 @@
-//! The normal curvature `B = n·v` with `n = (a × b)/|a × b|` (MODEL.md §1: `B_ij = n·x_ij` with `a = x_1`,
+//! The normal curvature `B = n·v` with `n = (a × b)/|a × b|` (docs/model.md §2: `B_ij = n·x_ij` with `a = x_1`,
 //! `b = x_2`, `v = x_ij`), its gradient with respect to `(a, b, v)` and its exact Hessian. The variation of `n`
-//! here is the discrete counterpart of the paper's garbled term H (eq. 18–21, AUDIT.md §1.1).
+//! here is the discrete counterpart of the paper's garbled term H (eq. 18–21, docs/model.md §A1).
 
 use crate::math::{outer, skew, Mat3, Vec3};
 

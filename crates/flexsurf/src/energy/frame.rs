@@ -1,4 +1,4 @@
-//! The material frame of the rest state (MODEL.md §1): with `J` the 2×2 Jacobian from parameters to the
+//! The material frame of the rest state (docs/model.md §6): with `J` the 2×2 Jacobian from parameters to the
 //! orthonormal warp/weft axes of the flat pattern, strains and curvatures in physical units are
 //! `E = J⁻ᵀ ε J⁻¹`, `K = J⁻ᵀ κ J⁻¹`. For an arc-length grid with the warp along `u1`, `J = I`.
 

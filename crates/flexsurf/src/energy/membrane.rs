@@ -1,4 +1,4 @@
-//! Membrane energy of scheme S (MODEL.md §4, AUDIT.md §3.3): stretch `G11`, `G22` on grid edges by compact
+//! Membrane energy of scheme S (docs/model.md §5, §A6): stretch `G11`, `G22` on grid edges by compact
 //! differences (the quadratic patch at `t = ±½`), shear `G12` at cell centres from the bilinear tangents.
 //!
 //! Each cell owns its two `u1`-edges, two `u2`-edges and its centre; per cell

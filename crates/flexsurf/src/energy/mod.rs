@@ -24,10 +24,10 @@ pub enum Operator {
     /// A positive semi-definite approximation, used by the implicit step and as the static solver's fallback:
     /// for the membrane, Gauss–Newton (`Jᵀ C J`) plus the positive part of each strain's stress (geometric)
     /// stiffness; for bending, Gauss–Newton (`Jᵀ D J` of the curvature changes) alone, the moment's second
-    /// derivative term dropped; for the Terzopoulos bending, its lagged operator (docs/model.md §5).
+    /// derivative term dropped; for the Terzopoulos bending, its lagged operator (docs/model.md §7).
     Projected,
     /// The paper's lagged-coefficient secant operator: frozen (tension-clamped) stresses and frozen normals,
-    /// material stiffness left out (docs/model.md §A4). Used only by the `lagged` integrator.
+    /// material stiffness left out (docs/model.md §A7). Used only by the `lagged` integrator.
     Secant,
 }
 

@@ -1,4 +1,4 @@
-//! The Terzopoulos–Fleischer model the paper corrects (MODEL.md §3): the same grid, quadrature and membrane as
+//! The Terzopoulos–Fleischer model the paper corrects (docs/model.md §11): the same grid, quadrature and membrane as
 //! [`super::membrane`], but bending enters as `∂_ij(β_ij x_ij)` with `β = P` (the moment of the same
 //! calibrated coefficients): the unit normal `n` is replaced by `x_ij` and the variation of `n` (the paper's H)
 //! is dropped. Its force is not the gradient of an energy; its operator is the lagged secant

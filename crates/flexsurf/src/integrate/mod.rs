@@ -1,4 +1,4 @@
-//! Time integration (docs/model.md, the step). Both schemes solve the central-difference system of the paper's
+//! Time integration (docs/model.md §8). Both schemes solve the central-difference system of the paper's
 //! (46)–(48)
 //!
 //! `(M/Δt² + C/(2Δt) + K) Δ = f_ext − ∇E(x_t) + M (x_t − x⁻)/Δt² − C (x_t − x⁻)/(2Δt)`, `x⁺ = x_t + Δ`,

@@ -1,4 +1,4 @@
-//! Quasi-static equilibrium (docs/model.md, the static solve): minimises the total potential
+//! Quasi-static equilibrium (docs/model.md §9): minimises the total potential
 //! `Π(x) = E_h(x) − Σ m g·x + contact penalty + springs` ([`crate::potential`], the same assembly as the time
 //! step) over the free nodes by Newton's method: the exact Hessian where it is positive definite, else the
 //! positive semi-definite one (plus a Levenberg shift when needed), with a backtracking (Armijo) line search on

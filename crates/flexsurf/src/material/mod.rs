@@ -1,4 +1,4 @@
-//! Fabric properties and their calibration into the energy's stiffness coefficients (MODEL.md §2).
+//! Fabric properties and their calibration into the energy's stiffness coefficients (docs/model.md §4).
 //!
 //! [`Fabric`] holds measured constants in SI (tensile `E·h` per width, shear per radian, bending rigidities,
 //! areal density, damping); [`units`] converts native KES-F units; [`Stiffness::calibrate`] turns a fabric into
@@ -29,7 +29,7 @@ pub enum MaterialError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Calibration {
-    /// Physically consistent (MODEL.md §2): `M = Kκ`, shear resultant `Gγ`, Poisson coupling in `A12`.
+    /// Physically consistent (docs/model.md §4): `M = Kκ`, shear resultant `Gγ`, Poisson coupling in `A12`.
     #[default]
     Kes,
     /// The paper's eq. 26–44 as printed: bending twice as stiff, shear half, no coupling term.
@@ -62,7 +62,7 @@ pub struct Fabric {
 }
 
 impl Fabric {
-    /// The paper's non-woven cotton (Wang, Wu, Sun & Yuen, demo data; readings per AUDIT.md §6):
+    /// The paper's non-woven cotton (Wang, Wu, Sun & Yuen, demo data; readings per docs/model.md §A9):
     /// E1h = 21300, E2h = 4300 N/m, G = 54 N/m per rad, K1 = 175e-6, K2 = 45e-6 N·m, ρ = 74.5 g/m²,
     /// γ = 10 "g/ms" read as 0.010 kg/(m²·s).
     pub fn paper_cotton() -> Self {
@@ -129,7 +129,7 @@ impl Fabric {
     }
 }
 
-/// Energy coefficients per unit rest area (MODEL.md §2):
+/// Energy coefficients per unit rest area (docs/model.md §4):
 /// `F = ½[A11 E11² + 2A12 E11E22 + A22 E22² + A66 γ²] + ½[D11 K11² + 2D12 K11K22 + D22 K22² + D66 (2K12)²]`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Stiffness {
@@ -224,7 +224,7 @@ mod tests {
     fn kes_calibration_of_the_paper_fabric() {
         let s = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Kes).unwrap();
         assert_eq!((s.a11, s.a22, s.a66, s.a12), (21300.0, 4300.0, 54.0, 0.0));
-        // Huber: D66 = ½ √(175e-6 · 45e-6) = 44.37e-6 (AUDIT.md §2.4: 44.4e-6).
+        // Huber: D66 = ½ √(175e-6 · 45e-6) = 44.37e-6 (docs/model.md §A4: 44.4e-6).
         assert!((s.d66 - 44.370598e-6).abs() < 1e-11);
         let p = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Paper).unwrap();
         assert_eq!(p.d11, 2.0 * 175e-6);

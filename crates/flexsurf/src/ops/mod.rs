@@ -1,5 +1,5 @@
 //! Difference operators of the paper's quadratic patch (eq. 49–54) and where each is evaluated (scheme S of
-//! MODEL.md §4): compact edge tangents and bilinear cell tangents for the metric, 3-point second differences and
+//! docs/model.md §5): compact edge tangents and bilinear cell tangents for the metric, 3-point second differences and
 //! (central or one-sided) nodal tangents for the curvature, and the cell twist. Each operator is a short list of
 //! `(node, coefficient)` pairs; [`Support`] gathers the distinct nodes of one quadrature point.
 

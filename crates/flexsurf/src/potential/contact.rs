@@ -1,4 +1,4 @@
-//! Penalty contact with the obstacles (docs/model.md, contact): for the signed distance `d` along an obstacle's
+//! Penalty contact with the obstacles (docs/model.md §10): for the signed distance `d` along an obstacle's
 //! outward normal `ν` and the contact offset `δ`, a pressure `c (δ − d)` when `d < δ`, applied as a force per
 //! node times the node's rest area (so `c` is N/m³ and contact does not depend on the grid): energy
 //! `½ c a (δ − d)²`, stiffness `c a ν νᵀ` in the step's matrix (implicit contact, with `d` linearised about the

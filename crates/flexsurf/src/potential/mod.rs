@@ -8,7 +8,7 @@
 //! constraints, not terms: the fixed nodes of [`Pins`].
 //!
 //! Both solvers call the same assembly ([`Potential::assemble`]): the dynamic step minimises the incremental
-//! potential `Π(y) + inertia(y)` (docs/model.md §7), the static solver `Π(x)` itself (§8). Neither knows a
+//! potential `Π(y) + inertia(y)` (docs/model.md §8), the static solver `Π(x)` itself (§9). Neither knows a
 //! concrete term: they see stages, energy parts and the capabilities a term declares (conservative or not, an
 //! active set to refine).
 //!

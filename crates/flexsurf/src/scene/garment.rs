@@ -1,5 +1,5 @@
 //! `[garment]` in place of `[sheet]`: the table's serde types, the check of its values and the call that builds
-//! the garment. The construction itself (the skirt pattern of the paper's demo 2, MODEL.md §8.2, and its fitting
+//! the garment. The construction itself (the skirt pattern of the paper's demo 2, docs/model.md §13.2, and its fitting
 //! onto the body) is [`crate::garment`]; this file maps its errors onto the table's keys. The waist row is held
 //! by springs (`waist_springs`) to its fitted initial positions.
 

@@ -1,4 +1,4 @@
-//! Rational B-spline (NURBS) surface bodies for contact (MODEL.md §6): patches of any degree up to
+//! Rational B-spline (NURBS) surface bodies for contact (docs/model.md §10): patches of any degree up to
 //! [`MAX_DEGREE`] with clamped knot vectors, evaluation of points, first and second partial derivatives and unit
 //! normals (Cox–de Boor basis functions with derivatives, The NURBS Book A2.1/A2.3, and the rational quotient
 //! rule of A4.4), and closest-point projection by clamped Newton per patch, warm-started from a [`Hint`].

@@ -76,7 +76,7 @@ pub fn elastica_chord_deg(q: f64) -> f64 {
 mod tests {
     use super::*;
 
-    /// AUDIT.md §7 item 7: the exact heavy elastica's chord angles.
+    /// docs/model.md §A10 item 7: the exact heavy elastica's chord angles.
     #[test]
     fn elastica_matches_the_audit_table() {
         for (q, deg) in [(1.0, 7.10), (2.0, 13.86), (4.0, 25.53), (8.0, 41.49), (16.0, 57.39)] {
