@@ -91,7 +91,7 @@ pub struct ModelBuilder {
 }
 
 impl ModelBuilder {
-    /// A builder with no obstacles, pins, springs or loads; warp along `u1`.
+    /// A builder with no obstacles, pins, springs or loads; warp along `u1` (see [`ModelBuilder::options`]).
     pub fn new(
         grid: Grid,
         rest: Vec<Vec3>,
@@ -100,19 +100,6 @@ impl ModelBuilder {
         kind: ModelKind,
         gravity: Vec3,
     ) -> Self {
-        Self::with_options(grid, rest, fabric, stiffness, kind, gravity, &ElasticOptions::default())
-    }
-
-    /// As [`ModelBuilder::new`] with explicit [`ElasticOptions`] (warp angle, flat pattern).
-    pub fn with_options(
-        grid: Grid,
-        rest: Vec<Vec3>,
-        fabric: Fabric,
-        stiffness: Stiffness,
-        kind: ModelKind,
-        gravity: Vec3,
-        options: &ElasticOptions,
-    ) -> Self {
         let n = grid.len();
         Self {
             grid,
@@ -120,7 +107,7 @@ impl ModelBuilder {
             fabric,
             stiffness,
             kind,
-            options: *options,
+            options: ElasticOptions::default(),
             gravity,
             obstacles: Vec::new(),
             contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0 },
@@ -129,6 +116,12 @@ impl ModelBuilder {
             loads: vec![Vec3::ZERO; n],
             extra_terms: Vec::new(),
         }
+    }
+
+    /// The same builder with explicit [`ElasticOptions`] (warp direction, flat pattern).
+    pub fn options(mut self, options: ElasticOptions) -> Self {
+        self.options = options;
+        self
     }
 
     fn validate(&self) -> Result<(), ModelError> {

@@ -598,7 +598,7 @@ fn same_sheet_on_a_curvilinear_grid_sags_the_same() {
             Warp::Angle(t) => ElasticOptions { warp_angle: t, ..Default::default() },
         };
         let mut model =
-            ModelBuilder::with_options(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
+            ModelBuilder::new(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81)).options(opts);
         for j in 0..n {
             model.pinned[g.index(0, j)] = true;
             model.pinned[g.index(1, j)] = true;

@@ -138,7 +138,7 @@ fn clamped_specimen(
         .collect();
     let opts = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
     let mut model =
-        ModelBuilder::with_options(grid, rest.clone(), *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81), &opts);
+        ModelBuilder::new(grid, rest.clone(), *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81)).options(opts);
     for k in 0..grid.len() {
         model.pinned[k] = grid.coords(k).0 <= 1;
     }

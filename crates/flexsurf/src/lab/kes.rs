@@ -106,7 +106,7 @@ fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
     let grid = Grid::sheet(m, n, len, width).expect("valid strip grid");
     let rest = grid.flat_positions(0.0);
     let opts = ElasticOptions { warp_angle: angle, ..Default::default() };
-    let mut model = ModelBuilder::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO, &opts);
+    let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO).options(opts);
     // Line load T small enough for a linear response: strain ~1e-5.
     let t = 1e-5 * f.tensile_warp.min(f.tensile_weft).min(f.shear);
     for k in 0..grid.len() {

@@ -6,7 +6,7 @@
 //! a dynamic step). The active set is found by [`Term::prepare`] and corrected by [`Term::refine`] after each
 //! solve; the obstacles' geometry lives in [`crate::contact`].
 
-use super::{Context, Part, Scratch, Stage, Term};
+use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::{closest_cached, ContactCache, Obstacle};
 use crate::energy::Sink;
 use crate::math::{outer, Mat3, Vec3};
@@ -186,14 +186,8 @@ impl PenaltyContact {
 }
 
 impl Term for PenaltyContact {
-    fn name(&self) -> &'static str {
-        "penalty contact"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Contact
-    }
-    fn part(&self) -> Part {
-        Part::Contact
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "penalty contact", stage: Stage::Contact, part: Part::Contact }
     }
 
     /// Detects the contacts at `y`: nodes inside the contact layer and, in the first assembly of a step, nodes

@@ -1,7 +1,7 @@
 //! The elastic terms: the membrane and bending energies of scheme S ([`crate::energy`]), or the Terzopoulos &
 //! Fleischer bending force in place of the bending energy, built on one grid and rest shape.
 
-use super::{Context, Part, Scratch, Stage, Term};
+use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::bending::Bending;
 use crate::energy::frame::Warp;
 use crate::energy::membrane::Membrane;
@@ -77,14 +77,8 @@ pub fn terms(
 
 /// Membrane: the three Hessian variants as documented on [`crate::energy::Operator`].
 impl Term for Membrane {
-    fn name(&self) -> &'static str {
-        "membrane"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Field
-    }
-    fn part(&self) -> Part {
-        Part::Membrane
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "membrane", stage: Stage::Field, part: Part::Membrane }
     }
     fn pairs(&self) -> Vec<(usize, usize)> {
         Membrane::pairs(self)
@@ -101,14 +95,8 @@ impl Term for Membrane {
 
 /// Bending: the three Hessian variants as documented on [`crate::energy::Operator`].
 impl Term for Bending {
-    fn name(&self) -> &'static str {
-        "bending"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Field
-    }
-    fn part(&self) -> Part {
-        Part::Bending
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "bending", stage: Stage::Field, part: Part::Bending }
     }
     fn pairs(&self) -> Vec<(usize, usize)> {
         Bending::pairs(self)
@@ -130,14 +118,8 @@ impl Term for Bending {
 pub struct TerzopoulosBending(pub Bending);
 
 impl Term for TerzopoulosBending {
-    fn name(&self) -> &'static str {
-        "terzopoulos bending"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Field
-    }
-    fn part(&self) -> Part {
-        Part::Bending
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "terzopoulos bending", stage: Stage::Field, part: Part::Bending }
     }
     fn conservative(&self) -> bool {
         false

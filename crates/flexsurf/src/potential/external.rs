@@ -1,7 +1,7 @@
 //! Gravity and constant nodal loads: the potential `−Σ f_k·x_k` of the fixed forces `f_k = m_k g + p_k`
 //! (the paper's `p`); zero Hessian.
 
-use super::{Context, Part, Scratch, Stage, Term};
+use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::Sink;
 use crate::math::Vec3;
 
@@ -29,14 +29,8 @@ impl External {
 }
 
 impl Term for External {
-    fn name(&self) -> &'static str {
-        "gravity and loads"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Field
-    }
-    fn part(&self) -> Part {
-        Part::Load
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "gravity and loads", stage: Stage::Field, part: Part::Load }
     }
     fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let v = -(0..x.len()).map(|k| self.force[k].dot(x[k])).sum::<f64>();

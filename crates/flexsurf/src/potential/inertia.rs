@@ -3,7 +3,7 @@
 //! `m (y − 2x_t + x⁻)/Δt² + c (y − x⁻)/(2Δt)` and Hessian `(m/Δt² + c/(2Δt)) I`. It reads the motion from the
 //! [`Context`]; without one (a static solve) it is zero.
 
-use super::{Context, Part, Scratch, Stage, Term};
+use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::Sink;
 use crate::math::{diag, Vec3};
 
@@ -12,14 +12,8 @@ use crate::math::{diag, Vec3};
 pub struct Inertia;
 
 impl Term for Inertia {
-    fn name(&self) -> &'static str {
-        "inertia"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Inertia
-    }
-    fn part(&self) -> Part {
-        Part::Inertia
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "inertia", stage: Stage::Inertia, part: Part::Inertia }
     }
     fn evaluate(&self, y: &[Vec3], cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let Some(motion) = cx.motion else { return 0.0 };

@@ -66,6 +66,17 @@ impl Part {
     }
 }
 
+/// What a term is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TermInfo {
+    /// Short name for messages and tests.
+    pub name: &'static str,
+    /// Where the term is evaluated.
+    pub stage: Stage,
+    /// Which energy its value counts as.
+    pub part: Part,
+}
+
 /// The motion a dynamic step starts from: `x_t`, `x_{t−Δt}`, `Δt` and the lumped masses.
 #[derive(Debug, Clone, Copy)]
 pub struct Motion<'a> {
@@ -141,12 +152,20 @@ impl Clone for Box<dyn Term> {
 /// Hessian approximation ([`Operator`]) to `sink.hess`, all from one pass so the three cannot drift apart, and
 /// returns the term's value. A term that is not the gradient of its value says so ([`Term::conservative`]).
 pub trait Term: Send + Sync + Debug + TermClone {
+    /// What the term is: name, stage and energy part.
+    fn info(&self) -> TermInfo;
     /// Short name for messages and tests.
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &'static str {
+        self.info().name
+    }
     /// Where the term is evaluated.
-    fn stage(&self) -> Stage;
+    fn stage(&self) -> Stage {
+        self.info().stage
+    }
     /// Which energy its value counts as.
-    fn part(&self) -> Part;
+    fn part(&self) -> Part {
+        self.info().part
+    }
     /// False when the gradient is not the derivative of the value (the Terzopoulos force): the static solver
     /// and line searches refuse such a potential.
     fn conservative(&self) -> bool {
@@ -404,13 +423,14 @@ impl Potential {
         if want.hess.is_some() {
             ws.matrix.clear();
         }
+        let pass = Pass { x, cx, want };
         let mut values = Values::default();
         let mut energy = 0.0;
         let mut extra_done = extra.is_none();
         let mut contact_started = false;
         for (t, term) in self.terms.iter().enumerate() {
             if !extra_done && term.stage() > Stage::Inertia {
-                energy = self.run_extra(extra, x, cx, want, ws, energy, &mut values);
+                energy = ws.apply(extra, Slot::Extra, &pass, energy, &mut values);
                 extra_done = true;
             }
             let t0 = (term.stage() == Stage::Contact).then(std::time::Instant::now);
@@ -422,58 +442,17 @@ impl Potential {
                 }
                 term.prepare(x, cx, &mut ws.scratch[t]);
             }
-            energy = self.run_term(t, x, cx, want, ws, energy, &mut values);
+            energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             if let Some(t0) = t0 {
                 ws.contact_seconds += t0.elapsed().as_secs_f64();
             }
         }
         if !extra_done {
-            energy = self.run_extra(extra, x, cx, want, ws, energy, &mut values);
+            energy = ws.apply(extra, Slot::Extra, &pass, energy, &mut values);
         }
         values.total = energy;
         self.zero_fixed(&mut ws.grad);
         values
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn run_term(
-        &self,
-        t: usize,
-        x: &[Vec3],
-        cx: &Context,
-        want: Want,
-        ws: &mut Workspace,
-        energy: f64,
-        values: &mut Values,
-    ) -> f64 {
-        let term = &self.terms[t];
-        let journal = (term.stage() == Stage::Contact).then_some(&mut ws.journal);
-        let (grad, hess) = sink_parts(&mut ws.grad, &mut ws.matrix, want);
-        let mut sink = Sink { grad, hess, energy, journal };
-        let v = term.evaluate(x, cx, &mut ws.scratch[t], &mut sink);
-        let energy = sink.energy;
-        values.add(term.part(), v);
-        values.contacts += term.active(&ws.scratch[t]);
-        energy
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn run_extra(
-        &self,
-        extra: Option<&dyn Term>,
-        x: &[Vec3],
-        cx: &Context,
-        want: Want,
-        ws: &mut Workspace,
-        energy: f64,
-        values: &mut Values,
-    ) -> f64 {
-        let Some(term) = extra else { return energy };
-        let (grad, hess) = sink_parts(&mut ws.grad, &mut ws.matrix, want);
-        let mut sink = Sink { grad, hess, energy, journal: None };
-        let v = term.evaluate(x, cx, &mut ws.extra, &mut sink);
-        values.add(term.part(), v);
-        sink.energy
     }
 
     /// After a solve proposing `x + delta`: refines every active set; if one changed, undoes the contact stage
@@ -497,11 +476,12 @@ impl Potential {
             return false;
         }
         self.undo_contact(ws);
+        let pass = Pass { x, cx, want };
         let mut energy = 0.0;
         let mut values = Values::default();
         for (t, term) in self.terms.iter().enumerate() {
             if term.stage() == Stage::Contact {
-                energy = self.run_term(t, x, cx, want, ws, energy, &mut values);
+                energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             }
         }
         self.zero_fixed(&mut ws.grad);
@@ -576,12 +556,36 @@ impl Potential {
     }
 }
 
-fn sink_parts<'a>(
-    grad: &'a mut [Vec3],
-    matrix: &'a mut BlockMatrix,
+/// One evaluation pass: the configuration, the context and what is wanted.
+struct Pass<'a> {
+    x: &'a [Vec3],
+    cx: &'a Context<'a>,
     want: Want,
-) -> (Option<&'a mut [Vec3]>, Option<(&'a mut BlockMatrix, Operator)>) {
-    let g = if want.grad { Some(grad) } else { None };
-    let h = want.hess.map(|op| (matrix, op));
-    (g, h)
+}
+
+/// Where a term's scratch lives in a [`Workspace`].
+#[derive(Clone, Copy)]
+enum Slot {
+    Term(usize),
+    Extra,
+}
+
+impl Workspace {
+    /// Evaluates `term` (if any) into the workspace's buffers, its value added to the running `energy` (returned)
+    /// and recorded in `values`; the contact stage writes the matrix through the journal.
+    fn apply(&mut self, term: Option<&dyn Term>, slot: Slot, pass: &Pass, energy: f64, values: &mut Values) -> f64 {
+        let Some(term) = term else { return energy };
+        let scratch = match slot {
+            Slot::Term(t) => &mut self.scratch[t],
+            Slot::Extra => &mut self.extra,
+        };
+        let journal = (term.stage() == Stage::Contact).then_some(&mut self.journal);
+        let grad = if pass.want.grad { Some(&mut self.grad[..]) } else { None };
+        let hess = pass.want.hess.map(|op| (&mut self.matrix, op));
+        let mut sink = Sink { grad, hess, energy, journal };
+        let v = term.evaluate(pass.x, pass.cx, scratch, &mut sink);
+        values.add(term.part(), v);
+        values.contacts += term.active(scratch);
+        sink.energy
+    }
 }

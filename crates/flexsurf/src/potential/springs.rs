@@ -1,6 +1,6 @@
 //! Springs holding nodes near targets (the skirt's waist): `½ k |x − target|²` per spring, Hessian `k I`.
 
-use super::{Context, Part, Scratch, Stage, Term};
+use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::Sink;
 use crate::math::{diag, Vec3};
 use serde::Serialize;
@@ -30,14 +30,8 @@ impl Springs {
 }
 
 impl Term for Springs {
-    fn name(&self) -> &'static str {
-        "springs"
-    }
-    fn stage(&self) -> Stage {
-        Stage::Attachment
-    }
-    fn part(&self) -> Part {
-        Part::Spring
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "springs", stage: Stage::Attachment, part: Part::Spring }
     }
     fn evaluate(&self, x: &[Vec3], cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let mut total = 0.0;

@@ -176,15 +176,8 @@ impl SceneSpec {
             }
             Body::Garment { spec: g, shape } => {
                 let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true, ..Default::default() };
-                let mut model = ModelBuilder::with_options(
-                    shape.grid,
-                    shape.rest,
-                    fabric,
-                    stiffness,
-                    self.model.kind,
-                    gravity,
-                    &options,
-                );
+                let mut model = ModelBuilder::new(shape.grid, shape.rest, fabric, stiffness, self.model.kind, gravity)
+                    .options(options);
                 for &k in &shape.waist_nodes {
                     model.springs.push(Spring { node: k, target: shape.initial[k], stiffness: g.waist_springs });
                 }

@@ -75,7 +75,7 @@ fn chord(
     let warp_angle = if strip.direction == Direction::Bias { std::f64::consts::FRAC_PI_4 } else { 0.0 };
     let opts = ElasticOptions { warp_angle, ..Default::default() };
     let mut model =
-        ModelBuilder::with_options(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G), &opts);
+        ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G)).options(opts);
     for a in 0..n {
         model.pinned[node(0, a)] = true;
         model.pinned[node(1, a)] = true;
