@@ -126,19 +126,12 @@ impl StaticSolver {
 
     /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
-        let n = x.len();
-        // Force scale of the residual: the largest external load, spring force scale, or (for a problem driven
-        // by prescribed positions) the largest elastic force at the start, pinned nodes included.
         if let Some(term) = model.potential.non_conservative() {
             return Err(StaticError::NonConservative { term });
         }
+        let n = x.len();
+        let load = Self::force_scale(model, x);
         let mut grad = vec![Vec3::ZERO; n];
-        model.elastic(x, Some(&mut grad));
-        let load = grad
-            .iter()
-            .map(|g| g.length())
-            .fold(model.potential.load_scale(None, model.length_scale()), f64::max)
-            .max(f64::MIN_POSITIVE);
         let mut step = vec![Vec3::ZERO; n];
         let mut trial = x.to_vec();
         let mut shift: f64 = 0.0;
@@ -149,79 +142,16 @@ impl StaticSolver {
             if res <= opts.tolerance {
                 return Ok(StaticReport { iterations: it, residual: res, potential: pi });
             }
-            // Newton with the exact Hessian where it is positive definite (quadratic convergence near a stable
-            // equilibrium); where Cholesky meets a non-positive pivot or the direction does not descend, the
-            // PSD-projected Hessian with a Levenberg shift instead.
-            let mut solved = false;
-            if self.exact {
-                self.assemble(model, x, Operator::Exact);
-                let scale = self.scale();
-                self.shift(model, 1e-12 * scale);
-                for k in 0..n {
-                    step[k] = -grad[k];
-                }
-                if self
-                    .solver
-                    .solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), &mut step, false)
-                    .is_ok()
-                {
-                    let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
-                    solved = slope < 0.0;
-                }
-            }
-            if !solved {
-                self.assemble(model, x, Operator::Projected);
-                // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
-                let scale = self.scale();
-                for attempt in 0..8 {
-                    let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (shift * 10.0).max(1e-8 * scale) };
-                    self.shift(model, s);
-                    for k in 0..n {
-                        step[k] = -grad[k];
-                    }
-                    match self.solver.solve(
-                        model.potential.pattern(),
-                        &self.ws.matrix,
-                        model.pinned(),
-                        &mut step,
-                        false,
-                    ) {
-                        Ok(_) => {
-                            solved = true;
-                            shift = s * 0.1;
-                            break;
-                        }
-                        Err(_) => {
-                            self.unshift(model, s);
-                            shift = s;
-                        }
-                    }
-                }
-            }
-            if !solved {
+            if !self.direction(model, x, &grad, &mut step, &mut shift) {
                 return Err(StaticError::NotConverged { iterations: it, residual: res });
             }
-            // Armijo backtracking on Π along the Newton direction.
             let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
             // Newton decrement at round-off of Π: no further progress is representable.
             if -slope <= 1e-13 * pi.abs().max(f64::MIN_POSITIVE) && res <= opts.tolerance.sqrt() {
                 return Ok(StaticReport { iterations: it, residual: res, potential: pi });
             }
-            let mut alpha = 1.0;
-            let mut accepted = false;
-            for _ in 0..30 {
-                for k in 0..n {
-                    trial[k] = x[k] + step[k] * alpha;
-                }
-                let pt = Self::potential_in(&mut self.ws, model, &trial, None);
-                if pt.is_finite() && pt <= pi + 1e-4 * alpha * slope {
-                    accepted = true;
-                    break;
-                }
-                alpha *= 0.5;
-            }
-            if !accepted {
-                // No decrease possible at this precision: accept the tiny step if the residual is near round-off.
+            if !self.line_search(model, x, &step, pi, slope, &mut trial) {
+                // No decrease possible at this precision.
                 return Err(StaticError::NotConverged { iterations: it, residual: res });
             }
             x.copy_from_slice(&trial);
@@ -230,5 +160,80 @@ impl StaticSolver {
         let _ = Self::potential_in(&mut self.ws, model, x, Some(&mut grad));
         let res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
         Err(StaticError::NotConverged { iterations: opts.max_iterations, residual: res })
+    }
+
+    /// Force scale of the residual: the largest external load or spring force scale, or (for a problem driven by
+    /// prescribed positions) the largest elastic force at the start, pinned nodes included.
+    fn force_scale(model: &Model, x: &[Vec3]) -> f64 {
+        let mut grad = vec![Vec3::ZERO; x.len()];
+        model.elastic(x, Some(&mut grad));
+        grad.iter()
+            .map(|g| g.length())
+            .fold(model.potential.load_scale(None, model.length_scale()), f64::max)
+            .max(f64::MIN_POSITIVE)
+    }
+
+    /// The Newton direction into `step`: with the exact Hessian where it is positive definite (quadratic
+    /// convergence near a stable equilibrium); where Cholesky meets a non-positive pivot or the direction does not
+    /// descend, with the positive semi-definite Hessian and a Levenberg shift (`shift`, grown on failure and
+    /// relaxed after success) instead. False if no direction was found.
+    fn direction(&mut self, model: &Model, x: &[Vec3], grad: &[Vec3], step: &mut [Vec3], shift: &mut f64) -> bool {
+        if self.exact {
+            self.assemble(model, x, Operator::Exact);
+            let scale = self.scale();
+            self.shift(model, 1e-12 * scale);
+            if self.solve_for(model, grad, step) {
+                let slope: f64 = grad.iter().zip(step.iter()).map(|(g, d)| g.dot(*d)).sum();
+                if slope < 0.0 {
+                    return true;
+                }
+            }
+        }
+        self.assemble(model, x, Operator::Projected);
+        // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
+        let scale = self.scale();
+        for attempt in 0..8 {
+            let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (*shift * 10.0).max(1e-8 * scale) };
+            self.shift(model, s);
+            if self.solve_for(model, grad, step) {
+                *shift = s * 0.1;
+                return true;
+            }
+            self.unshift(model, s);
+            *shift = s;
+        }
+        false
+    }
+
+    /// Solves the assembled matrix for `step = −A⁻¹ grad`; false if the factorisation fails.
+    fn solve_for(&mut self, model: &Model, grad: &[Vec3], step: &mut [Vec3]) -> bool {
+        for (s, g) in step.iter_mut().zip(grad) {
+            *s = -*g;
+        }
+        self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), step, false).is_ok()
+    }
+
+    /// Armijo backtracking on Π along `step` from `x` (value `pi`, slope `slope`): the accepted point in `trial`.
+    fn line_search(
+        &mut self,
+        model: &Model,
+        x: &[Vec3],
+        step: &[Vec3],
+        pi: f64,
+        slope: f64,
+        trial: &mut [Vec3],
+    ) -> bool {
+        let mut alpha = 1.0;
+        for _ in 0..30 {
+            for k in 0..x.len() {
+                trial[k] = x[k] + step[k] * alpha;
+            }
+            let pt = Self::potential_in(&mut self.ws, model, trial, None);
+            if pt.is_finite() && pt <= pi + 1e-4 * alpha * slope {
+                return true;
+            }
+            alpha *= 0.5;
+        }
+        false
     }
 }
