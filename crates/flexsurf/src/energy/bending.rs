@@ -81,89 +81,8 @@ impl Bending {
     /// As [`Bending::with_warp_angle`] with the warp given by a [`Warp`].
     pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
         let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
-        let mut points = Vec::new();
-        let w = grid.h1 * grid.h2;
-        for k in 0..grid.len() {
-            let (i, j) = grid.coords(k);
-            let mut sup = Support::default();
-            sup.slot(k);
-            let a = sup.scatter(&tangent(grid, 0, i, j));
-            let b = sup.scatter(&tangent(grid, 1, i, j));
-            let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
-            let (c, _) = split(&frame.pull_back(&dv), frame.is_aligned());
-            let mut v = [[0.0; MAX_SUPPORT]; MEASURES];
-            // (measure kind 0 = κ11 or 1 = κ22, quadrature weight): B11 with trapezoid weight across u2,
-            // B22 across u1.
-            let mut kinds: Vec<(usize, f64)> = Vec::new();
-            if let Some(st) = second(grid, 0, i, j) {
-                v[kinds.len()] = sup.scatter(&st);
-                kinds.push((0, w * frame.area * grid.trapezoid(1, j)));
-            }
-            if let Some(st) = second(grid, 1, i, j) {
-                v[kinds.len()] = sup.scatter(&st);
-                kinds.push((1, w * frame.area * grid.trapezoid(0, i)));
-            }
-            let count = kinds.len();
-            if count == 0 {
-                continue;
-            }
-            let mut d = [[0.0; MEASURES]; MEASURES];
-            for (m, &(km, wm)) in kinds.iter().enumerate() {
-                for (q, &(kq, wq)) in kinds.iter().enumerate() {
-                    d[m][q] = c[km][kq] * (wm * wq).sqrt();
-                }
-            }
-            points.push(Point::new(sup, a, b, v, count, d, rest));
-        }
-        for (i, j) in grid.cells() {
-            let ops = CellOps::new(grid, i, j);
-            let mut sup = Support::default();
-            let st = |c: &[f64; 4]| -> Vec<(usize, f64)> { (0..4).map(|q| (ops.nodes[q], c[q])).collect() };
-            let a = sup.scatter(&st(&ops.c1));
-            let b = sup.scatter(&st(&ops.c2));
-            let tw = sup.scatter(&st(&ops.twist));
-            let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
-            let (_, g) = split(&frame.pull_back(&dv), frame.is_aligned());
-            let wc = w * frame.area;
-            let mut v = [tw, [0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT]];
-            let mut d = [[0.0; MEASURES]; MEASURES];
-            if g[0] == 0.0 && g[1] == 0.0 {
-                // F ⊃ ½ C₃₃ (2κ12)² = ½ (4 C₃₃) κ12².
-                d[0][0] = 4.0 * g[2] * w * frame.area;
-                points.push(Point::new(sup, a, b, v, 1, d, rest));
-                continue;
-            }
-            // ½ (gᵀκ)²/C₃₃ over (2κ12, κ11, κ22): measures (κ12, κ̄11, κ̄22), weights (2C₃₃, C₁₃, C₂₃).
-            let gm = [2.0 * g[2], g[0], g[1]];
-            // κ̄11 from the column of corners (i, ·), or (i + 1, ·) on a free edge; κ̄22 from the row (·, j) or
-            // (·, j + 1). The support stays within the 3×3 nodes around corner (i, j): the symmetric average over
-            // all four corners needs 12 nodes and made the Cusick test's factorisations 1.8× slower, for the same
-            // first order (alternating the choice with the parity of i, j does not converge).
-            let pairs = [[[0, 2], [1, 3]], [[0, 1], [2, 3]]];
-            for (dir, choice) in pairs.iter().enumerate() {
-                for pair in choice {
-                    let st: Vec<Option<Vec<(usize, f64)>>> = pair
-                        .iter()
-                        .map(|&q| {
-                            let (ci, cj) = grid.coords(ops.nodes[q]);
-                            second(grid, dir, ci, cj)
-                        })
-                        .collect();
-                    if st.iter().all(Option::is_some) {
-                        let avg: Vec<(usize, f64)> =
-                            st.into_iter().flatten().flatten().map(|(k, c)| (k, 0.5 * c)).collect();
-                        v[1 + dir] = sup.scatter(&avg);
-                        break;
-                    }
-                }
-            }
-            for m in 0..MEASURES {
-                for q in 0..MEASURES {
-                    d[m][q] = gm[m] * gm[q] / g[2] * wc;
-                }
-            }
-            points.push(Point::new(sup, a, b, v, MEASURES, d, rest));
-        }
+        let mut points: Vec<Point> = (0..grid.len()).filter_map(|k| node_point(grid, rest, &dv, warp, k)).collect();
+        points.extend(grid.cells().map(|(i, j)| cell_point(grid, rest, &dv, warp, i, j)));
         Self { points }
     }
 
@@ -174,6 +93,93 @@ impl Bending {
             p.rest = [0.0; MEASURES];
         }
     }
+}
+
+/// The nodal quadrature point of node `k`: its normal curvatures `κ11`, `κ22` (those its 3-point second
+/// differences exist for) with the Schur-complement stiffness; `None` where neither exists.
+fn node_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, k: usize) -> Option<Point> {
+    let w = grid.h1 * grid.h2;
+    let (i, j) = grid.coords(k);
+    let mut sup = Support::default();
+    sup.slot(k);
+    let a = sup.scatter(&tangent(grid, 0, i, j));
+    let b = sup.scatter(&tangent(grid, 1, i, j));
+    let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    let (c, _) = split(&frame.pull_back(dv), frame.is_aligned());
+    let mut v = [[0.0; MAX_SUPPORT]; MEASURES];
+    // (measure kind 0 = κ11 or 1 = κ22, quadrature weight): B11 with trapezoid weight across u2,
+    // B22 across u1.
+    let mut kinds: Vec<(usize, f64)> = Vec::new();
+    if let Some(st) = second(grid, 0, i, j) {
+        v[kinds.len()] = sup.scatter(&st);
+        kinds.push((0, w * frame.area * grid.trapezoid(1, j)));
+    }
+    if let Some(st) = second(grid, 1, i, j) {
+        v[kinds.len()] = sup.scatter(&st);
+        kinds.push((1, w * frame.area * grid.trapezoid(0, i)));
+    }
+    let count = kinds.len();
+    if count == 0 {
+        return None;
+    }
+    let mut d = [[0.0; MEASURES]; MEASURES];
+    for (m, &(km, wm)) in kinds.iter().enumerate() {
+        for (q, &(kq, wq)) in kinds.iter().enumerate() {
+            d[m][q] = c[km][kq] * (wm * wq).sqrt();
+        }
+    }
+    Some(Point::new(sup, a, b, v, count, d, rest))
+}
+
+/// The quadrature point of cell `(i, j)`: the twist alone where the material frame is aligned with the grid,
+/// else the twist with the cell's averaged normal curvatures and the rank-one rest of the stiffness.
+fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usize, j: usize) -> Point {
+    let w = grid.h1 * grid.h2;
+    let ops = CellOps::new(grid, i, j);
+    let mut sup = Support::default();
+    let st = |c: &[f64; 4]| -> Vec<(usize, f64)> { (0..4).map(|q| (ops.nodes[q], c[q])).collect() };
+    let a = sup.scatter(&st(&ops.c1));
+    let b = sup.scatter(&st(&ops.c2));
+    let tw = sup.scatter(&st(&ops.twist));
+    let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    let (_, g) = split(&frame.pull_back(dv), frame.is_aligned());
+    let wc = w * frame.area;
+    let mut v = [tw, [0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT]];
+    let mut d = [[0.0; MEASURES]; MEASURES];
+    if g[0] == 0.0 && g[1] == 0.0 {
+        // F ⊃ ½ C₃₃ (2κ12)² = ½ (4 C₃₃) κ12².
+        d[0][0] = 4.0 * g[2] * w * frame.area;
+        return Point::new(sup, a, b, v, 1, d, rest);
+    }
+    // ½ (gᵀκ)²/C₃₃ over (2κ12, κ11, κ22): measures (κ12, κ̄11, κ̄22), weights (2C₃₃, C₁₃, C₂₃).
+    let gm = [2.0 * g[2], g[0], g[1]];
+    // κ̄11 from the column of corners (i, ·), or (i + 1, ·) on a free edge; κ̄22 from the row (·, j) or
+    // (·, j + 1). The support stays within the 3×3 nodes around corner (i, j): the symmetric average over
+    // all four corners needs 12 nodes and made the Cusick test's factorisations 1.8× slower, for the same
+    // first order (alternating the choice with the parity of i, j does not converge).
+    let pairs = [[[0, 2], [1, 3]], [[0, 1], [2, 3]]];
+    for (dir, choice) in pairs.iter().enumerate() {
+        for pair in choice {
+            let st: Vec<Option<Vec<(usize, f64)>>> = pair
+                .iter()
+                .map(|&q| {
+                    let (ci, cj) = grid.coords(ops.nodes[q]);
+                    second(grid, dir, ci, cj)
+                })
+                .collect();
+            if st.iter().all(Option::is_some) {
+                let avg: Vec<(usize, f64)> = st.into_iter().flatten().flatten().map(|(k, c)| (k, 0.5 * c)).collect();
+                v[1 + dir] = sup.scatter(&avg);
+                break;
+            }
+        }
+    }
+    for m in 0..MEASURES {
+        for q in 0..MEASURES {
+            d[m][q] = gm[m] * gm[q] / g[2] * wc;
+        }
+    }
+    Point::new(sup, a, b, v, MEASURES, d, rest)
 }
 
 impl Point {

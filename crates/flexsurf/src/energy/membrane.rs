@@ -12,7 +12,7 @@ use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::{diag, outer, Vec3};
 use crate::ops::CellOps;
-use crate::sparse::BlockPattern;
+use crate::sparse::{BlockMatrix, BlockPattern};
 
 /// Strains per cell: bottom/top `E11`, left/right `E22`, centre engineering shear `γ`.
 const NS: usize = 5;
@@ -164,50 +164,56 @@ impl Cell {
             }
         }
         if let Some((h, op)) = sink.hess.as_mut() {
-            // Scalar (⊗ I3) geometric part, 4×4.
-            let mut geo = [[0.0; 4]; 4];
+            self.add_hessian(h, *op, &ds, &sigma);
+        }
+        energy
+    }
+
+    /// Adds the operator `op` of this cell (material part `Σ ∇s_a Q_ab ∇s_bᵀ` unless secant, and the geometric
+    /// part, exact or its positive part) to `h`, from the strain gradients `ds` and stresses `sigma`.
+    fn add_hessian(&self, h: &mut BlockMatrix, op: Operator, ds: &[[Vec3; 4]; NS], sigma: &[f64; NS]) {
+        // Scalar (⊗ I3) geometric part, 4×4.
+        let mut geo = [[0.0; 4]; 4];
+        for a in 0..NS {
+            let (al, be, sc, sg) = (&self.alpha[a], &self.beta[a], self.scale[a], sigma[a]);
+            match op {
+                Operator::Exact => {
+                    for k in 0..4 {
+                        for l in 0..4 {
+                            geo[k][l] += sg * 0.5 * sc * (al[k] * be[l] + be[k] * al[l]);
+                        }
+                    }
+                }
+                Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
+            }
+        }
+        // t[a][l] = Σ_b Q_ab ∇_l s_b, so the material block (k, l) is Σ_a ∇_k s_a t[a][l]ᵀ.
+        let material = op != Operator::Secant;
+        let mut t = [[Vec3::ZERO; 4]; NS];
+        if material {
             for a in 0..NS {
-                let (al, be, sc, sg) = (&self.alpha[a], &self.beta[a], self.scale[a], sigma[a]);
-                match op {
-                    Operator::Exact => {
-                        for k in 0..4 {
-                            for l in 0..4 {
-                                geo[k][l] += sg * 0.5 * sc * (al[k] * be[l] + be[k] * al[l]);
-                            }
-                        }
+                for l in 0..4 {
+                    let mut acc = Vec3::ZERO;
+                    for b in 0..NS {
+                        acc += ds[b][l] * self.q[a][b];
                     }
-                    Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
-                }
-            }
-            // t[a][l] = Σ_b Q_ab ∇_l s_b, so the material block (k, l) is Σ_a ∇_k s_a t[a][l]ᵀ.
-            let material = *op != Operator::Secant;
-            let mut t = [[Vec3::ZERO; 4]; NS];
-            if material {
-                for a in 0..NS {
-                    for l in 0..4 {
-                        let mut acc = Vec3::ZERO;
-                        for b in 0..NS {
-                            acc += ds[b][l] * self.q[a][b];
-                        }
-                        t[a][l] = acc;
-                    }
-                }
-            }
-            let mut id = 0;
-            for k in 0..4 {
-                for l in k..4 {
-                    let mut m = diag(geo[k][l]);
-                    if material {
-                        for a in 0..NS {
-                            m += outer(ds[a][k], t[a][l]);
-                        }
-                    }
-                    h.add(self.blocks[id], self.nodes[k], self.nodes[l], m);
-                    id += 1;
+                    t[a][l] = acc;
                 }
             }
         }
-        energy
+        let mut id = 0;
+        for k in 0..4 {
+            for l in k..4 {
+                let mut m = diag(geo[k][l]);
+                if material {
+                    for a in 0..NS {
+                        m += outer(ds[a][k], t[a][l]);
+                    }
+                }
+                h.add(self.blocks[id], self.nodes[k], self.nodes[l], m);
+                id += 1;
+            }
+        }
     }
 }
 
