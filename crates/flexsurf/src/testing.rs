@@ -47,7 +47,7 @@ impl FdReport {
 }
 
 /// Value and gradient of `potential` (plus `extra`) at `x`, from a cold workspace.
-fn value_gradient(
+pub fn value_gradient(
     potential: &Potential,
     ws: &mut Workspace,
     x: &[Vec3],
@@ -57,6 +57,41 @@ fn value_gradient(
     ws.cold();
     let v = potential.assemble(x, &potential.context(motion), extra, Want::GRADIENT, ws);
     (v.total, ws.grad.clone())
+}
+
+/// The assembled Hessian approximation `op` of `potential` (and `extra`) at `x` and its central-difference
+/// counterpart from the gradient, both dense `3n × 3n` (rows of fixed nodes as assembled).
+pub fn hessians(
+    potential: &Potential,
+    x: &[Vec3],
+    motion: Option<Motion>,
+    extra: Option<&dyn Term>,
+    op: Operator,
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let n = x.len();
+    let mut ws = Workspace::new(potential);
+    ws.cold();
+    potential.assemble(x, &potential.context(motion), extra, Want { grad: false, hess: Some(op) }, &mut ws);
+    let dense = ws.matrix.to_dense(potential.pattern());
+    let eps = step(x);
+    let mut fd = vec![vec![0.0; 3 * n]; 3 * n];
+    for dof in 0..3 * n {
+        let (k, c) = (dof / 3, dof % 3);
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[k][c] += eps;
+        xm[k][c] -= eps;
+        let (_, gp) = value_gradient(potential, &mut ws, &xp, motion, extra);
+        let (_, gm) = value_gradient(potential, &mut ws, &xm, motion, extra);
+        for r in 0..3 * n {
+            fd[r][dof] = (gp[r / 3][r % 3] - gm[r / 3][r % 3]) / (2.0 * eps);
+        }
+    }
+    (dense, fd)
+}
+
+/// The finite-difference step: `1e-6` of the size of `x` (at least 1e-9).
+fn step(x: &[Vec3]) -> f64 {
+    1e-6 * x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(1e-3)
 }
 
 /// Finite-difference check of `potential` (and `extra`, an integrator's term such as the inertia, with the step's
@@ -83,8 +118,7 @@ pub fn check(
         .map(|(r, c)| dense[r][c].abs())
         .fold(0.0, f64::max)
         .max(f64::MIN_POSITIVE);
-    let scale = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(1e-3);
-    let eps = 1e-6 * scale;
+    let eps = step(x);
     let mut report = FdReport {
         gradient_error: 0.0,
         gradient_dof: 0,
@@ -130,4 +164,14 @@ pub fn elastic(
 ) -> Potential {
     let terms = crate::potential::elastic::terms(grid, rest, stiffness, kind, &Default::default());
     Potential::new(grid.len(), terms, crate::potential::Pins::none(grid.len()))
+}
+
+/// Smallest and largest eigenvalue of a dense symmetric matrix.
+pub fn eigen_range(d: &[Vec<f64>]) -> (f64, f64) {
+    let n = d.len();
+    let m = faer::Mat::<f64>::from_fn(n, n, |i, j| d[i][j]);
+    match m.self_adjoint_eigenvalues(faer::Side::Lower) {
+        Ok(ev) => ev.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v))),
+        Err(_) => (f64::NAN, f64::NAN),
+    }
 }

@@ -1,4 +1,4 @@
-//! Physics of the discrete model itself: derivatives (finite differences), zero modes, patch tests, pure
+//! Physics of the discrete model itself (derivatives are in `derivatives.rs`): zero modes, patch tests, pure
 //! bending, rest curvature, and the algebra of the step. Scenario tests live in `scenarios.rs`.
 
 #![allow(clippy::needless_range_loop)]
@@ -11,10 +11,8 @@ use flexsurf::integrate::{StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind, Spring};
-use flexsurf::potential::Term;
 use flexsurf::sparse::{BlockMatrix, BlockPattern};
 use flexsurf::state::State;
-use flexsurf::testing;
 use flexsurf::testing::elastic;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -43,29 +41,6 @@ fn perturbed(x: &[Vec3], amp: f64, seed: u64) -> Vec<Vec3> {
     x.iter()
         .map(|p| *p + Vec3::new(rng.random_range(-amp..amp), rng.random_range(-amp..amp), rng.random_range(-amp..amp)))
         .collect()
-}
-
-/// The shared finite-difference checker (`flexsurf::testing::check`) on one term, exact Hessian.
-fn check_derivatives(name: &str, term: Box<dyn Term>, n: usize, x: &[Vec3]) {
-    testing::check(&testing::alone(n, term), x, None, None, Operator::Exact).assert_below(name, 1e-6);
-}
-
-#[test]
-fn gradient_and_hessian_match_finite_differences() {
-    for cal in [Calibration::Kes, Calibration::Paper] {
-        let s = cotton(cal);
-        // Free sheet, strongly deformed random state.
-        let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
-        let rest = g.flat_positions(0.0);
-        let x = perturbed(&rest, 0.02, 1);
-        check_derivatives("membrane/free", Box::new(Membrane::new(&g, &rest, &s)), g.len(), &x);
-        check_derivatives("bending/free", Box::new(Bending::new(&g, &rest, &s)), g.len(), &x);
-        // Periodic cylinder, curved rest state (B⁰ ≠ 0).
-        let (gc, restc) = cylinder(6, 4, 0.1, 0.2);
-        let xc = perturbed(&restc, 0.01, 2);
-        check_derivatives("membrane/periodic", Box::new(Membrane::new(&gc, &restc, &s)), gc.len(), &xc);
-        check_derivatives("bending/periodic", Box::new(Bending::new(&gc, &restc, &s)), gc.len(), &xc);
-    }
 }
 
 /// Dense symmetric eigenvalues (ascending).
@@ -487,29 +462,6 @@ fn energy_is_independent_of_the_parametrisation() {
     let x: Vec<Vec3> = rest.iter().map(|p| map(*p)).collect();
     let area: f64 = flexsurf::model::rest_areas(&g, &rest).iter().sum();
     assert!((m.evaluate(&x, &mut Sink::none()) / area / w - 1.0).abs() > 0.1);
-}
-
-/// Bending with the warp at an angle to the grid (a bias cut, a polar grid of one piece of fabric): the
-/// parametric stiffness couples the nodal normal curvatures and the cell twist; its derivatives are exact.
-#[test]
-fn misaligned_bending_derivatives_match_finite_differences() {
-    use flexsurf::energy::frame::Warp;
-    for cal in [Calibration::Kes, Calibration::Paper] {
-        let s = cotton(cal);
-        let g = Grid::sheet(6, 5, 0.2, 0.15).unwrap();
-        let rest = g.flat_positions(0.0);
-        let x = perturbed(&rest, 0.02, 3);
-        check_derivatives(
-            "bending/free/0.6 rad",
-            Box::new(Bending::with_warp(&g, &rest, &s, Warp::Angle(0.6))),
-            g.len(),
-            &x,
-        );
-        let (gc, restc) = cylinder(6, 5, 0.1, 0.2);
-        let xc = perturbed(&restc, 0.01, 4);
-        let b = Bending::with_warp(&gc, &restc, &s, Warp::Angle(0.4));
-        check_derivatives("bending/periodic/0.4 rad", Box::new(b), gc.len(), &xc);
-    }
 }
 
 /// Out-of-plane stiffness of a flat sheet at rest, the warp at an angle to the grid: only the affine

@@ -203,7 +203,7 @@ impl Term for PenaltyContact {
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
     }
 
-    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+    fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let s = self.scratch(scratch);
         let mut total = 0.0;
         for c in &s.contacts {
@@ -213,14 +213,12 @@ impl Term for PenaltyContact {
         }
         for c in &s.contacts {
             let k = c.node;
-            // Friction from the step's start velocity is a constant force within the step: its potential
-            // `−f·y` keeps the step's incremental potential exact (it is not a contact energy).
+            // Friction (in a step only) is an explicit force from the step's start velocity and the contact's
+            // normal force: not the gradient of an energy, and not in the matrix (docs/model.md §10).
             let force = match cx.motion {
                 Some(m) if !cx.fixed[k] => {
                     let v = (m.x[k] - m.x_prev[k]) / m.dt;
-                    let f = friction(c, self.params.friction, v, m.mass[k], m.dt);
-                    sink.energy -= f.dot(y[k]);
-                    c.force_vector() + f
+                    c.force_vector() + friction(c, self.params.friction, v, m.mass[k], m.dt)
                 }
                 _ => c.force_vector(),
             };
