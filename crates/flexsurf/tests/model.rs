@@ -556,3 +556,19 @@ fn bending_energy_is_independent_of_the_parametrisation() {
         assert!(blind.abs() > 0.2, "{deg:.0}°: measuring the warp from u1 is only {blind} off");
     }
 }
+
+/// Each step returns its own timings and solve count; the stepper's counters are their sum.
+#[test]
+fn steps_report_their_own_timings() {
+    let model = demo_model(6);
+    let mut s = State::at_rest(perturbed(&model.rest, 0.01, 11));
+    let mut st = Stepper::new(&model, &StepParams::default()).unwrap();
+    let mut solves = 0;
+    for _ in 0..4 {
+        let info = st.step(&model, &mut s).unwrap();
+        assert_eq!(info.timings.steps, 1);
+        assert!(info.timings.solves >= 1 && info.timings.factorization >= 0.0 && info.timings.assembly >= 0.0);
+        solves += info.timings.solves;
+    }
+    assert_eq!((st.counters.steps, st.counters.solves), (4, solves));
+}

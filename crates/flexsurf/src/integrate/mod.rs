@@ -71,6 +71,18 @@ pub struct Counters {
     pub solves: usize,
 }
 
+impl Counters {
+    /// Adds `other` stage by stage.
+    pub fn add(&mut self, other: &Counters) {
+        self.assembly += other.assembly;
+        self.contact += other.contact;
+        self.factorization += other.factorization;
+        self.solve += other.solve;
+        self.steps += other.steps;
+        self.solves += other.solves;
+    }
+}
+
 /// What one step reports.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct StepInfo {
@@ -82,6 +94,8 @@ pub struct StepInfo {
     pub contact_energy: f64,
     /// Deepest penetration below the obstacle surface after the step (m, ≥ 0).
     pub max_penetration: f64,
+    /// This step's seconds per stage (`steps` = 1, `solves` its linear solves).
+    pub timings: Counters,
 }
 
 /// Scratch buffers and the solver of one run (rapier's "pipeline" pattern: no physics state lives here).
@@ -209,6 +223,7 @@ impl Stepper {
     pub fn step(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
         let t0 = Instant::now();
         let contact_before = self.ws.contact_seconds;
+        let solves_before = self.counters.solves;
         let step = state.step + 1;
         let first = self.assemble(model, state);
         let force_scale = model.potential.load_scale(Some(Stage::Field), model.length_scale());
@@ -219,16 +234,21 @@ impl Stepper {
         let cx = model.potential.context(None);
         let max_penetration = model.potential.violation(&state.x, &cx, &mut self.ws);
         let contact_time = self.ws.contact_seconds - contact_before;
-        self.counters.contact += contact_time;
-        self.counters.assembly += t_assembly - contact_time;
-        self.counters.factorization += tf;
-        self.counters.solve += t_solve - tf + tv.elapsed().as_secs_f64();
-        self.counters.steps += 1;
+        let timings = Counters {
+            assembly: t_assembly - contact_time,
+            contact: contact_time,
+            factorization: tf,
+            solve: t_solve - tf + tv.elapsed().as_secs_f64(),
+            steps: 1,
+            solves: self.counters.solves - solves_before,
+        };
+        self.counters.add(&timings);
         Ok(StepInfo {
             energies: Energies { membrane: first.membrane, bending: first.bending },
             contacts: first.contacts,
             contact_energy: first.contact,
             max_penetration,
+            timings,
         })
     }
 
