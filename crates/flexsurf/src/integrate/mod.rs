@@ -242,6 +242,8 @@ impl Stepper {
             steps: 1,
             solves: self.counters.solves - solves_before,
         };
+        // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
+        self.counters.solves = solves_before;
         self.counters.add(&timings);
         Ok(StepInfo {
             energies: Energies { membrane: first.membrane, bending: first.bending },
