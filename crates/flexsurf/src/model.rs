@@ -186,7 +186,6 @@ impl ModelBuilder {
             damping,
             area,
             gravity: self.gravity,
-            contact: self.contact,
             potential,
         })
     }
@@ -213,8 +212,6 @@ pub struct Model {
     pub area: Vec<f64>,
     /// Gravity (m/s²).
     pub gravity: Vec3,
-    /// Contact parameters (as given; they act through the potential's contact term).
-    pub contact: ContactParams,
     /// The total potential and the pinned nodes.
     pub potential: Potential,
 }
