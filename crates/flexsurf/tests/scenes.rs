@@ -67,7 +67,8 @@ fn ball_drop_builds_the_canonical_scene() {
     assert_eq!(s.model.kind, ModelKind::Tfs);
     assert_eq!(s.model.fabric, Fabric::paper_cotton());
     assert_eq!(s.model.obstacles(), vec![Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }]);
-    assert_eq!((s.model.contact.stiffness, s.model.contact.offset, s.model.contact.friction), (1e4, 0.005, 0.3));
+    let c = s.model.potential.find::<flexsurf::potential::contact::PenaltyContact>().unwrap().params();
+    assert_eq!((c.stiffness, c.offset, c.friction), (1e4, 0.005, 0.3));
     assert_eq!(s.model.gravity, Vec3::new(0.0, 0.0, -9.81));
     assert!(s.state.x.iter().all(|p| (p.z - 0.35).abs() < 1e-15));
     let (lo, hi) = s.state.x.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.x), b.max(p.x)));

@@ -128,15 +128,20 @@ impl Scratch {
     }
 }
 
-/// Cloning of boxed terms (implemented for every `Term + Clone`).
+/// Cloning and inspection of boxed terms (implemented for every `Term + Clone`).
 pub trait TermClone {
     /// A boxed copy.
     fn clone_box(&self) -> Box<dyn Term>;
+    /// The term as `Any`, to find a concrete term ([`Potential::find`]).
+    fn as_any(&self) -> &dyn Any;
 }
 
 impl<T: Term + Clone + 'static> TermClone for T {
     fn clone_box(&self) -> Box<dyn Term> {
         Box::new(self.clone())
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
     }
 }
 
@@ -347,6 +352,11 @@ impl Potential {
     /// The terms, in evaluation order.
     pub fn terms(&self) -> &[Box<dyn Term>] {
         &self.terms
+    }
+
+    /// The first term of type `T` (for inspection and outputs; solvers never need it).
+    pub fn find<T: Term + 'static>(&self) -> Option<&T> {
+        self.terms.iter().find_map(|t| t.as_any().downcast_ref::<T>())
     }
 
     /// Block pattern of every term's Hessian.
