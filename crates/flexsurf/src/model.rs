@@ -232,6 +232,11 @@ impl Model {
         self.potential.obstacles()
     }
 
+    /// The parameters of the potential's contact term (`None` without obstacles).
+    pub fn contact_params(&self) -> Option<ContactParams> {
+        self.potential.find::<PenaltyContact>().map(|c| *c.params())
+    }
+
     /// The springs of the potential.
     pub fn springs(&self) -> Vec<Spring> {
         self.potential.springs()

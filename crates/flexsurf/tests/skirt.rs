@@ -78,7 +78,7 @@ fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     }
     assert_eq!(m.obstacles().len(), 1);
     assert!(matches!(m.obstacles()[0], Obstacle::Nurbs(_)));
-    assert_eq!(m.contact.stiffness, 120.0);
+    assert_eq!(m.contact_params().unwrap().stiffness, 120.0);
     assert_eq!((s.dt, s.steps, s.output_every), (0.01, 600, 200));
     // The rest shape is the cone (flat pattern), polygonal with M = 28 sides: each cell is a planar isosceles
     // trapezoid with parallel chords 2 r sin(π/M) and height √((Δr cos(π/M))² + Δz²). The masses' area is the sum,
@@ -104,11 +104,14 @@ fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     assert!(g.waist_strain.abs() < 0.01, "waist strain {}", g.waist_strain);
     for (k, p) in s.state.x.iter().enumerate() {
         let (d, _) = contact::closest(&m.obstacles(), *p).unwrap();
-        assert!(d >= m.contact.offset - 1e-4, "node {:?} at {d} m from the body", m.grid.coords(k));
+        assert!(d >= m.contact_params().unwrap().offset - 1e-4, "node {:?} at {d} m from the body", m.grid.coords(k));
     }
     for &k in &g.waist_nodes {
         let (d, _) = contact::closest(&m.obstacles(), s.state.x[k]).unwrap();
-        assert!((d - m.contact.offset).abs() < 1e-4, "waist node {k} at {d} m, not on the offset surface");
+        assert!(
+            (d - m.contact_params().unwrap().offset).abs() < 1e-4,
+            "waist node {k} at {d} m, not on the offset surface"
+        );
     }
     assert_eq!(flexsurf::integrate::max_penetration(m, &s.state.x), 0.0);
 
@@ -136,7 +139,7 @@ fn the_skirt_stays_outside_the_body_and_the_waist_holds_for_600_steps() {
     let out = run_scene(&s, &d, |_| {}).unwrap();
     let sum = &out.summary;
     assert_eq!(sum.steps, 600);
-    let offset = s.model.contact.offset;
+    let offset = s.model.contact_params().unwrap().offset;
     assert!(
         sum.max_penetration_seen < offset,
         "max penetration {} m reached the contact offset {offset} m",
