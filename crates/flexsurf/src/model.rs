@@ -2,7 +2,8 @@
 //! total potential ([`Potential`]: the elastic terms, gravity and loads, springs, contact, and the pinned nodes).
 //!
 //! A [`Model`] is built once, through one validated path: fill a [`ModelBuilder`] (by a scene or by hand) and
-//! call [`ModelBuilder::build`]. Afterwards it is read by the integrators and never changes.
+//! call [`ModelBuilder::build`]. Afterwards it is read by the integrators; between steps a script may move a
+//! pinned node ([`Model::move_pin`]) or a spring's target ([`Model::set_spring_target`]), nothing else.
 
 use crate::contact::Obstacle;
 use crate::grid::Grid;
@@ -12,6 +13,7 @@ use crate::potential::contact::{ContactParams, PenaltyContact};
 use crate::potential::external::External;
 use crate::potential::springs::Springs;
 use crate::potential::{elastic, Part, Pins, Potential, Term};
+use crate::state::State;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -240,6 +242,36 @@ impl Model {
     /// The springs of the potential.
     pub fn springs(&self) -> Vec<Spring> {
         self.potential.springs()
+    }
+
+    /// Moves pinned node `node` to `position` in `state`, between steps (scripted manipulation, a gripper).
+    /// The node's previous position is kept, so the next step sees the pin moving at
+    /// `(position − x_prev)/Δt`; the step holds the node exactly where it was put.
+    pub fn move_pin(&self, state: &mut State, node: usize, position: Vec3) -> Result<(), ModelError> {
+        if node >= self.grid.len() || node >= state.x.len() {
+            return Err(model_error("pinned", format!("node {node} is outside the grid of {} nodes", self.grid.len())));
+        }
+        if !self.pinned()[node] {
+            return Err(model_error("pinned", format!("node {node} is not pinned")));
+        }
+        if !finite(position) {
+            return Err(model_error("pinned", format!("position {position} of node {node} is not finite")));
+        }
+        state.x[node] = position;
+        Ok(())
+    }
+
+    /// Moves the target of spring `index` (in the order of [`Model::springs`]) to `target`, between steps.
+    pub fn set_spring_target(&mut self, index: usize, target: Vec3) -> Result<(), ModelError> {
+        if !finite(target) {
+            return Err(model_error("springs", format!("target {target} of spring {index} is not finite")));
+        }
+        if self.potential.set_spring_target(index, target) {
+            Ok(())
+        } else {
+            let count = self.potential.springs().len();
+            Err(model_error("springs", format!("spring {index} does not exist (the model has {count})")))
+        }
     }
 
     /// Potential energy of gravity and the constant loads, `−Σ (m g + p)·x` (J).

@@ -572,3 +572,40 @@ fn steps_report_their_own_timings() {
     }
     assert_eq!((st.counters.steps, st.counters.solves), (4, solves));
 }
+
+/// Between steps a script may move a pinned node (the step then holds it there) and a spring's target (the
+/// spring pulls towards the new one); both refuse nodes, springs and positions that do not exist or are not
+/// finite.
+#[test]
+fn pins_and_spring_targets_move_between_steps() {
+    let grid = Grid::sheet(5, 5, 0.4, 0.4).unwrap();
+    let rest = grid.flat_positions(0.0);
+    let f = Fabric::paper_cotton();
+    let s = Stiffness::calibrate(&f, Calibration::Kes).unwrap();
+    let mut b = ModelBuilder::new(grid, rest.clone(), f, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81));
+    let (pin, held) = (grid.index(0, 0), grid.index(4, 4));
+    b.pinned[pin] = true;
+    b.springs.push(Spring { node: held, target: rest[held], stiffness: 0.05 });
+    let mut model = b.build().unwrap();
+    let mut state = State::at_rest(rest.clone());
+    let mut stepper = Stepper::new(&model, &StepParams::with_dt(0.01)).unwrap();
+    let mut free_state = state.clone();
+    let free_model = model.clone();
+    let mut free_stepper = Stepper::new(&free_model, &StepParams::with_dt(0.01)).unwrap();
+    let up = Vec3::new(0.0, 0.0, 0.02);
+    model.set_spring_target(0, rest[held] + up).unwrap();
+    for k in 1..=5 {
+        let p = rest[pin] + up * k as f64;
+        model.move_pin(&mut state, pin, p).unwrap();
+        stepper.step(&model, &mut state).unwrap();
+        free_stepper.step(&free_model, &mut free_state).unwrap();
+        assert_eq!(state.x[pin], p);
+    }
+    assert_eq!(model.springs()[0].target, rest[held] + up);
+    assert!(state.x[held].z > free_state.x[held].z, "the moved target pulls the node up");
+    assert!(model.move_pin(&mut state, grid.index(2, 2), Vec3::ZERO).is_err(), "not pinned");
+    assert!(model.move_pin(&mut state, 99, Vec3::ZERO).is_err(), "outside the grid");
+    assert!(model.move_pin(&mut state, pin, Vec3::new(f64::NAN, 0.0, 0.0)).is_err(), "not finite");
+    assert!(model.set_spring_target(1, Vec3::ZERO).is_err(), "no such spring");
+    assert!(model.set_spring_target(0, Vec3::splat(f64::INFINITY)).is_err(), "not finite");
+}

@@ -134,6 +134,8 @@ pub trait TermClone {
     fn clone_box(&self) -> Box<dyn Term>;
     /// The term as `Any`, to find a concrete term ([`Potential::find`]).
     fn as_any(&self) -> &dyn Any;
+    /// The term as mutable `Any`, to change a concrete term's data between steps ([`Potential::find_mut`]).
+    fn as_any_mut(&mut self) -> &mut dyn Any;
 }
 
 impl<T: Term + Clone + 'static> TermClone for T {
@@ -141,6 +143,9 @@ impl<T: Term + Clone + 'static> TermClone for T {
         Box::new(self.clone())
     }
     fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
         self
     }
 }
@@ -357,6 +362,19 @@ impl Potential {
     /// The first term of type `T` (for inspection and outputs; solvers never need it).
     pub fn find<T: Term + 'static>(&self) -> Option<&T> {
         self.terms.iter().find_map(|t| t.as_any().downcast_ref::<T>())
+    }
+
+    /// The first term of type `T`, mutably: for data that may change between steps without changing the
+    /// term's sparsity pattern (a spring's target, [`Potential::set_spring_target`]).
+    pub(crate) fn find_mut<T: Term + 'static>(&mut self) -> Option<&mut T> {
+        self.terms.iter_mut().find_map(|t| t.as_any_mut().downcast_mut::<T>())
+    }
+
+    /// Moves the target of spring `index` (in the order of [`Potential::springs`]) to `target`, between steps;
+    /// returns `false` when there is no such spring. The spring's node and stiffness, and so the pattern and the
+    /// Hessian, are unchanged.
+    pub fn set_spring_target(&mut self, index: usize, target: Vec3) -> bool {
+        self.find_mut::<springs::Springs>().is_some_and(|s| s.set_target(index, target))
     }
 
     /// Block pattern of every term's Hessian.

@@ -27,6 +27,17 @@ impl Springs {
     pub fn new(springs: Vec<Spring>) -> Self {
         Self { springs }
     }
+
+    /// Moves the target of spring `index`; `false` when there is no such spring.
+    pub fn set_target(&mut self, index: usize, target: Vec3) -> bool {
+        match self.springs.get_mut(index) {
+            Some(s) => {
+                s.target = target;
+                true
+            }
+            None => false,
+        }
+    }
 }
 
 impl Term for Springs {

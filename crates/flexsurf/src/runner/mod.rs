@@ -82,6 +82,12 @@ fn prepare(out: &Path) -> Result<PathBuf, RunError> {
 /// Runs `scene` and writes its outputs into `out` (created if missing). `progress(step)` is called after
 /// every step. Does not modify `scene`.
 pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> Result<RunOutput, RunError> {
+    run_scene_observed(scene, out, |state| progress(state.step))
+}
+
+/// As [`run_scene`], calling `observe(state)` after every step with the state just reached (the Python
+/// bindings keep the positions of the output steps this way). The outputs are those of [`run_scene`].
+pub fn run_scene_observed(scene: &Scene, out: &Path, mut observe: impl FnMut(&State)) -> Result<RunOutput, RunError> {
     let model = &scene.model;
     let frames_dir = prepare(out)?;
     // A static solve writes the initial state and the equilibrium (as step 1).
@@ -98,13 +104,13 @@ pub fn run_scene(scene: &Scene, out: &Path, mut progress: impl FnMut(usize)) -> 
     rec.record(&state)?;
     let (stats, static_report) = match scene.method {
         Method::Static(options) => {
-            let (stats, report) = solve_static(model, &options, &mut state, &mut rec, &mut progress)?;
+            let (stats, report) = solve_static(model, &options, &mut state, &mut rec, &mut observe)?;
             (Ok(stats), Some(report))
         }
         Method::Dynamic(params) => {
             let mut stepper = Stepper::new(model, &params)?;
             let stats = sim::run(model, &mut state, &mut stepper, scene.steps, |st, _info| {
-                progress(st.step);
+                observe(st);
                 match rec.record(st) {
                     Ok(()) => ControlFlow::Continue(()),
                     Err(e) => {
@@ -145,7 +151,7 @@ fn solve_static(
     options: &StaticOptions,
     state: &mut State,
     rec: &mut Recorder<'_>,
-    progress: &mut impl FnMut(usize),
+    progress: &mut impl FnMut(&State),
 ) -> Result<(sim::RunStats, StaticReport), RunError> {
     let t = std::time::Instant::now();
     let report =
@@ -153,7 +159,7 @@ fn solve_static(
     let wall = t.elapsed().as_secs_f64();
     state.x_prev.copy_from_slice(&state.x);
     state.step = 1;
-    progress(1);
+    progress(state);
     rec.record(state)?;
     let stats = sim::RunStats {
         steps: 0,

@@ -248,6 +248,14 @@ pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
     Ok(m)
 }
 
+/// Reads a `[material]` table given as TOML text (the keys of a scene's `[material]`, `preset` and `file`
+/// included) and resolves it; `file` names the text in errors, and a `file = …` inside is found relative to it.
+/// The Python bindings build materials from keyword arguments this way.
+pub fn material_from_toml(text: &str, file: &Path) -> Result<ResolvedMaterial, SceneError> {
+    let spec: MaterialSpec = parse_toml(text, file)?;
+    spec.resolve(file, "")
+}
+
 /// Where a material file path points when given relative to `file`.
 pub fn relative_to(file: &Path, rel: &Path) -> PathBuf {
     file.parent().unwrap_or(Path::new("")).join(rel)
