@@ -1,0 +1,139 @@
+//! Conversions between Python objects and the TOML and JSON values of the library: a Python dict becomes the
+//! TOML text of a scene or a material (so that it is read, checked and reported exactly as a file is), and the
+//! library's serialisable reports become Python dicts.
+
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::IntoPyObjectExt;
+
+/// A Python value as a TOML value; `key` is the dotted key it sits at, for the error message.
+pub fn py_to_toml(value: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+    if value.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(value.extract()?));
+    }
+    if value.is_instance_of::<PyInt>() {
+        return match value.extract::<i64>() {
+            Ok(i) => Ok(toml::Value::Integer(i)),
+            Err(_) => Err(PyTypeError::new_err(format!("`{key}`: integer {value} does not fit in 64 bits"))),
+        };
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(value.extract()?));
+    }
+    if value.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(value.extract()?));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        return dict_to_table(d, key).map(toml::Value::Table);
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let mut items = Vec::new();
+        for (k, item) in value.try_iter()?.enumerate() {
+            items.push(py_to_toml(&item?, &format!("{key}[{k}]"))?);
+        }
+        return Ok(toml::Value::Array(items));
+    }
+    // numpy scalars, pathlib paths and the like: by their float or string value.
+    if let Ok(f) = value.extract::<f64>() {
+        return Ok(toml::Value::Float(f));
+    }
+    if value.hasattr("__fspath__")? {
+        return Ok(toml::Value::String(value.call_method0("__fspath__")?.extract()?));
+    }
+    Err(PyTypeError::new_err(format!(
+        "`{key}`: a value of type {} cannot stand in a scene (use numbers, strings, booleans, lists and dicts)",
+        value.get_type().name()?
+    )))
+}
+
+/// A Python dict with string keys as a TOML table.
+pub fn dict_to_table(d: &Bound<'_, PyDict>, prefix: &str) -> PyResult<toml::Table> {
+    let mut table = toml::Table::new();
+    for (k, v) in d.iter() {
+        let name: String =
+            k.extract().map_err(|_| PyTypeError::new_err(format!("`{prefix}`: keys must be strings, not {k}")))?;
+        let key = if prefix.is_empty() { name.clone() } else { format!("{prefix}.{name}") };
+        if v.is_none() {
+            // `None` stands for "not given", as a key left out of the file.
+            continue;
+        }
+        table.insert(name, py_to_toml(&v, &key)?);
+    }
+    Ok(table)
+}
+
+/// A TOML value as a Python object (tables as dicts, arrays as lists, datetimes as strings).
+pub fn toml_to_py<'py>(py: Python<'py>, value: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        toml::Value::String(s) => s.into_bound_py_any(py)?,
+        toml::Value::Integer(i) => i.into_bound_py_any(py)?,
+        toml::Value::Float(f) => f.into_bound_py_any(py)?,
+        toml::Value::Boolean(b) => b.into_bound_py_any(py)?,
+        toml::Value::Datetime(d) => d.to_string().into_bound_py_any(py)?,
+        toml::Value::Array(items) => {
+            let list = PyList::empty(py);
+            for item in items {
+                list.append(toml_to_py(py, item)?)?;
+            }
+            list.into_any()
+        }
+        toml::Value::Table(t) => {
+            let dict = PyDict::new(py);
+            for (k, v) in t {
+                dict.set_item(k, toml_to_py(py, v)?)?;
+            }
+            dict.into_any()
+        }
+    })
+}
+
+/// A JSON value as a Python object.
+pub fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        serde_json::Value::Null => py.None().into_bound(py),
+        serde_json::Value::Bool(b) => b.into_bound_py_any(py)?,
+        serde_json::Value::Number(n) => match (n.as_u64(), n.as_i64()) {
+            (Some(u), _) => u.into_bound_py_any(py)?,
+            (None, Some(i)) => i.into_bound_py_any(py)?,
+            _ => n.as_f64().unwrap_or(f64::NAN).into_bound_py_any(py)?,
+        },
+        serde_json::Value::String(s) => s.into_bound_py_any(py)?,
+        serde_json::Value::Array(items) => {
+            let list = PyList::empty(py);
+            for item in items {
+                list.append(json_to_py(py, item)?)?;
+            }
+            list.into_any()
+        }
+        serde_json::Value::Object(map) => {
+            let dict = PyDict::new(py);
+            for (k, v) in map {
+                dict.set_item(k, json_to_py(py, v)?)?;
+            }
+            dict.into_any()
+        }
+    })
+}
+
+/// A serialisable report as a Python dict.
+pub fn to_py<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+    let json = serde_json::to_value(value)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("cannot convert a report: {e}")))?;
+    json_to_py(py, &json)
+}
+
+/// Three finite-or-not floats from any sequence of length 3 (the caller checks finiteness where it matters).
+pub fn vec3(value: &Bound<'_, PyAny>, what: &str) -> PyResult<flexsurf::math::Vec3> {
+    let v: Vec<f64> = value
+        .try_iter()
+        .and_then(|it| it.map(|x| x.and_then(|x| x.extract::<f64>())).collect())
+        .map_err(|_| PyTypeError::new_err(format!("{what}: expected a sequence of 3 numbers, got {value}")))?;
+    match v.as_slice() {
+        [x, y, z] => Ok(flexsurf::math::Vec3::new(*x, *y, *z)),
+        _ => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "{what}: expected 3 numbers (x, y, z), got {}",
+            v.len()
+        ))),
+    }
+}

@@ -1,0 +1,372 @@
+//! `flexsurf._flexsurf`: the Python extension module of flexsurf, built by maturin from `python/pyproject.toml`.
+//! The Python package `flexsurf` (in `python/flexsurf`) re-exports it and adds what is plain Python (the
+//! sweeps, the `run` wrapper). Scenes are read and checked by the library, so a dict given from Python is
+//! validated, and its errors name the key, exactly as a TOML file's are.
+
+mod convert;
+mod simulation;
+
+use convert::{dict_to_table, to_py, toml_to_py};
+use flexsurf::integrate::Method;
+use flexsurf::lab::cantilever::{cantilever as run_cantilever, Direction, Strip};
+use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
+use flexsurf::lab::kes::kes as run_kes;
+use flexsurf::material::{Calibration, Fabric};
+use flexsurf::runner::{output_steps, run_scene_observed};
+use flexsurf::scene::material::{load_material_file, material_from_toml, ResolvedMaterial};
+use flexsurf::scene::{SceneError as LibSceneError, SceneSpec};
+use numpy::ndarray::Array4;
+use numpy::IntoPyArray;
+use pyo3::create_exception;
+use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+create_exception!(_flexsurf, FlexsurfError, PyException, "Base class of the errors flexsurf raises.");
+create_exception!(
+    _flexsurf,
+    SceneError,
+    FlexsurfError,
+    "A scene or material that cannot be read or used; `key` is the dotted key it is about."
+);
+create_exception!(
+    _flexsurf,
+    SimulationError,
+    FlexsurfError,
+    "A run or a step that failed (divergence, a failed solve, an output that cannot be written)."
+);
+
+/// A library scene error as a Python `SceneError` carrying `key` (the dotted key) and `file`.
+fn scene_err(py: Python<'_>, e: &LibSceneError) -> PyErr {
+    let err = SceneError::new_err(e.to_string());
+    let value = err.value(py);
+    // Setting attributes on a fresh exception instance cannot fail in practice; keep the message if it does.
+    let _ = value.setattr("key", e.key());
+    err
+}
+
+/// Any other library error as a `SimulationError` with its message.
+fn sim_err(e: impl std::fmt::Display) -> PyErr {
+    SimulationError::new_err(e.to_string())
+}
+
+/// A built scene: model, initial state and run settings, read and checked by the library.
+#[pyclass(module = "flexsurf._flexsurf", name = "Scene", frozen)]
+pub struct PyScene {
+    /// The library's scene (shared by the simulations made from it).
+    pub scene: Arc<flexsurf::scene::Scene>,
+}
+
+#[pymethods]
+impl PyScene {
+    /// Reads, checks and builds the TOML scene at `path` (as `flexsurf run` does).
+    #[staticmethod]
+    fn from_toml(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let scene = flexsurf::scene::load(&path).map_err(|e| scene_err(py, &e))?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// Checks and builds a scene given as a dict with the TOML's keys. `file` is the path the dict stands for:
+    /// it names the scene when it has no `name`, relative paths in it are found from its folder, and errors
+    /// name it (default `<dict>` in the current directory).
+    #[staticmethod]
+    #[pyo3(signature = (d, file = None))]
+    fn from_dict(py: Python<'_>, d: &Bound<'_, PyDict>, file: Option<PathBuf>) -> PyResult<Self> {
+        let file = file.unwrap_or_else(|| PathBuf::from("<dict>"));
+        let table = dict_to_table(d, "")?;
+        let text = toml::to_string(&table).map_err(|e| SceneError::new_err(format!("{}: {e}", file.display())))?;
+        let spec = SceneSpec::from_toml(&text, &file).map_err(|e| scene_err(py, &e))?;
+        let scene = spec.build(&file).map_err(|e| scene_err(py, &e))?;
+        Ok(Self { scene: Arc::new(scene) })
+    }
+
+    /// Scene name.
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    /// The file the scene was read from (or stands for).
+    #[getter]
+    fn file(&self) -> PathBuf {
+        self.scene.file.clone()
+    }
+
+    /// Nodes `(M, N)`: the shape of the position arrays is `(M, N, 3)`.
+    #[getter]
+    fn grid(&self) -> (usize, usize) {
+        (self.scene.model.grid.m, self.scene.model.grid.n)
+    }
+
+    /// Time step (s).
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.scene.dt
+    }
+
+    /// Steps of a run.
+    #[getter]
+    fn steps(&self) -> usize {
+        self.scene.steps
+    }
+
+    /// Frame cadence (steps).
+    #[getter]
+    fn output_every(&self) -> usize {
+        self.scene.output_every
+    }
+
+    /// Material name.
+    #[getter]
+    fn material(&self) -> String {
+        self.scene.material.clone()
+    }
+
+    /// The scene's fabric constants (SI) as a dict.
+    #[getter]
+    fn fabric<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.scene.model.fabric)
+    }
+
+    /// `True` for `integrator.kind = "static"` (a solve to equilibrium: use `flexsurf.run`).
+    #[getter]
+    fn is_static(&self) -> bool {
+        matches!(self.scene.method, Method::Static(_))
+    }
+
+    /// Total mass of the sheet (kg).
+    #[getter]
+    fn total_mass(&self) -> f64 {
+        self.scene.model.total_mass()
+    }
+
+    fn __repr__(&self) -> String {
+        let g = &self.scene.model.grid;
+        format!("Scene({:?}, grid={}x{}, dt={}, steps={})", self.scene.name, g.m, g.n, self.scene.dt, self.scene.steps)
+    }
+}
+
+/// Reads a TOML file into a dict (the raw keys, unchecked; for building variants with `Scene.from_dict`).
+#[pyfunction]
+fn read_toml<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| SceneError::new_err(format!("{}: cannot read the file: {e}", path.display())))?;
+    let table: toml::Table = toml::from_str(&text)
+        .map_err(|e| SceneError::new_err(format!("{}: {}", path.display(), e.message().trim())))?;
+    toml_to_py(py, &toml::Value::Table(table))
+}
+
+/// Runs `scene` into `out` (the files of `flexsurf run`, bit for bit), with the GIL released. Returns the
+/// summary (a dict), the output steps and the node positions at those steps, shape `(F, M, N, 3)`.
+#[pyfunction]
+fn run_into<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    out: PathBuf,
+) -> PyResult<(Bound<'py, PyAny>, Vec<usize>, Bound<'py, PyAny>)> {
+    let sc = Arc::clone(&scene.scene);
+    let steps =
+        if matches!(sc.method, Method::Static(_)) { vec![0, 1] } else { output_steps(sc.steps, sc.output_every) };
+    let (m, n) = (sc.model.grid.m, sc.model.grid.n);
+    let result = py.detach(|| {
+        let mut frames: Vec<f64> = Vec::with_capacity(steps.len() * m * n * 3);
+        let mut kept = Vec::with_capacity(steps.len());
+        let mut keep = |state: &flexsurf::state::State| {
+            if steps.binary_search(&state.step).is_ok() && kept.last() != Some(&state.step) {
+                kept.push(state.step);
+                simulation::push_grid(&sc.model.grid, &state.x, &mut frames);
+            }
+        };
+        keep(&sc.state);
+        run_scene_observed(&sc, &out, &mut keep).map(|o| (o, kept, frames))
+    });
+    let (output, kept, frames) = result.map_err(|e| sim_err(format!("{e:#}")))?;
+    let count = kept.len();
+    let frames = Array4::from_shape_vec((count, m, n, 3), frames).map_err(sim_err)?.into_pyarray(py).into_any();
+    Ok((to_py(py, &output.summary)?, kept, frames))
+}
+
+/// A fabric: SI constants and a display name.
+#[pyclass(module = "flexsurf._flexsurf", name = "Material", frozen)]
+#[derive(Clone)]
+pub struct PyMaterial {
+    material: ResolvedMaterial,
+}
+
+#[pymethods]
+impl PyMaterial {
+    /// A material from keyword arguments, with the keys of a scene's `[material]` table: `units` (`"si"`
+    /// default, `"kes"` or `"fast"`), `preset`, `file`, `name`, `source` and the constants (in SI: `density`
+    /// kg/m², `damping` kg/(m²·s), `tensile_warp`/`tensile_weft`/`shear` N/m, `bending_warp`/`bending_weft`/
+    /// `twist` N·m, `poisson`, `bending_poisson`; in KES and FAST units as docs/scenes.md lists them).
+    #[new]
+    #[pyo3(signature = (**kwargs))]
+    fn new(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let table = match kwargs {
+            Some(d) => dict_to_table(d, "")?,
+            None => toml::Table::new(),
+        };
+        let file = Path::new("<material>");
+        let text = toml::to_string(&table).map_err(|e| SceneError::new_err(format!("<material>: {e}")))?;
+        let material = material_from_toml(&text, file).map_err(|e| scene_err(py, &e))?;
+        Ok(Self { material })
+    }
+
+    /// Reads a material file (`materials/*.toml`; SI, KES or FAST units).
+    #[staticmethod]
+    fn from_file(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let material = load_material_file(&path).map_err(|e| scene_err(py, &e))?;
+        Ok(Self { material })
+    }
+
+    /// The paper's non-woven cotton.
+    #[staticmethod]
+    fn paper_cotton() -> Self {
+        Self { material: ResolvedMaterial { fabric: Fabric::paper_cotton(), name: "paper-cotton".into() } }
+    }
+
+    /// Display name.
+    #[getter]
+    fn name(&self) -> String {
+        self.material.name.clone()
+    }
+
+    /// The SI constants as a dict (`twist` is `None` for Huber's default).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.material.fabric)
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        let d = to_py(py, &self.material.fabric)?;
+        match d.get_item(name) {
+            Ok(v) => Ok(v.unbind()),
+            Err(_) => Err(pyo3::exceptions::PyAttributeError::new_err(format!("Material has no attribute `{name}`"))),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let f = &self.material.fabric;
+        format!(
+            "Material({:?}, density={}, tensile_warp={}, tensile_weft={}, shear={}, bending_warp={}, bending_weft={})",
+            self.material.name, f.density, f.tensile_warp, f.tensile_weft, f.shear, f.bending_warp, f.bending_weft
+        )
+    }
+}
+
+/// The fabric of an optional `material` argument: a `Material`, a path to a material file, or `None` (the
+/// paper's non-woven cotton).
+fn fabric_of(py: Python<'_>, material: Option<&Bound<'_, PyAny>>) -> PyResult<Fabric> {
+    match material {
+        None => Ok(Fabric::paper_cotton()),
+        Some(m) => {
+            if let Ok(mat) = m.cast::<PyMaterial>() {
+                Ok(mat.get().material.fabric)
+            } else if let Ok(d) = m.cast::<PyDict>() {
+                Ok(PyMaterial::new(py, Some(d))?.material.fabric)
+            } else {
+                let path: PathBuf = m.extract().map_err(|_| {
+                    pyo3::exceptions::PyTypeError::new_err("material: expected a Material, a dict or a path")
+                })?;
+                Ok(PyMaterial::from_file(py, path)?.material.fabric)
+            }
+        }
+    }
+}
+
+fn calibration_of(name: &str) -> PyResult<Calibration> {
+    match name {
+        "kes" => Ok(Calibration::Kes),
+        "paper" => Ok(Calibration::Paper),
+        _ => Err(PyValueError::new_err(format!("calibration: {name:?} must be \"kes\" or \"paper\""))),
+    }
+}
+
+/// The KES-F virtual tests (tension warp/weft/bias, shear, bending warp/weft) as a dict: `input`,
+/// `recovered`, `relative_error`, `worst`.
+#[pyfunction]
+#[pyo3(signature = (material = None, calibration = "kes"))]
+fn kes<'py>(py: Python<'py>, material: Option<&Bound<'py, PyAny>>, calibration: &str) -> PyResult<Bound<'py, PyAny>> {
+    let fabric = fabric_of(py, material)?;
+    let cal = calibration_of(calibration)?;
+    let report = py.detach(|| run_kes(&fabric, cal)).map_err(sim_err)?;
+    let d = to_py(py, &report)?;
+    d.set_item("worst", report.worst())?;
+    Ok(d)
+}
+
+/// The cantilever (Peirce / ASTM D1388) test as a dict. `direction` is `"warp"`, `"weft"` or `"bias"`,
+/// `width` the strip width (m), `overhang` (m) default the Peirce length of the input.
+#[pyfunction]
+#[pyo3(signature = (material = None, direction = "warp", width = Strip::WIDTH, overhang = None, calibration = "kes"))]
+fn cantilever<'py>(
+    py: Python<'py>,
+    material: Option<&Bound<'py, PyAny>>,
+    direction: &str,
+    width: f64,
+    overhang: Option<f64>,
+    calibration: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let fabric = fabric_of(py, material)?;
+    let cal = calibration_of(calibration)?;
+    let direction = match direction {
+        "warp" => Direction::Warp,
+        "weft" => Direction::Weft,
+        "bias" => Direction::Bias,
+        _ => return Err(PyValueError::new_err(format!("direction: {direction:?} must be warp, weft or bias"))),
+    };
+    if let Some(l) = overhang {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(PyValueError::new_err(format!("overhang: {l} m must be a positive length")));
+        }
+    }
+    let strip = Strip { direction, width };
+    let report = py.detach(|| run_cantilever(&fabric, cal, strip, overhang)).map_err(sim_err)?;
+    to_py(py, &report)
+}
+
+/// The Cusick drape test (18 cm disc) as a dict: `drape_coefficient` (%), `nodes`, `shadow_area` (m²), ….
+/// `specimen` is the diameter (m), `level` the grid (0 coarse, 1 default, 2 fine), `index` which specimen
+/// (each starts from a different small wobble of the hem; 0 is the CLI's first).
+#[pyfunction]
+#[pyo3(signature = (material = None, specimen = 0.30, level = 1, index = 0, calibration = "kes"))]
+fn cusick<'py>(
+    py: Python<'py>,
+    material: Option<&Bound<'py, PyAny>>,
+    specimen: f64,
+    level: usize,
+    index: usize,
+    calibration: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let fabric = fabric_of(py, material)?;
+    let cal = calibration_of(calibration)?;
+    if !(specimen.is_finite() && specimen > DISC) {
+        return Err(PyValueError::new_err(format!("specimen: {specimen} m must be larger than the {DISC} m disc")));
+    }
+    if level > 2 {
+        return Err(PyValueError::new_err(format!("level: {level} must be 0, 1 or 2")));
+    }
+    let (radial, angular) = default_grid(specimen, level);
+    let drape = py.detach(|| cusick_specimen(&fabric, cal, specimen, radial, angular, index)).map_err(sim_err)?;
+    to_py(py, &drape.report)
+}
+
+/// The extension module.
+#[pymodule]
+fn _flexsurf(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("FlexsurfError", py.get_type::<FlexsurfError>())?;
+    m.add("SceneError", py.get_type::<SceneError>())?;
+    m.add("SimulationError", py.get_type::<SimulationError>())?;
+    m.add_class::<PyScene>()?;
+    m.add_class::<PyMaterial>()?;
+    m.add_class::<simulation::PySimulation>()?;
+    m.add_function(wrap_pyfunction!(read_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(run_into, m)?)?;
+    m.add_function(wrap_pyfunction!(kes, m)?)?;
+    m.add_function(wrap_pyfunction!(cantilever, m)?)?;
+    m.add_function(wrap_pyfunction!(cusick, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

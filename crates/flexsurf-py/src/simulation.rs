@@ -1,0 +1,292 @@
+//! `Simulation`: a scene stepped from Python, one step or many at a time with the GIL released; positions and
+//! velocities as `(M, N, 3)` numpy arrays, pinned nodes and spring targets moved between steps, energies,
+//! contacts and per-step timings.
+
+use crate::convert::vec3;
+use crate::{sim_err, PyScene, SimulationError};
+use flexsurf::grid::Grid;
+use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
+use flexsurf::math::Vec3;
+use flexsurf::model::Model;
+use flexsurf::state::State;
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::{Mutex, PoisonError};
+use std::time::Instant;
+
+/// Appends the nodes of `x` in `(i, j)` row-major order (the `(M, N, 3)` layout) to `out`.
+pub fn push_grid(grid: &Grid, x: &[Vec3], out: &mut Vec<f64>) {
+    for i in 0..grid.m {
+        for j in 0..grid.n {
+            let p = x[grid.index(i, j)];
+            out.extend_from_slice(&[p.x, p.y, p.z]);
+        }
+    }
+}
+
+/// Per-step records kept for `timings`.
+#[derive(Default)]
+struct History {
+    wall: Vec<f64>,
+    assembly: Vec<f64>,
+    contact: Vec<f64>,
+    factorization: Vec<f64>,
+    solve: Vec<f64>,
+    solves: Vec<f64>,
+    contacts: Vec<f64>,
+}
+
+impl History {
+    fn push(&mut self, wall: f64, info: &StepInfo) {
+        let t = &info.timings;
+        self.wall.push(wall);
+        self.assembly.push(t.assembly);
+        self.contact.push(t.contact);
+        self.factorization.push(t.factorization);
+        self.solve.push(t.solve);
+        self.solves.push(t.solves as f64);
+        self.contacts.push(info.contacts as f64);
+    }
+}
+
+/// A scene being stepped: its own model (spring targets may change), state and stepper.
+#[pyclass(module = "flexsurf._flexsurf", name = "Simulation")]
+pub struct PySimulation {
+    model: Model,
+    state: State,
+    /// In a mutex only to make the class `Sync` (the stepper's scratch is `Send` only); never locked, as the
+    /// class's own borrow flag already gives `step` exclusive access.
+    stepper: Mutex<Stepper>,
+    dt: f64,
+    last: Option<StepInfo>,
+    history: History,
+}
+
+impl PySimulation {
+    fn node(&self, i: usize, j: usize) -> PyResult<usize> {
+        let g = &self.model.grid;
+        if i >= g.m || j >= g.n {
+            return Err(PyIndexError::new_err(format!("node ({i}, {j}) is outside the {}x{} grid", g.m, g.n)));
+        }
+        Ok(g.index(i, j))
+    }
+
+    fn grid_array<'py>(&self, py: Python<'py>, f: impl Fn(usize) -> Vec3) -> Bound<'py, PyArray3<f64>> {
+        let g = &self.model.grid;
+        let mut v = Vec::with_capacity(g.len() * 3);
+        for i in 0..g.m {
+            for j in 0..g.n {
+                let p = f(g.index(i, j));
+                v.extend_from_slice(&[p.x, p.y, p.z]);
+            }
+        }
+        Array3::from_shape_vec((g.m, g.n, 3), v).expect("the grid has M·N nodes").into_pyarray(py)
+    }
+}
+
+#[pymethods]
+impl PySimulation {
+    /// A simulation of `scene` from its initial state (a dynamic scene; a static one is solved by `run`).
+    #[new]
+    fn new(scene: &PyScene) -> PyResult<Self> {
+        let sc = &scene.scene;
+        let params = match sc.method {
+            Method::Dynamic(p) => p,
+            Method::Static(_) => {
+                return Err(PyValueError::new_err(
+                    "`integrator.kind`: a static scene is solved, not stepped: use flexsurf.run(scene)",
+                ))
+            }
+        };
+        let model = sc.model.clone();
+        let stepper = Stepper::new(&model, &params).map_err(sim_err)?;
+        Ok(Self {
+            model,
+            state: sc.state.clone(),
+            stepper: Mutex::new(stepper),
+            dt: sc.dt,
+            last: None,
+            history: History::default(),
+        })
+    }
+
+    /// Takes `n` steps (default 1) with the GIL released; returns the step count reached. A failed step raises
+    /// `SimulationError` and leaves the state at the last good step.
+    #[pyo3(signature = (n = 1))]
+    fn step(&mut self, py: Python<'_>, n: usize) -> PyResult<usize> {
+        let Self { model, state, stepper, last, history, .. } = self;
+        let stepper = stepper.get_mut().unwrap_or_else(PoisonError::into_inner);
+        let result = py.detach(|| {
+            for _ in 0..n {
+                let before = state.clone();
+                let t0 = Instant::now();
+                match stepper.step(model, state) {
+                    Ok(info) => {
+                        history.push(t0.elapsed().as_secs_f64(), &info);
+                        *last = Some(info);
+                    }
+                    Err(e) => {
+                        *state = before;
+                        return Err(e);
+                    }
+                }
+            }
+            Ok(())
+        });
+        result.map_err(|e| SimulationError::new_err(e.to_string()))?;
+        Ok(self.state.step)
+    }
+
+    /// Node positions (m), a new `(M, N, 3)` array.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let x = &self.state.x;
+        self.grid_array(py, |k| x[k])
+    }
+
+    /// Writes the node positions into `out`, a C-contiguous float64 array of shape `(M, N, 3)` (no allocation).
+    fn positions_into(&self, out: &Bound<'_, PyArray3<f64>>) -> PyResult<()> {
+        let g = &self.model.grid;
+        if out.shape() != [g.m, g.n, 3] {
+            return Err(PyValueError::new_err(format!("out: shape {:?} must be ({}, {}, 3)", out.shape(), g.m, g.n)));
+        }
+        if !out.is_c_contiguous() {
+            return Err(PyValueError::new_err("out: must be C-contiguous"));
+        }
+        let mut rw = out.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {e}")))?;
+        let slice = rw.as_slice_mut().map_err(|_| PyValueError::new_err("out: must be C-contiguous"))?;
+        for i in 0..g.m {
+            for j in 0..g.n {
+                let p = self.state.x[g.index(i, j)];
+                let o = 3 * (i * g.n + j);
+                slice[o..o + 3].copy_from_slice(&[p.x, p.y, p.z]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Node velocities (m/s), the central-difference estimate `(x_t − x_{t−Δt})/Δt`, a new `(M, N, 3)` array.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let (s, dt) = (&self.state, self.dt);
+        self.grid_array(py, |k| s.velocity(k, dt))
+    }
+
+    /// Nodes `(M, N)`.
+    #[getter]
+    fn grid(&self) -> (usize, usize) {
+        (self.model.grid.m, self.model.grid.n)
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn step_count(&self) -> usize {
+        self.state.step
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Time step (s).
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// The pinned nodes as `(i, j)` pairs.
+    #[getter]
+    fn pinned(&self) -> Vec<(usize, usize)> {
+        let g = &self.model.grid;
+        (0..g.m)
+            .flat_map(|i| (0..g.n).map(move |j| (i, j)))
+            .filter(|&(i, j)| self.model.pinned()[g.index(i, j)])
+            .collect()
+    }
+
+    /// Moves pinned node `(i, j)` to `position` (m) before the next step: the step holds it there, and the
+    /// sheet sees it moving at `(position − previous)/Δt`.
+    fn move_pin(&mut self, i: usize, j: usize, position: &Bound<'_, PyAny>) -> PyResult<()> {
+        let k = self.node(i, j)?;
+        let p = vec3(position, "position")?;
+        self.model.move_pin(&mut self.state, k, p).map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// The springs as `(i, j)` nodes, in the order `set_spring_target` numbers them.
+    #[getter]
+    fn spring_nodes(&self) -> Vec<(usize, usize)> {
+        self.model.springs().iter().map(|s| self.model.grid.coords(s.node)).collect()
+    }
+
+    /// The spring targets (m), an `(S, 3)` array.
+    #[getter]
+    fn spring_targets<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let springs = self.model.springs();
+        let v: Vec<f64> = springs.iter().flat_map(|s| [s.target.x, s.target.y, s.target.z]).collect();
+        Array2::from_shape_vec((springs.len(), 3), v).expect("three per spring").into_pyarray(py)
+    }
+
+    /// Moves the target of spring `index` to `target` (m) before the next step.
+    fn set_spring_target(&mut self, index: usize, target: &Bound<'_, PyAny>) -> PyResult<()> {
+        let t = vec3(target, "target")?;
+        self.model.set_spring_target(index, t).map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// Energies of the current state (J): `kinetic`, `membrane`, `bending`, `potential` (gravity and loads),
+    /// and `contact` (the penalty energy at the start of the last step; 0 before the first).
+    fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let e = flexsurf::sim::energies(&self.model, &self.state, self.dt);
+        let d = PyDict::new(py);
+        d.set_item("step", e.step)?;
+        d.set_item("time", e.time)?;
+        d.set_item("kinetic", e.kinetic)?;
+        d.set_item("membrane", e.energies.membrane)?;
+        d.set_item("bending", e.energies.bending)?;
+        d.set_item("potential", e.potential)?;
+        d.set_item("contact", self.last.map_or(0.0, |l| l.contact_energy))?;
+        Ok(d)
+    }
+
+    /// Active contacts at the start of the last step (0 before the first).
+    #[getter]
+    fn contacts(&self) -> usize {
+        self.last.map_or(0, |l| l.contacts)
+    }
+
+    /// Deepest penetration into an obstacle now (m).
+    #[getter]
+    fn max_penetration(&self) -> f64 {
+        max_penetration(&self.model, &self.state.x)
+    }
+
+    /// Per-step records since the start, a dict of 1-D arrays: `wall` (s, the whole step), `assembly`,
+    /// `contact`, `factorization`, `solve` (s per stage), `solves` and `contacts`.
+    fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let h = &self.history;
+        let d = PyDict::new(py);
+        for (name, v) in [
+            ("wall", &h.wall),
+            ("assembly", &h.assembly),
+            ("contact", &h.contact),
+            ("factorization", &h.factorization),
+            ("solve", &h.solve),
+            ("solves", &h.solves),
+            ("contacts", &h.contacts),
+        ] {
+            d.set_item(name, Array1::from_vec(v.clone()).into_pyarray(py))?;
+        }
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Simulation(grid={}x{}, step={}, t={})",
+            self.model.grid.m, self.model.grid.n, self.state.step, self.state.time
+        )
+    }
+}
