@@ -1,0 +1,49 @@
+"""flexsurf from Python: thin flexible surfaces (cloth, paper, non-wovens).
+
+The simulator is the Rust library of this repository, compiled into ``flexsurf._flexsurf``; this package adds
+the Python side (``run``'s result, sweeps). See ``docs/python.md``.
+
+- :class:`Scene` — a scene read from TOML (:meth:`Scene.from_toml`) or a dict with the same keys
+  (:meth:`Scene.from_dict`), checked by the library; errors raise :class:`SceneError` naming the key.
+- :class:`Simulation` — step a scene, read positions and velocities as ``(M, N, 3)`` arrays, move pinned nodes
+  and spring targets between steps.
+- :func:`run` — run a scene as ``flexsurf run`` does; the summary as a dict and the frames as arrays.
+- :func:`kes`, :func:`cantilever`, :func:`cusick` — the virtual textile tests.
+- :class:`Material` — a fabric from a file or from keyword arguments.
+- :func:`sweep` — many independent runs on a process pool or on Ray, into a pandas DataFrame.
+"""
+
+from ._flexsurf import (
+    FlexsurfError,
+    Material,
+    Scene,
+    SceneError,
+    Simulation,
+    SimulationError,
+    __version__,
+    cantilever,
+    cusick,
+    kes,
+    read_toml,
+)
+from ._run import RunResult, run, scene_dict, with_overrides
+from ._sweep import sweep
+
+__all__ = [
+    "FlexsurfError",
+    "Material",
+    "RunResult",
+    "Scene",
+    "SceneError",
+    "Simulation",
+    "SimulationError",
+    "__version__",
+    "cantilever",
+    "cusick",
+    "kes",
+    "read_toml",
+    "run",
+    "scene_dict",
+    "sweep",
+    "with_overrides",
+]

@@ -1,0 +1,84 @@
+"""``flexsurf.run`` and the helpers that turn a scene argument (a path, a dict or a Scene) into a Scene."""
+
+from __future__ import annotations
+
+import copy
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Union
+
+import numpy as np
+
+from ._flexsurf import Scene, read_toml, run_into
+
+SceneLike = Union[Scene, str, "os.PathLike[str]", Mapping[str, Any]]
+
+
+@dataclass
+class RunResult:
+    """What :func:`run` returns.
+
+    Attributes:
+        summary: ``summary.json`` as a dict.
+        steps: the output steps, shape ``(F,)``.
+        frames: the node positions at those steps (m), shape ``(F, M, N, 3)``.
+        out: the output directory, or ``None`` when the files went to a removed temporary directory.
+    """
+
+    summary: dict
+    steps: np.ndarray
+    frames: np.ndarray
+    out: Path | None
+
+
+def scene_dict(path: str | os.PathLike[str]) -> dict:
+    """The keys of the TOML scene at ``path`` as a dict (unchecked), for building variants of it."""
+    return read_toml(os.fspath(path))
+
+
+def with_overrides(d: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict:
+    """A deep copy of the scene dict ``d`` with ``overrides`` set; each key is dotted
+    (``"material.bending_warp"``, ``"time.steps"``, ``"obstacle.0.sphere.radius"``: a number indexes a list)."""
+    out = copy.deepcopy(dict(d))
+    for key, value in overrides.items():
+        parts = key.split(".")
+        node: Any = out
+        for k, part in enumerate(parts[:-1]):
+            if isinstance(node, list):
+                node = node[int(part)]
+            else:
+                node = node.setdefault(part, [] if parts[k + 1].isdigit() else {})
+        last = parts[-1]
+        if isinstance(node, list):
+            node[int(last)] = value
+        else:
+            node[last] = value
+    return out
+
+
+def as_scene(scene: SceneLike, file: str | os.PathLike[str] | None = None) -> Scene:
+    """A :class:`Scene` from a Scene, a path to a TOML file or a dict (``file``: what the dict stands for)."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Mapping):
+        return Scene.from_dict(dict(scene), os.fspath(file) if file is not None else None)
+    return Scene.from_toml(os.fspath(scene))
+
+
+def run(scene: SceneLike, out: str | os.PathLike[str] | None = None) -> RunResult:
+    """Runs a scene as ``flexsurf run SCENE --out OUT`` does, with the GIL released.
+
+    ``scene`` is a :class:`Scene`, a path to a TOML scene or a dict of its keys. With ``out`` the usual files
+    (``frames/``, ``energy.csv``, ``summary.json``, ``snapshots.png``) are written there, bit for bit those of
+    the command line (``summary.json``'s wall times aside); without it they go to a temporary directory that is
+    removed. Raises :class:`SceneError` for a bad scene and :class:`SimulationError` for a failed run.
+    """
+    built = as_scene(scene)
+    if out is None:
+        with tempfile.TemporaryDirectory(prefix="flexsurf-") as tmp:
+            summary, steps, frames = run_into(built, tmp)
+        return RunResult(summary, np.asarray(steps), frames, None)
+    summary, steps, frames = run_into(built, os.fspath(out))
+    return RunResult(summary, np.asarray(steps), frames, Path(out))

@@ -1,0 +1,163 @@
+"""``flexsurf.sweep``: many independent runs of one scene (or one virtual test) with overrides, on a local
+process pool or on Ray, collected into a pandas DataFrame."""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, Iterable, Mapping, Sequence, Union
+
+from ._flexsurf import Material, cantilever, cusick, kes, read_toml
+from ._run import run, with_overrides
+
+LAB_TESTS = ("kes", "cantilever", "cusick")
+"""The virtual tests a sweep can run instead of a scene."""
+
+Overrides = Union[Mapping[str, Sequence[Any]], Iterable[Mapping[str, Any]]]
+
+
+def cases(overrides: Overrides) -> list[dict]:
+    """The list of cases of ``overrides``: a list of dicts is taken as it is; a dict of lists is the grid of
+    every combination (the last key varying fastest)."""
+    if isinstance(overrides, Mapping):
+        keys = list(overrides)
+        for k in keys:
+            if isinstance(overrides[k], (str, bytes)) or not isinstance(overrides[k], Iterable):
+                raise TypeError(f"overrides[{k!r}]: a grid needs a list of values, got {overrides[k]!r}")
+        return [dict(zip(keys, values)) for values in itertools.product(*(list(overrides[k]) for k in keys))]
+    out = [dict(c) for c in overrides]
+    for c in out:
+        for k in c:
+            if not isinstance(k, str):
+                raise TypeError(f"override keys must be dotted strings, got {k!r}")
+    return out
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict:
+    """Nested dicts to dotted keys; lists of numbers to ``key.0``, ``key.1``, …; other lists are left out."""
+    row: dict = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            row.update(_flatten(v, key + "."))
+        elif isinstance(v, (list, tuple)):
+            if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+                row.update({f"{key}.{n}": x for n, x in enumerate(v)})
+        else:
+            row[key] = v
+    return row
+
+
+def run_case(task: str | dict, file: str | None, overrides: Mapping[str, Any]) -> dict:
+    """One case of a sweep, as a flat dict of results (what ``sweep`` puts in a row, besides the overrides).
+
+    ``task`` is a scene dict (run with :func:`flexsurf.run`, no files kept; the summary's ``frames`` list is
+    left out) or the name of a virtual test (``"kes"``, ``"cantilever"``, ``"cusick"``: keys ``material.*`` make
+    the :class:`Material`, on the paper's cotton unless ``material.preset`` or ``material.file`` is given; the
+    other keys are the test's keyword arguments). Raises what the run raises.
+    """
+    if isinstance(task, str):
+        material = {k.split(".", 1)[1]: v for k, v in overrides.items() if k.startswith("material.")}
+        if "preset" not in material and "file" not in material:
+            material["preset"] = "paper-cotton"
+        kwargs = {k: v for k, v in overrides.items() if not k.startswith("material.")}
+        test = {"kes": kes, "cantilever": cantilever, "cusick": cusick}[task]
+        return _flatten(test(Material(**material), **kwargs))
+    from ._flexsurf import Scene
+
+    scene = Scene.from_dict(with_overrides(task, overrides), file)
+    summary = dict(run(scene).summary)
+    summary.pop("frames", None)
+    return _flatten(summary)
+
+
+def _case_row(task: str | dict, file: str | None, index: int, overrides: Mapping[str, Any]) -> dict:
+    row: dict = {"case": index, **overrides}
+    try:
+        row.update(run_case(task, file, overrides))
+        row["error"] = None
+    except Exception as e:  # a failed case is a row with its message: the others still count
+        row["error"] = f"{type(e).__name__}: {e}"
+    return row
+
+
+def sweep(
+    scene: Any,
+    overrides: Overrides,
+    backend: str = "process",
+    workers: int | None = None,
+    parquet: str | os.PathLike[str] | None = None,
+    address: str | None = None,
+):
+    """Runs one simulation per case of ``overrides`` and returns a pandas DataFrame, one row per case.
+
+    Args:
+        scene: a path to a TOML scene, a dict of its keys, or ``"kes"``, ``"cantilever"``, ``"cusick"`` for a
+            virtual test (see :func:`run_case`).
+        overrides: a list of dicts of dotted keys (``{"material.bending_warp": 1e-4}``), or a dict of lists
+            (the grid of all combinations).
+        backend: ``"process"`` (a local process pool, default) or ``"ray"`` (the Ray cluster at ``address``,
+            or the one this process is connected to, or a local one started for the call and shut down after).
+        workers: processes (``"process"``; default the CPU count) or CPUs of a local Ray instance.
+        parquet: a path to also write the table to as Parquet (needs pyarrow).
+        address: a Ray cluster address (``"ray"`` backend).
+
+    Columns: ``case``, the override keys, the results (``summary.json``'s values flattened to dotted keys:
+    ``final.min_z``, ``final.projected_area_xy``, …; or the test's report), and ``error`` (``None``, or why the
+    case failed). Every case runs alone, so each row equals running that case by itself (wall times aside).
+    """
+    import pandas as pd
+
+    file: str | None = None
+    if isinstance(scene, str) and scene in LAB_TESTS:
+        task: str | dict = scene
+    elif isinstance(scene, Mapping):
+        task = dict(scene)
+    else:
+        file = os.fspath(scene)
+        task = read_toml(file)
+    todo = cases(overrides)
+    if backend == "process":
+        rows = _run_processes(task, file, todo, workers)
+    elif backend == "ray":
+        rows = _run_ray(task, file, todo, workers, address)
+    else:
+        raise ValueError(f'backend: {backend!r} must be "process" or "ray"')
+    table = pd.DataFrame(rows)
+    if parquet is not None:
+        table.to_parquet(os.fspath(parquet), index=False)
+    return table
+
+
+def _run_processes(task: str | dict, file: str | None, todo: list[dict], workers: int | None) -> list[dict]:
+    if not todo:
+        return []
+    n = max(1, min(workers or os.cpu_count() or 1, len(todo)))
+    # Spawned workers: a fork of a process that already runs native threads is not safe.
+    with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_case_row, task, file, k, c) for k, c in enumerate(todo)]
+        return [f.result() for f in futures]
+
+
+def _run_ray(
+    task: str | dict, file: str | None, todo: list[dict], workers: int | None, address: str | None
+) -> list[dict]:
+    try:
+        import ray
+    except ImportError as e:
+        raise ImportError('backend="ray" needs Ray: pip install "./python[ray]" (or pip install ray)') from e
+    started = False
+    if not ray.is_initialized():
+        if address is None:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+        started = True
+    try:
+        remote = ray.remote(_case_row)
+        return ray.get([remote.remote(task, file, k, c) for k, c in enumerate(todo)])
+    finally:
+        if started:
+            ray.shutdown()

@@ -1,0 +1,39 @@
+"""The virtual textile tests return their reports as dicts, on materials from files or keyword arguments."""
+
+from __future__ import annotations
+
+import pytest
+
+import flexsurf
+
+
+def test_kes_recovers_the_constants():
+    report = flexsurf.kes()
+    assert set(report) >= {"input", "recovered", "relative_error", "worst"}
+    assert report["input"]["tensile_warp"] == 21300.0
+    assert report["worst"] < 0.05
+
+
+def test_cantilever_on_a_material_file(root):
+    report = flexsurf.cantilever(root / "materials" / "denim.toml", direction="weft")
+    assert report["direction"] == "weft"
+    assert 30.0 < report["chord_angle_deg"] < 50.0
+
+
+def test_cusick_with_keyword_material():
+    soft = flexsurf.Material(preset="paper-cotton", bending_warp=5e-6, bending_weft=5e-6)
+    report = flexsurf.cusick(soft, specimen=0.30, level=0)
+    assert 0.0 < report["drape_coefficient"] < 100.0 and report["nodes"] >= 3
+
+
+def test_bad_test_arguments_raise():
+    with pytest.raises(ValueError, match="direction"):
+        flexsurf.cantilever(direction="sideways")
+    with pytest.raises(ValueError, match="specimen"):
+        flexsurf.cusick(specimen=0.1)
+    with pytest.raises(ValueError, match="calibration"):
+        flexsurf.kes(calibration="magic")
+    with pytest.raises(flexsurf.SimulationError, match="width"):
+        flexsurf.cantilever(width=float("nan"))
+    with pytest.raises(TypeError):
+        flexsurf.kes(material=3.5)

@@ -1,0 +1,145 @@
+"""``Simulation``: stepping, arrays, scripted pins and springs, energies and timings; bad arguments raise; the
+GIL is released while stepping."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import flexsurf
+
+
+@pytest.fixture
+def pinned_drop(small_drop):
+    d = flexsurf.with_overrides(small_drop, {"pin": [{"nodes": [[0, 0]]}], "spring": [{"nodes": [[10, 10]], "stiffness": 0.05}]})
+    return flexsurf.Scene.from_dict(d)
+
+
+def test_arrays_have_the_grid_shape(small_drop):
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
+    x = sim.positions
+    assert x.shape == (11, 11, 3) and x.dtype == np.float64
+    assert np.allclose(x[..., 2], 0.35)
+    assert x[0, 0, 0] < x[10, 0, 0] and x[0, 0, 1] < x[0, 10, 1]  # (i, j): i along u1 (x), j along u2 (y)
+    assert np.all(sim.velocities == 0.0)
+    assert sim.step(5) == 5 and sim.step_count == 5 and math.isclose(sim.time, 0.05)
+    v = sim.velocities
+    assert v.shape == (11, 11, 3) and np.all(v[..., 2] < 0)
+    out = np.empty((11, 11, 3))
+    sim.positions_into(out)
+    assert np.array_equal(out, sim.positions)
+
+
+def test_energies_contacts_and_timings(small_drop):
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
+    e0 = sim.energies()
+    assert set(e0) == {"step", "time", "kinetic", "membrane", "bending", "potential", "contact"}
+    sim.step(40)
+    e = sim.energies()
+    assert e["kinetic"] > 0 and e["potential"] < e0["potential"]
+    assert sim.contacts > 0 and sim.max_penetration >= 0
+    t = sim.timings()
+    assert all(len(v) == 40 for v in t.values())
+    assert np.all(t["wall"] > 0) and np.all(t["wall"] >= t["assembly"]) and t["contacts"][-1] == sim.contacts
+
+
+def test_moving_a_pin_drags_the_corner(pinned_drop):
+    sim = flexsurf.Simulation(pinned_drop)
+    assert sim.pinned == [(0, 0)]
+    start = sim.positions[0, 0].copy()
+    for k in range(1, 11):
+        sim.move_pin(0, 0, start + [0.0, 0.0, 0.01 * k])
+        sim.step()
+    assert np.array_equal(sim.positions[0, 0], start + [0.0, 0.0, 0.1])
+
+
+def test_moving_a_spring_target(pinned_drop):
+    sim = flexsurf.Simulation(pinned_drop)
+    assert sim.spring_nodes == [(10, 10)]
+    target = sim.spring_targets[0]
+    assert np.array_equal(target, sim.positions[10, 10])
+    sim.set_spring_target(0, target + [0.0, 0.0, 0.1])
+    assert np.array_equal(sim.spring_targets[0], target + [0.0, 0.0, 0.1])
+    free = flexsurf.Simulation(pinned_drop)
+    sim.step(10)
+    free.step(10)
+    assert sim.positions[10, 10, 2] > free.positions[10, 10, 2]
+
+
+def test_bad_arguments_raise_and_do_not_crash(pinned_drop):
+    sim = flexsurf.Simulation(pinned_drop)
+    with pytest.raises(ValueError, match="shape"):
+        sim.positions_into(np.empty((10, 11, 3)))
+    with pytest.raises(ValueError, match="contiguous"):
+        sim.positions_into(np.empty((11, 11, 6))[..., ::2])
+    with pytest.raises(ValueError, match="contiguous"):
+        sim.positions_into(np.asfortranarray(np.empty((11, 11, 3))))
+    frozen = np.empty((11, 11, 3))
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError):
+        sim.positions_into(frozen)
+    with pytest.raises(TypeError):
+        sim.positions_into(np.empty((11, 11, 3), dtype=np.float32))
+    with pytest.raises(ValueError, match="not finite"):
+        sim.move_pin(0, 0, [0.0, math.nan, 0.0])
+    with pytest.raises(ValueError, match="not pinned"):
+        sim.move_pin(5, 5, [0.0, 0.0, 0.0])
+    with pytest.raises(IndexError):
+        sim.move_pin(11, 0, [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="3 numbers"):
+        sim.move_pin(0, 0, [0.0, 0.0])
+    with pytest.raises(TypeError):
+        sim.move_pin(0, 0, "abc")
+    with pytest.raises(ValueError, match="does not exist"):
+        sim.set_spring_target(3, [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="not finite"):
+        sim.set_spring_target(0, np.array([np.inf, 0.0, 0.0]))
+    with pytest.raises(OverflowError):
+        sim.step(-1)
+    with pytest.raises(TypeError):
+        flexsurf.Simulation("scene.toml")
+    assert sim.step(2) == 2  # still usable
+
+
+def test_divergence_raises_simulation_error(small_drop):
+    d = flexsurf.with_overrides(small_drop, {"integrator.kind": "lagged", "time.dt": 0.01})
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(d))
+    with pytest.raises(flexsurf.SimulationError, match="diverged"):
+        sim.step(200)
+    assert np.all(np.isfinite(sim.positions))
+
+
+def test_static_scenes_are_run_not_stepped(small_drop):
+    d = flexsurf.with_overrides(small_drop, {"integrator.kind": "static", "pin": [{"set": "corners"}]})
+    with pytest.raises(ValueError, match="static"):
+        flexsurf.Simulation(flexsurf.Scene.from_dict(d))
+
+
+def test_the_gil_is_released_while_stepping(small_drop):
+    d = flexsurf.with_overrides(small_drop, {"sheet.nodes": [61, 61]})
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(d))
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    thread = threading.Thread(target=ticker)
+    thread.start()
+    time.sleep(0.05)
+    t0 = time.perf_counter()
+    sim.step(40)
+    t1 = time.perf_counter()
+    stop.set()
+    thread.join()
+    during = [t for t in ticks if t0 < t < t1]
+    assert t1 - t0 > 0.2, "the step should be long enough to tell"
+    # With the GIL held the other thread would not tick at all during the call.
+    assert len(during) >= 10, f"{len(during)} ticks in {t1 - t0:.2f} s"
+    assert sim.step_count == 40

@@ -1,0 +1,69 @@
+"""Sweeps: each row equals running its case alone, on the process pool and on a local Ray instance."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+import flexsurf
+from flexsurf._sweep import run_case
+
+# The wall-clock columns differ from run to run.
+TIMED = ("wall_seconds", "steps_per_second", "timings.")
+
+
+def deterministic(row: dict) -> dict:
+    return {k: v for k, v in row.items() if not k.startswith(TIMED)}
+
+
+def check_rows_equal_single_runs(table: pd.DataFrame, base: dict, cases: list[dict]):
+    assert list(table["case"]) == list(range(len(cases)))
+    assert table["error"].isna().all(), table["error"].tolist()
+    for k, case in enumerate(cases):
+        alone = deterministic(run_case(base, None, case))
+        row = deterministic(table.iloc[k].to_dict())
+        for key, value in alone.items():
+            assert row[key] == value, (k, key)
+        for key, value in case.items():
+            assert row[key] == value
+
+
+def test_process_sweep_equals_single_runs(small_drop, tmp_path):
+    grid = {"material.bending_warp": [5e-5, 5e-4], "contact.friction": [0.0, 0.5]}
+    cases = flexsurf._sweep.cases(grid)
+    assert len(cases) == 4
+    path = tmp_path / "sweep.parquet"
+    table = flexsurf.sweep(small_drop, grid, backend="process", workers=2, parquet=path)
+    check_rows_equal_single_runs(table, small_drop, cases)
+    assert table["final.min_z"].nunique() == 4
+    back = pd.read_parquet(path)
+    assert back["final.min_z"].tolist() == table["final.min_z"].tolist()
+
+
+def test_failed_cases_are_rows_with_errors(small_drop):
+    table = flexsurf.sweep(small_drop, [{"time.dt": 0.01}, {"time.dt": -1.0}], workers=1)
+    assert pd.isna(table["error"].iloc[0])
+    assert "time.dt" in table["error"].iloc[1]
+
+
+def test_sweep_of_a_virtual_test():
+    table = flexsurf.sweep("cantilever", [{"material.bending_warp": b} for b in (1e-4, 4e-4)], workers=2)
+    assert table["error"].isna().all()
+    assert table["bending_length"].iloc[1] > table["bending_length"].iloc[0]
+
+
+def test_bad_sweeps_raise(small_drop):
+    with pytest.raises(ValueError, match="backend"):
+        flexsurf.sweep(small_drop, [{}], backend="mpi")
+    with pytest.raises(TypeError, match="list of values"):
+        flexsurf.sweep(small_drop, {"time.dt": 0.01})
+
+
+def test_ray_sweep_equals_single_runs(small_drop):
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        pytest.skip("ray cannot be imported here (pip install './python[ray]')")
+    cases = [{"material.bending_warp": 5e-5}, {"material.bending_warp": 5e-4}]
+    table = flexsurf.sweep(small_drop, cases, backend="ray", workers=2)
+    check_rows_equal_single_runs(table, small_drop, cases)
