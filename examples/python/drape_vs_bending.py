@@ -26,7 +26,7 @@ def main() -> None:
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
 
-    rigidities = np.geomspace(2e-5, 2e-3, args.points)  # N·m
+    rigidities = np.geomspace(1e-6, 2e-4, args.points)  # N·m
     cases = [
         {"material.bending_warp": float(k), "material.bending_weft": float(k), "specimen": 0.30, "level": args.level}
         for k in rigidities
