@@ -3,7 +3,7 @@
 //! [`MAX_SNAPSHOTS`] output steps with the obstacles, all from one camera.
 
 use super::{io_err, RunError};
-use crate::contact::Obstacle;
+use crate::contact::Look;
 use crate::io::render::{self, Drawable, View};
 use crate::io::PlyFormat;
 use crate::math::Vec3;
@@ -141,16 +141,16 @@ pub(super) fn write_snapshots(
     render::save_png(&png, &render::panel(&images, &labels, images.len().min(4))).map_err(io_err(&png))
 }
 
-/// Drawables of a model's obstacles.
+/// Drawables of a model's obstacles (those with a [`Look`]).
 pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
     model
         .obstacles()
-        .into_iter()
-        .map(|o| match o {
-            Obstacle::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
-            Obstacle::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
-            Obstacle::Nurbs(body) => Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR),
-            Obstacle::Mesh(body) => Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR),
+        .iter()
+        .filter_map(|o| o.look())
+        .map(|look| match look {
+            Look::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
+            Look::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
+            Look::Mesh(mesh) => Drawable::owned_mesh(mesh, OBSTACLE_COLOR),
         })
         .collect()
 }
