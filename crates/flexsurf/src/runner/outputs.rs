@@ -5,7 +5,6 @@
 use super::{io_err, RunError};
 use crate::contact::Look;
 use crate::io::render::{self, Drawable, View};
-use crate::io::PlyFormat;
 use crate::math::Vec3;
 use crate::model::Model;
 use crate::scene::{FrameFormat, Scene};
@@ -117,13 +116,9 @@ fn csv_row(csv: &mut String, d: &sim::EnergyRecord) {
     );
 }
 
-/// Writes `mesh` in `format` (atomically).
+/// Writes `mesh` in `format` (atomically; see [`FrameFormat::writer`]).
 pub fn write_mesh(path: &Path, mesh: &TriMesh, format: FrameFormat) -> std::io::Result<()> {
-    match format {
-        FrameFormat::Obj => crate::io::write_obj(path, mesh),
-        FrameFormat::Ply => crate::io::write_ply(path, mesh, PlyFormat::BinaryLittleEndian),
-        FrameFormat::Gltf => crate::io::write_gltf(path, mesh, [0.77, 0.34, 0.24, 1.0]),
-    }
+    (format.writer().write)(path, mesh)
 }
 
 /// Writes `snapshots.png` into `out`: the pictures of `snapshots`, `image_size` pixels each, four a row.
@@ -178,5 +173,18 @@ mod tests {
         assert_eq!(output_steps(300, 100), vec![0, 100, 200, 300]);
         assert_eq!(output_steps(250, 100), vec![0, 100, 200, 250]);
         assert_eq!(spread(&(0..=20).collect::<Vec<_>>(), 5), vec![0, 5, 10, 15, 20]);
+    }
+
+    #[test]
+    fn every_frame_format_writes_a_file_named_after_it() {
+        let dir = crate::io::scratch_dir("frame-formats");
+        let mesh = crate::io::test_mesh();
+        for format in [FrameFormat::Obj, FrameFormat::Ply, FrameFormat::Gltf] {
+            let path = dir.join(format!("mesh.{}", format.extension()));
+            write_mesh(&path, &mesh, format).unwrap();
+            assert!(std::fs::metadata(&path).unwrap().len() > 0);
+            assert_eq!(serde_json::to_value(format).unwrap().as_str(), Some(format.extension()));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
