@@ -9,6 +9,7 @@ use super::material::{MaterialSpec, Preset};
 use crate::grid::Topology;
 use crate::integrate::statics::StaticOptions;
 use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
+use crate::io::{self, MeshWriter};
 use crate::material::Calibration;
 use crate::model::ModelKind;
 use schemars::JsonSchema;
@@ -370,13 +371,18 @@ pub enum FrameFormat {
 }
 
 impl FrameFormat {
+    /// The format's extension and writer: the one table of the frame formats.
+    pub fn writer(self) -> MeshWriter {
+        match self {
+            FrameFormat::Obj => io::obj::WRITER,
+            FrameFormat::Ply => io::ply::WRITER,
+            FrameFormat::Gltf => io::gltf::WRITER,
+        }
+    }
+
     /// File extension.
     pub fn extension(&self) -> &'static str {
-        match self {
-            FrameFormat::Obj => "obj",
-            FrameFormat::Ply => "ply",
-            FrameFormat::Gltf => "gltf",
-        }
+        self.writer().extension
     }
 }
 
