@@ -1,5 +1,5 @@
 //! Output: the last stage of the pipeline, after [`crate::surface`] has turned the node positions into a
-//! [`TriMesh`](crate::surface::mesh::TriMesh).
+//! [`TriMesh`].
 //!
 //! - [`atomic`]: every file is written to a temporary sibling and renamed into place, so an interrupted run
 //!   never leaves a half-written output.

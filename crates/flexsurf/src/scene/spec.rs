@@ -7,7 +7,7 @@ use super::error::{parse_toml, SceneError};
 use super::garment::GarmentSpec;
 use super::material::{MaterialSpec, Preset};
 use crate::grid::Topology;
-use crate::integrate::statics::StaticOptions;
+use crate::integrate::statics;
 use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
 use crate::io::{self, MeshWriter};
 use crate::material::Calibration;
@@ -175,7 +175,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Linearized => dynamic(Scheme::Linearized),
             IntegratorKind::Lagged => dynamic(Scheme::Lagged),
-            IntegratorKind::Static => Method::Static(StaticOptions::default()),
+            IntegratorKind::Static => Method::Static(statics::StaticOptions::default()),
         }
     }
 }
