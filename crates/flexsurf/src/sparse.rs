@@ -1,6 +1,6 @@
 //! Node-block sparse symmetric matrices. The pattern (which node pairs couple) is fixed once per grid from the
 //! stencils of every term; values are `3×3` blocks for node pairs `i ≤ j`, added in place through block ids
-//! that each term precomputes. [`BlockMatrix::to_csc_upper`] writes the scalar upper triangle for the solver.
+//! that each term precomputes. [`BlockPattern::csc_upper`] gives the scalar upper-triangle layout the solver fills.
 
 use crate::math::{Mat3, Vec3};
 

@@ -76,10 +76,7 @@ pub fn hessians(
     let eps = step(x);
     let mut fd = vec![vec![0.0; 3 * n]; 3 * n];
     for dof in 0..3 * n {
-        let (k, c) = (dof / 3, dof % 3);
-        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
-        xp[k][c] += eps;
-        xm[k][c] -= eps;
+        let (xp, xm) = perturb(x, dof, eps);
         let (_, gp) = value_gradient(potential, &mut ws, &xp, motion, extra);
         let (_, gm) = value_gradient(potential, &mut ws, &xm, motion, extra);
         for r in 0..3 * n {
@@ -87,6 +84,14 @@ pub fn hessians(
         }
     }
     (dense, fd)
+}
+
+/// `x` with degree of freedom `dof` moved by `+eps` and by `−eps`.
+fn perturb(x: &[Vec3], dof: usize, eps: f64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+    xp[dof / 3][dof % 3] += eps;
+    xm[dof / 3][dof % 3] -= eps;
+    (xp, xm)
 }
 
 /// The finite-difference step: `1e-6` of the size of `x` (at least 1e-9).
@@ -129,9 +134,7 @@ pub fn check(
     };
     for &dof in &free {
         let (k, c) = (dof / 3, dof % 3);
-        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
-        xp[k][c] += eps;
-        xm[k][c] -= eps;
+        let (xp, xm) = perturb(x, dof, eps);
         let (vp, gp) = value_gradient(potential, &mut ws, &xp, motion, extra);
         let (vm, gm) = value_gradient(potential, &mut ws, &xm, motion, extra);
         let err = ((vp - vm) / (2.0 * eps) - g[k][c]).abs() / gradient_norm.max(f64::MIN_POSITIVE);

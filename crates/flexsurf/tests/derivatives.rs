@@ -4,6 +4,8 @@
 //! the assembled step system. Each named Hessian approximation is tested for what its documentation says it
 //! contains (docs/model.md §7).
 
+#![allow(clippy::needless_range_loop)]
+
 use flexsurf::contact::trimesh::TriMeshBody;
 use flexsurf::contact::{mannequin, Obstacle};
 use flexsurf::energy::bending::Bending;

@@ -1,6 +1,10 @@
-//! Obstacle geometry: rigid obstacles (planes, balls, NURBS bodies, triangle meshes) answer signed distance and
-//! outward normal at a point, warm-started through a [`ContactCache`]. The contact *law* (penalty pressure,
-//! friction) is a term of the total potential: [`crate::potential::contact`].
+//! Obstacle geometry: rigid obstacles (planes, balls, NURBS bodies, triangle meshes, and any user [`Shape`])
+//! answer signed distance and outward normal at a point, warm-started through a [`ContactCache`]. The contact
+//! *law* (penalty pressure, friction) is a term of the total potential: [`crate::potential::contact`].
+//!
+//! Every kind of obstacle is a [`Shape`] in its own file ([`plane`], [`sphere`], [`nurbs`], [`trimesh`]);
+//! [`Obstacle`] names the built-in ones for scene files and delegates every query to them, and
+//! [`Obstacle::Custom`] carries any other shape.
 
 use crate::math::Vec3;
 use std::sync::Arc;
@@ -10,7 +14,14 @@ use trimesh::TriMeshBody;
 
 pub mod mannequin;
 pub mod nurbs;
+pub mod plane;
+pub mod shape;
+pub mod sphere;
 pub mod trimesh;
+
+pub use plane::Plane;
+pub use shape::{Look, Shape};
+pub use sphere::Sphere;
 
 /// A rigid obstacle with a signed distance.
 #[derive(Debug, Clone)]
@@ -33,6 +44,8 @@ pub enum Obstacle {
     Nurbs(Arc<NurbsBody>),
     /// A closed triangle mesh (scanned or modelled bodies).
     Mesh(Arc<TriMeshBody>),
+    /// Any other shape (equal only to itself: the same `Arc`).
+    Custom(Arc<dyn Shape>),
 }
 
 impl PartialEq for Obstacle {
@@ -42,6 +55,7 @@ impl PartialEq for Obstacle {
             (Obstacle::Sphere { center: a, radius: r }, Obstacle::Sphere { center: c, radius: s }) => a == c && r == s,
             (Obstacle::Nurbs(a), Obstacle::Nurbs(b)) => Arc::ptr_eq(a, b) || a == b,
             (Obstacle::Mesh(a), Obstacle::Mesh(b)) => Arc::ptr_eq(a, b),
+            (Obstacle::Custom(a), Obstacle::Custom(b)) => Arc::ptr_eq(a, b),
             _ => false,
         }
     }
@@ -55,51 +69,42 @@ impl Obstacle {
     }
 
     /// Signed distance and outward normal, warm-started from and updating `hint` (NURBS bodies), or `None` when
-    /// the obstacle is certainly farther than `radius` from `p`.
+    /// the obstacle is certainly farther than `radius` from `p` ([`Shape::distance_within`] of its shape).
     #[inline]
     pub fn distance_hinted(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
         match self {
-            Obstacle::Plane { point, normal } => Some(((p - *point).dot(*normal), *normal)),
+            Obstacle::Plane { point, normal } => {
+                Plane { point: *point, normal: *normal }.distance_within(p, hint, radius)
+            }
             Obstacle::Sphere { center, radius: r } => {
-                let d = p - *center;
-                let len = d.length();
-                let n = if len > 0.0 { d / len } else { Vec3::Z };
-                Some((len - r, n))
+                Sphere { center: *center, radius: *r }.distance_within(p, hint, radius)
             }
-            Obstacle::Nurbs(body) => {
-                let pr = match body.closest_within(p, *hint, radius) {
-                    Some(pr) => pr,
-                    None => {
-                        // Nothing within `radius`: either far outside, or deeper than `radius` inside the body,
-                        // which a bounded query cannot tell apart. Inside the body's box, ask without a bound.
-                        let b = body.bbox();
-                        let inside_box = (0..3).all(|a| p[a] >= b.min[a] && p[a] <= b.max[a]);
-                        if !inside_box {
-                            return None;
-                        }
-                        let pr = body.closest(p, *hint);
-                        if pr.distance >= radius || pr.distance.is_nan() {
-                            return None;
-                        }
-                        pr
-                    }
-                };
-                *hint = Some(pr.hint());
-                Some((pr.distance, pr.normal))
-            }
-            Obstacle::Mesh(body) => Some(body.distance(p)),
+            Obstacle::Nurbs(body) => body.distance_within(p, hint, radius),
+            Obstacle::Mesh(body) => body.distance_within(p, hint, radius),
+            Obstacle::Custom(shape) => shape.distance_within(p, hint, radius),
         }
     }
 
-    /// The same obstacle with lengths scaled by `lambda` (analytic obstacles only; `None` for bodies).
-    pub fn scaled(&self, lambda: f64) -> Option<Self> {
+    /// Calls `f` with the obstacle's shape.
+    pub fn with_shape<R>(&self, f: impl FnOnce(&dyn Shape) -> R) -> R {
         match self {
-            Obstacle::Plane { point, normal } => Some(Obstacle::Plane { point: *point * lambda, normal: *normal }),
-            Obstacle::Sphere { center, radius } => {
-                Some(Obstacle::Sphere { center: *center * lambda, radius: radius * lambda })
-            }
-            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => None,
+            Obstacle::Plane { point, normal } => f(&Plane { point: *point, normal: *normal }),
+            Obstacle::Sphere { center, radius } => f(&Sphere { center: *center, radius: *radius }),
+            Obstacle::Nurbs(body) => f(body.as_ref()),
+            Obstacle::Mesh(body) => f(body.as_ref()),
+            Obstacle::Custom(shape) => f(shape.as_ref()),
         }
+    }
+
+    /// The same obstacle with lengths scaled by `lambda` ([`Shape::scaled`]: analytic obstacles only; `None`
+    /// for bodies).
+    pub fn scaled(&self, lambda: f64) -> Option<Self> {
+        self.with_shape(|s| s.scaled(lambda))
+    }
+
+    /// How the obstacle is drawn ([`Shape::look`]).
+    pub fn look(&self) -> Option<Look> {
+        self.with_shape(|s| s.look())
     }
 }
 

@@ -4,6 +4,8 @@
 //! oriented mesh. Faces must be counter-clockwise seen from outside (the OBJ convention), so that
 //! `(b − a) × (c − a)` points out of the body. Units are metres.
 
+use crate::contact::nurbs::Hint;
+use crate::contact::shape::{Look, Shape};
 use crate::math::Vec3;
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::PointQueryWithLocation;
@@ -210,6 +212,17 @@ impl TriMeshBody {
     pub fn distance(&self, p: Vec3) -> (f64, Vec3) {
         let (_, d, n) = self.closest(p);
         (d, n)
+    }
+}
+
+/// The body as an obstacle (the hint and the radius are not used: parry's BVH query is already bounded).
+impl Shape for TriMeshBody {
+    fn distance_within(&self, p: Vec3, _hint: &mut Option<Hint>, _radius: f64) -> Option<(f64, Vec3)> {
+        Some(self.distance(p))
+    }
+
+    fn look(&self) -> Option<Look> {
+        Some(Look::Mesh(self.to_mesh()))
     }
 }
 

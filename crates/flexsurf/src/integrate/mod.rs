@@ -197,10 +197,7 @@ impl Stepper {
 
     /// Non-zeros of the Cholesky factor (0 for PCG).
     pub fn factor_nnz(&self) -> usize {
-        match &self.solver {
-            LinearSolver::Cholesky(c) => c.factor_nnz(),
-            LinearSolver::Pcg(_) => 0,
-        }
+        self.solver.factor_nnz()
     }
 
     /// The step matrix of the last [`Stepper::assemble`] (contacts included).

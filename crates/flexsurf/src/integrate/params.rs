@@ -1,5 +1,5 @@
 //! The parameters of a run in one place: [`StepParams`] for a dynamic integration (as rapier's
-//! `IntegrationParameters`), [`StaticOptions`](super::statics::StaticOptions) for a static solve, and [`Method`],
+//! `IntegrationParameters`), [`StaticOptions`] for a static solve, and [`Method`],
 //! which is one or the other.
 
 use super::linsolve::SolverKind;

@@ -3,7 +3,7 @@
 //! a double-sided material, so the file opens in any glTF viewer without side files.
 
 use super::atomic::write_atomic;
-use super::invalid;
+use super::{invalid, MeshWriter};
 use crate::math::Vec3;
 use crate::surface::mesh::TriMesh;
 use serde_json::json;
@@ -96,6 +96,13 @@ pub fn gltf_json(mesh: &TriMesh, base_color: [f64; 4]) -> io::Result<serde_json:
         "accessors": accessors
     }))
 }
+
+/// Base colour factor (RGBA) of the cloth material in glTF frames.
+pub const FRAME_COLOR: [f64; 4] = [0.77, 0.34, 0.24, 1.0];
+
+/// glTF frames: `.gltf`, [`write_gltf`] with [`FRAME_COLOR`].
+pub const WRITER: MeshWriter =
+    MeshWriter { extension: "gltf", write: |path, mesh| write_gltf(path, mesh, FRAME_COLOR) };
 
 /// Writes `mesh` as a self-contained `.gltf` file at `path`, atomically.
 pub fn write_gltf(path: impl AsRef<Path>, mesh: &TriMesh, base_color: [f64; 4]) -> io::Result<()> {

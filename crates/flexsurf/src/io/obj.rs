@@ -1,7 +1,7 @@
 //! Wavefront OBJ output of a [`TriMesh`]: `v` positions, `vn` normals and `f a//a b//b c//c` faces (1-based).
 
 use super::atomic::write_atomic_with;
-use super::invalid;
+use super::{invalid, MeshWriter};
 use crate::surface::mesh::TriMesh;
 use std::io::{self, Write};
 use std::path::Path;
@@ -30,6 +30,9 @@ pub fn write_obj_to(w: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
     }
     Ok(())
 }
+
+/// OBJ frames: `.obj`, [`write_obj`].
+pub const WRITER: MeshWriter = MeshWriter { extension: "obj", write: |path, mesh| write_obj(path, mesh) };
 
 /// Writes `mesh` to an OBJ file at `path`, atomically.
 pub fn write_obj(path: impl AsRef<Path>, mesh: &TriMesh) -> io::Result<()> {

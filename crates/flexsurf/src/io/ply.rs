@@ -2,7 +2,7 @@
 //! mesh has normals) as 32-bit `float`, faces as `list uchar uint vertex_indices`.
 
 use super::atomic::write_atomic_with;
-use super::invalid;
+use super::{invalid, MeshWriter};
 use crate::surface::mesh::TriMesh;
 use std::io::{self, Write};
 use std::path::Path;
@@ -66,6 +66,10 @@ pub fn write_ply_to(w: &mut dyn Write, mesh: &TriMesh, format: PlyFormat) -> io:
     }
     Ok(())
 }
+
+/// PLY frames: `.ply`, [`write_ply`] in binary little-endian.
+pub const WRITER: MeshWriter =
+    MeshWriter { extension: "ply", write: |path, mesh| write_ply(path, mesh, PlyFormat::BinaryLittleEndian) };
 
 /// Writes `mesh` to a PLY file at `path`, atomically.
 pub fn write_ply(path: impl AsRef<Path>, mesh: &TriMesh, format: PlyFormat) -> io::Result<()> {

@@ -75,41 +75,31 @@ pub fn terms(
     vec![Box::new(membrane), bending]
 }
 
-/// Membrane: the three Hessian variants as documented on [`crate::energy::Operator`].
-impl Term for Membrane {
-    fn info(&self) -> TermInfo {
-        TermInfo { name: "membrane", stage: Stage::Field, part: Part::Membrane }
-    }
-    fn pairs(&self) -> Vec<(usize, usize)> {
-        Membrane::pairs(self)
-    }
-    fn bind(&mut self, pattern: &BlockPattern) {
-        Membrane::bind(self, pattern)
-    }
-    fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
-        let e = Membrane::evaluate(self, x, sink);
-        sink.energy += e;
-        e
-    }
+/// `impl Term` for an elastic kernel type with inherent `pairs`, `bind` and `evaluate(x, sink) -> f64`: the
+/// three Hessian variants as documented on [`crate::energy::Operator`].
+macro_rules! elastic_term {
+    ($kernel:ty, $name:literal, $part:expr) => {
+        impl Term for $kernel {
+            fn info(&self) -> TermInfo {
+                TermInfo { name: $name, stage: Stage::Field, part: $part }
+            }
+            fn pairs(&self) -> Vec<(usize, usize)> {
+                <$kernel>::pairs(self)
+            }
+            fn bind(&mut self, pattern: &BlockPattern) {
+                <$kernel>::bind(self, pattern)
+            }
+            fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+                let e = <$kernel>::evaluate(self, x, sink);
+                sink.energy += e;
+                e
+            }
+        }
+    };
 }
 
-/// Bending: the three Hessian variants as documented on [`crate::energy::Operator`].
-impl Term for Bending {
-    fn info(&self) -> TermInfo {
-        TermInfo { name: "bending", stage: Stage::Field, part: Part::Bending }
-    }
-    fn pairs(&self) -> Vec<(usize, usize)> {
-        Bending::pairs(self)
-    }
-    fn bind(&mut self, pattern: &BlockPattern) {
-        Bending::bind(self, pattern)
-    }
-    fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
-        let e = Bending::evaluate(self, x, sink);
-        sink.energy += e;
-        e
-    }
-}
+elastic_term!(Membrane, "membrane", Part::Membrane);
+elastic_term!(Bending, "bending", Part::Bending);
 
 /// The Terzopoulos & Fleischer bending force on the quadrature points of a [`Bending`] term: not the gradient
 /// of an energy (its value is the bending energy of the same curvatures, a diagnostic), with its lagged operator

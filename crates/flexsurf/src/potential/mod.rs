@@ -105,8 +105,8 @@ pub struct Context<'a> {
     pub motion: Option<Motion<'a>>,
 }
 
-/// Per-run scratch of one term (a contact cache and its active set): created by [`Term::scratch`], kept by the
-/// caller's [`Workspace`] between evaluations.
+/// Per-run scratch of one term (a contact cache and its active set): created by the term on first use
+/// ([`Scratch::get_or`]), kept by the caller's [`Workspace`] between evaluations.
 #[derive(Default)]
 pub struct Scratch(Option<Box<dyn Any + Send>>);
 

@@ -3,9 +3,8 @@
 //! [`MAX_SNAPSHOTS`] output steps with the obstacles, all from one camera.
 
 use super::{io_err, RunError};
-use crate::contact::Obstacle;
+use crate::contact::Look;
 use crate::io::render::{self, Drawable, View};
-use crate::io::PlyFormat;
 use crate::math::Vec3;
 use crate::model::Model;
 use crate::scene::{FrameFormat, Scene};
@@ -117,13 +116,9 @@ fn csv_row(csv: &mut String, d: &sim::EnergyRecord) {
     );
 }
 
-/// Writes `mesh` in `format` (atomically).
+/// Writes `mesh` in `format` (atomically; see [`FrameFormat::writer`]).
 pub fn write_mesh(path: &Path, mesh: &TriMesh, format: FrameFormat) -> std::io::Result<()> {
-    match format {
-        FrameFormat::Obj => crate::io::write_obj(path, mesh),
-        FrameFormat::Ply => crate::io::write_ply(path, mesh, PlyFormat::BinaryLittleEndian),
-        FrameFormat::Gltf => crate::io::write_gltf(path, mesh, [0.77, 0.34, 0.24, 1.0]),
-    }
+    (format.writer().write)(path, mesh)
 }
 
 /// Writes `snapshots.png` into `out`: the pictures of `snapshots`, `image_size` pixels each, four a row.
@@ -141,16 +136,16 @@ pub(super) fn write_snapshots(
     render::save_png(&png, &render::panel(&images, &labels, images.len().min(4))).map_err(io_err(&png))
 }
 
-/// Drawables of a model's obstacles.
+/// Drawables of a model's obstacles (those with a [`Look`]).
 pub fn obstacle_drawables(model: &Model) -> Vec<Drawable<'static>> {
     model
         .obstacles()
-        .into_iter()
-        .map(|o| match o {
-            Obstacle::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
-            Obstacle::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
-            Obstacle::Nurbs(body) => Drawable::owned_mesh(body.tessellate(12), OBSTACLE_COLOR),
-            Obstacle::Mesh(body) => Drawable::owned_mesh(body.to_mesh(), OBSTACLE_COLOR),
+        .iter()
+        .filter_map(|o| o.look())
+        .map(|look| match look {
+            Look::Sphere { center, radius } => Drawable::sphere(center, radius, OBSTACLE_COLOR),
+            Look::Plane { point, normal } => Drawable::plane(point, normal, PLANE_COLOR),
+            Look::Mesh(mesh) => Drawable::owned_mesh(mesh, OBSTACLE_COLOR),
         })
         .collect()
 }
@@ -178,5 +173,18 @@ mod tests {
         assert_eq!(output_steps(300, 100), vec![0, 100, 200, 300]);
         assert_eq!(output_steps(250, 100), vec![0, 100, 200, 250]);
         assert_eq!(spread(&(0..=20).collect::<Vec<_>>(), 5), vec![0, 5, 10, 15, 20]);
+    }
+
+    #[test]
+    fn every_frame_format_writes_a_file_named_after_it() {
+        let dir = crate::io::scratch_dir("frame-formats");
+        let mesh = crate::io::test_mesh();
+        for format in [FrameFormat::Obj, FrameFormat::Ply, FrameFormat::Gltf] {
+            let path = dir.join(format!("mesh.{}", format.extension()));
+            write_mesh(&path, &mesh, format).unwrap();
+            assert!(std::fs::metadata(&path).unwrap().len() > 0);
+            assert_eq!(serde_json::to_value(format).unwrap().as_str(), Some(format.extension()));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -7,8 +7,9 @@ use super::error::{parse_toml, SceneError};
 use super::garment::GarmentSpec;
 use super::material::{MaterialSpec, Preset};
 use crate::grid::Topology;
-use crate::integrate::statics::StaticOptions;
+use crate::integrate::statics;
 use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
+use crate::io::{self, MeshWriter};
 use crate::material::Calibration;
 use crate::model::ModelKind;
 use schemars::JsonSchema;
@@ -174,7 +175,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Linearized => dynamic(Scheme::Linearized),
             IntegratorKind::Lagged => dynamic(Scheme::Lagged),
-            IntegratorKind::Static => Method::Static(StaticOptions::default()),
+            IntegratorKind::Static => Method::Static(statics::StaticOptions::default()),
         }
     }
 }
@@ -370,13 +371,18 @@ pub enum FrameFormat {
 }
 
 impl FrameFormat {
+    /// The format's extension and writer: the one table of the frame formats.
+    pub fn writer(self) -> MeshWriter {
+        match self {
+            FrameFormat::Obj => io::obj::WRITER,
+            FrameFormat::Ply => io::ply::WRITER,
+            FrameFormat::Gltf => io::gltf::WRITER,
+        }
+    }
+
     /// File extension.
     pub fn extension(&self) -> &'static str {
-        match self {
-            FrameFormat::Obj => "obj",
-            FrameFormat::Ply => "ply",
-            FrameFormat::Gltf => "gltf",
-        }
+        self.writer().extension
     }
 }
 

@@ -5,6 +5,7 @@
 use super::error::NurbsError;
 use super::patch::NurbsPatch;
 use super::project::{box_distance2, in_cell, Hint, Projection};
+use crate::contact::shape::{Look, Shape};
 use crate::math::Vec3;
 use crate::surface::mesh::{Aabb, TriMesh};
 
@@ -248,5 +249,35 @@ impl NurbsBody {
             }
         }
         mesh
+    }
+}
+
+/// The body as an obstacle: the bounded closest-point query, warm-started from and updating the hint.
+impl Shape for NurbsBody {
+    fn distance_within(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
+        let pr = match self.closest_within(p, *hint, radius) {
+            Some(pr) => pr,
+            None => {
+                // Nothing within `radius`: either far outside, or deeper than `radius` inside the body,
+                // which a bounded query cannot tell apart. Inside the body's box, ask without a bound.
+                let b = self.bbox();
+                let inside_box = (0..3).all(|a| p[a] >= b.min[a] && p[a] <= b.max[a]);
+                if !inside_box {
+                    return None;
+                }
+                let pr = self.closest(p, *hint);
+                if pr.distance >= radius || pr.distance.is_nan() {
+                    return None;
+                }
+                pr
+            }
+        };
+        *hint = Some(pr.hint());
+        Some((pr.distance, pr.normal))
+    }
+
+    /// Drawn as its tessellation with 12 × 12 cells a patch.
+    fn look(&self) -> Option<Look> {
+        Some(Look::Mesh(self.tessellate(12)))
     }
 }
