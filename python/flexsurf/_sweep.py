@@ -9,7 +9,7 @@ import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Iterable, Mapping, Sequence, Union
 
-from ._flexsurf import Material, cantilever, cusick, kes, read_toml
+from ._flexsurf import Material, Scene, cantilever, cusick, kes, read_toml
 from ._run import run, with_overrides
 
 LAB_TESTS = ("kes", "cantilever", "cusick")
@@ -65,8 +65,6 @@ def run_case(task: str | dict, file: str | None, overrides: Mapping[str, Any]) -
         kwargs = {k: v for k, v in overrides.items() if not k.startswith("material.")}
         test = {"kes": kes, "cantilever": cantilever, "cusick": cusick}[task]
         return _flatten(test(Material(**material), **kwargs))
-    from ._flexsurf import Scene
-
     scene = Scene.from_dict(with_overrides(task, overrides), file)
     summary = dict(run(scene).summary)
     summary.pop("frames", None)
