@@ -178,3 +178,40 @@ pub fn eigen_range(d: &[Vec<f64>]) -> (f64, f64) {
         Err(_) => (f64::NAN, f64::NAN),
     }
 }
+
+/// The paper's cotton with Poisson coupling in stretch (0.25) and bending (0.2), calibrated with `cal`: a fixture
+/// whose every stiffness coefficient is non-zero.
+pub fn cotton(cal: crate::material::Calibration) -> crate::material::Stiffness {
+    let f = crate::material::Fabric { poisson: 0.25, bending_poisson: 0.2, ..crate::material::Fabric::paper_cotton() };
+    match crate::material::Stiffness::calibrate(&f, cal) {
+        Ok(s) => s,
+        Err(e) => panic!("the cotton fixture calibrates: {e}"),
+    }
+}
+
+/// `x` with every coordinate moved by a uniform random amount in `(−amp, amp)` (seeded, reproducible).
+pub fn perturbed(x: &[Vec3], amp: f64, seed: u64) -> Vec<Vec3> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    x.iter()
+        .map(|p| *p + Vec3::new(rng.random_range(-amp..amp), rng.random_range(-amp..amp), rng.random_range(-amp..amp)))
+        .collect()
+}
+
+/// A cylinder of radius `r` around the z axis, periodic along u1 (`m` nodes around, `n` along z over `l2`).
+pub fn cylinder(m: usize, n: usize, r: f64, l2: f64) -> (crate::grid::Grid, Vec<Vec3>) {
+    use crate::grid::{Grid, Topology};
+    let h1 = 2.0 * std::f64::consts::PI * r / m as f64;
+    let g = match Grid::new(m, n, h1, l2 / (n - 1) as f64, [Topology::Periodic, Topology::Free]) {
+        Ok(g) => g,
+        Err(e) => panic!("cylinder fixture {m} × {n}: {e}"),
+    };
+    let x = (0..g.len())
+        .map(|k| {
+            let (i, j) = g.coords(k);
+            let t = i as f64 * h1 / r;
+            Vec3::new(r * t.cos(), r * t.sin(), j as f64 * g.h2)
+        })
+        .collect();
+    (g, x)
+}

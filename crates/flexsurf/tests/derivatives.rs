@@ -12,10 +12,10 @@ use flexsurf::energy::bending::Bending;
 use flexsurf::energy::frame::Warp;
 use flexsurf::energy::membrane::Membrane;
 use flexsurf::energy::Operator;
-use flexsurf::grid::{Grid, Topology};
+use flexsurf::grid::Grid;
 use flexsurf::integrate::statics::{StaticError, StaticOptions, StaticSolver};
 use flexsurf::integrate::{StepParams, Stepper};
-use flexsurf::material::{Calibration, Fabric, Stiffness};
+use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::{outer, Mat3, Vec3};
 use flexsurf::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Spring};
 use flexsurf::potential::contact::{ContactParams, PenaltyContact};
@@ -25,38 +25,10 @@ use flexsurf::potential::inertia::Inertia;
 use flexsurf::potential::springs::Springs;
 use flexsurf::potential::{Motion, Term};
 use flexsurf::state::State;
-use flexsurf::testing::{alone, check, eigen_range, hessians};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use flexsurf::testing::{alone, check, cotton, cylinder, eigen_range, hessians, perturbed};
 use std::sync::Arc;
 
 const TOL: f64 = 1e-6;
-
-fn cotton(cal: Calibration) -> Stiffness {
-    let f = Fabric { poisson: 0.25, bending_poisson: 0.2, ..Fabric::paper_cotton() };
-    Stiffness::calibrate(&f, cal).unwrap()
-}
-
-fn perturbed(x: &[Vec3], amp: f64, seed: u64) -> Vec<Vec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    x.iter()
-        .map(|p| *p + Vec3::new(rng.random_range(-amp..amp), rng.random_range(-amp..amp), rng.random_range(-amp..amp)))
-        .collect()
-}
-
-/// A cylinder of radius `r` around z, periodic in u1 (`m` nodes around).
-fn cylinder(m: usize, n: usize, r: f64, l2: f64) -> (Grid, Vec<Vec3>) {
-    let h1 = 2.0 * std::f64::consts::PI * r / m as f64;
-    let g = Grid::new(m, n, h1, l2 / (n - 1) as f64, [Topology::Periodic, Topology::Free]).unwrap();
-    let x = (0..g.len())
-        .map(|k| {
-            let (i, j) = g.coords(k);
-            let t = i as f64 * h1 / r;
-            Vec3::new(r * t.cos(), r * t.sin(), j as f64 * g.h2)
-        })
-        .collect();
-    (g, x)
-}
 
 fn exact(name: &str, n: usize, term: Box<dyn Term>, x: &[Vec3]) {
     check(&alone(n, term), x, None, None, Operator::Exact).assert_below(name, TOL);

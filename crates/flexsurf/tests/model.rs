@@ -14,34 +14,9 @@ use flexsurf::model::{Model, ModelBuilder, ModelKind, Spring};
 use flexsurf::sparse::{BlockMatrix, BlockPattern};
 use flexsurf::state::State;
 use flexsurf::testing::elastic;
+use flexsurf::testing::{cotton, cylinder, perturbed};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-fn cotton(cal: Calibration) -> Stiffness {
-    let f = Fabric { poisson: 0.25, bending_poisson: 0.2, ..Fabric::paper_cotton() };
-    Stiffness::calibrate(&f, cal).unwrap()
-}
-
-/// A cylinder of radius `r` around the u2 axis, periodic in u1 (`m` nodes around).
-fn cylinder(m: usize, n: usize, r: f64, l2: f64) -> (Grid, Vec<Vec3>) {
-    let h1 = 2.0 * std::f64::consts::PI * r / m as f64;
-    let g = Grid::new(m, n, h1, l2 / (n - 1) as f64, [Topology::Periodic, Topology::Free]).unwrap();
-    let x = (0..g.len())
-        .map(|k| {
-            let (i, j) = g.coords(k);
-            let t = i as f64 * h1 / r;
-            Vec3::new(r * t.cos(), r * t.sin(), j as f64 * g.h2)
-        })
-        .collect();
-    (g, x)
-}
-
-fn perturbed(x: &[Vec3], amp: f64, seed: u64) -> Vec<Vec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    x.iter()
-        .map(|p| *p + Vec3::new(rng.random_range(-amp..amp), rng.random_range(-amp..amp), rng.random_range(-amp..amp)))
-        .collect()
-}
 
 /// Dense symmetric eigenvalues (ascending).
 fn eigenvalues(d: &[Vec<f64>]) -> Vec<f64> {
