@@ -266,7 +266,7 @@ impl Model {
         if !finite(target) {
             return Err(model_error("springs", format!("target {target} of spring {index} is not finite")));
         }
-        if self.potential.set_spring_target(index, target) {
+        if self.potential.find_mut::<Springs>().is_some_and(|s| s.set_target(index, target)) {
             Ok(())
         } else {
             let count = self.potential.springs().len();

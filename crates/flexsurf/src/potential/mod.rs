@@ -365,16 +365,9 @@ impl Potential {
     }
 
     /// The first term of type `T`, mutably: for data that may change between steps without changing the
-    /// term's sparsity pattern (a spring's target, [`Potential::set_spring_target`]).
-    pub(crate) fn find_mut<T: Term + 'static>(&mut self) -> Option<&mut T> {
+    /// term's sparsity pattern (a spring's target, [`crate::model::Model::set_spring_target`]).
+    pub fn find_mut<T: Term + 'static>(&mut self) -> Option<&mut T> {
         self.terms.iter_mut().find_map(|t| t.as_any_mut().downcast_mut::<T>())
-    }
-
-    /// Moves the target of spring `index` (in the order of [`Potential::springs`]) to `target`, between steps;
-    /// returns `false` when there is no such spring. The spring's node and stiffness, and so the pattern and the
-    /// Hessian, are unchanged.
-    pub fn set_spring_target(&mut self, index: usize, target: Vec3) -> bool {
-        self.find_mut::<springs::Springs>().is_some_and(|s| s.set_target(index, target))
     }
 
     /// Block pattern of every term's Hessian.

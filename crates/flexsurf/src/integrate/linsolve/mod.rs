@@ -63,10 +63,14 @@ impl SolverKind {
     }
 }
 
-/// A linear solver bound to one block pattern (see [`LinearSolver::solve`] for the contract).
+/// A linear solver bound to one block pattern.
 pub trait BlockSolver: Send {
-    /// Solves `A x = b` in place for the unknowns not fixed, fixed unknowns keeping their value in `b`; `nearby`
-    /// says `A` differs little from the last matrix solved. Returns (factor seconds, solve seconds).
+    /// Solves `A x = b` in place (`b` becomes `x`) for the unknowns not fixed; fixed unknowns keep the value in
+    /// `b` (their prescribed increment), and their columns are moved to the right-hand side.
+    /// With `nearby`, `A` differs little from the last factorised matrix (a few diagonal blocks: a contact
+    /// active-set change); the Cholesky solver then first tries conjugate gradients preconditioned by the
+    /// existing factor and refactorises only if that does not converge quickly.
+    /// Returns (factor seconds, solve seconds).
     fn solve(
         &mut self,
         pattern: &BlockPattern,
@@ -92,26 +96,18 @@ impl LinearSolver {
     pub fn new(kind: SolverKind, pattern: &BlockPattern) -> Result<Self, LinearError> {
         Ok(Self { solver: kind.solver(pattern)? })
     }
+}
 
-    /// Solves `A x = b` in place (`b` becomes `x`) for the unknowns not fixed; fixed unknowns keep the value in
-    /// `b` (their prescribed increment), and their columns are moved to the right-hand side.
-    /// With `nearby`, `A` differs little from the last factorised matrix (a few diagonal blocks: a contact
-    /// active-set change); the Cholesky solver then first tries conjugate gradients preconditioned by the
-    /// existing factor and refactorises only if that does not converge quickly.
-    /// Returns (factor seconds, solve seconds).
-    pub fn solve(
-        &mut self,
-        pattern: &BlockPattern,
-        a: &BlockMatrix,
-        fixed: &[bool],
-        b: &mut [Vec3],
-        nearby: bool,
-    ) -> Result<(f64, f64), LinearError> {
-        self.solver.solve(pattern, a, fixed, b, nearby)
+/// The solver's methods ([`BlockSolver::solve`], [`BlockSolver::factor_nnz`]) directly on a [`LinearSolver`].
+impl std::ops::Deref for LinearSolver {
+    type Target = dyn BlockSolver;
+    fn deref(&self) -> &Self::Target {
+        &*self.solver
     }
+}
 
-    /// Non-zeros of the factor (0 for a solver without one, PCG).
-    pub fn factor_nnz(&self) -> usize {
-        self.solver.factor_nnz()
+impl std::ops::DerefMut for LinearSolver {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut *self.solver
     }
 }
