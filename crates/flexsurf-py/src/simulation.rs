@@ -168,11 +168,11 @@ impl PySimulation {
         Ok(())
     }
 
-    /// Node velocities (m/s), the central-difference estimate `(x_t − x_{t−Δt})/Δt`, a new `(M, N, 3)` array.
+    /// Node velocities (m/s), the scheme's second-order estimate, a new `(M, N, 3)` array.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
-        let (s, dt) = (&self.state, self.dt);
-        self.grid_array(py, |k| s.velocity(k, dt))
+        let s = &self.state;
+        self.grid_array(py, |k| s.velocity(k))
     }
 
     /// Nodes `(M, N)`.
@@ -240,7 +240,7 @@ impl PySimulation {
     /// Energies of the current state (J): `kinetic`, `membrane`, `bending`, `potential` (gravity and loads),
     /// and `contact` (the penalty energy at the start of the last step; 0 before the first).
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let e = flexsurf::sim::energies(&self.model, &self.state, self.dt);
+        let e = flexsurf::sim::energies(&self.model, &self.state);
         let d = PyDict::new(py);
         d.set_item("step", e.step)?;
         d.set_item("time", e.time)?;

@@ -37,7 +37,7 @@
 //! let gravity = Vec3::new(0.0, 0.0, -9.81);
 //! let mut sheet = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, gravity);
 //! sheet.obstacles.push(Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 });
-//! sheet.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3 };
+//! sheet.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3, slip_speed: ContactParams::SLIP_SPEED };
 //! let model = sheet.build()?;
 //!
 //! let mut state = State::at_rest(rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.35)).collect());

@@ -15,7 +15,7 @@ pub struct Diagnostics {
     pub step: usize,
     /// Simulated time (s).
     pub time: f64,
-    /// Kinetic energy (J), backward-difference velocities.
+    /// Kinetic energy (J) of the state's velocities.
     pub kinetic: f64,
     /// Elastic energies (J).
     pub energies: Energies,
@@ -36,7 +36,7 @@ pub struct EnergyRecord {
     pub step: usize,
     /// Simulated time (s).
     pub time: f64,
-    /// Kinetic energy (J), backward-difference velocities.
+    /// Kinetic energy (J) of the state's velocities.
     pub kinetic: f64,
     /// Elastic energies (J).
     pub energies: Energies,
@@ -45,19 +45,19 @@ pub struct EnergyRecord {
 }
 
 /// Energies of a state (evaluates the elastic energy once; no obstacle queries).
-pub fn energies(model: &Model, state: &State, dt: f64) -> EnergyRecord {
+pub fn energies(model: &Model, state: &State) -> EnergyRecord {
     EnergyRecord {
         step: state.step,
         time: state.time,
-        kinetic: state.kinetic_energy(&model.mass, dt),
+        kinetic: state.kinetic_energy(&model.mass),
         energies: model.elastic(&state.x, None),
         potential: model.potential_energy(&state.x),
     }
 }
 
 /// Diagnostics of a state: its [`energies`] plus penetration and strain.
-pub fn diagnose(model: &Model, state: &State, dt: f64, contacts: usize) -> Diagnostics {
-    let e = energies(model, state, dt);
+pub fn diagnose(model: &Model, state: &State, contacts: usize) -> Diagnostics {
+    let e = energies(model, state);
     Diagnostics {
         step: e.step,
         time: e.time,

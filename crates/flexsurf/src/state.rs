@@ -1,15 +1,21 @@
-//! The changing part of a simulation: positions at the current and previous step (the central-difference
-//! scheme's two levels), time and step count.
+//! The changing part of a simulation: positions and velocities at the current and the previous step (the two
+//! levels the schemes need: central differences read `x_t, x_{t−Δt}`, BDF2 also `v_t, v_{t−Δt}`), time and step
+//! count. A run starts from a consistent history ([`State::start`]), so the first step makes no O(Δt) error.
 
 use crate::math::Vec3;
 
-/// Positions `x_t`, `x_{t−Δt}`, time and step.
+/// Positions and velocities at `t` and `t − Δt`, time and step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct State {
     /// Current positions.
     pub x: Vec<Vec3>,
-    /// Positions one step earlier.
+    /// Positions one step earlier (at the start: the consistent history of [`State::start`]).
     pub x_prev: Vec<Vec3>,
+    /// Current velocities (the scheme's own estimate, second order: `(3x_t − 4x_{t−Δt} + x_{t−2Δt})/(2Δt)` for
+    /// the central-difference schemes, the BDF2 velocity for BDF2).
+    pub v: Vec<Vec3>,
+    /// Velocities one step earlier.
+    pub v_prev: Vec<Vec3>,
     /// Simulated time (s).
     pub time: f64,
     /// Steps taken.
@@ -17,18 +23,29 @@ pub struct State {
 }
 
 impl State {
-    /// At rest at `x`.
+    /// At rest at `x`, with a history at rest too (no force balance: see [`State::start`] for a consistent one).
     pub fn at_rest(x: Vec<Vec3>) -> Self {
-        Self { x_prev: x.clone(), x, time: 0.0, step: 0 }
+        let n = x.len();
+        Self { x_prev: x.clone(), x, v: vec![Vec3::ZERO; n], v_prev: vec![Vec3::ZERO; n], time: 0.0, step: 0 }
     }
 
-    /// Central-difference velocity estimate `(x_t − x_{t−Δt})/Δt` of node `k`.
-    pub fn velocity(&self, k: usize, dt: f64) -> Vec3 {
-        (self.x[k] - self.x_prev[k]) / dt
+    /// At `x` with velocities `v` and accelerations `a` at t = 0, and the step `dt`: the history one step back
+    /// is the second-order Taylor expansion `x − Δt v + ½Δt² a`, `v − Δt a`, with which the central-difference
+    /// schemes are exact for constant accelerations (free fall) and second-order consistent otherwise, and
+    /// BDF2 starts at its own order (docs/model.md §8).
+    pub fn start(x: Vec<Vec3>, v: Vec<Vec3>, a: &[Vec3], dt: f64) -> Self {
+        let x_prev = x.iter().zip(&v).zip(a).map(|((&x, &v), &a)| x - v * dt + a * (0.5 * dt * dt)).collect();
+        let v_prev = v.iter().zip(a).map(|(&v, &a)| v - a * dt).collect();
+        Self { x, x_prev, v, v_prev, time: 0.0, step: 0 }
     }
 
-    /// Kinetic energy `½ Σ m |v|²` with the backward-difference velocity.
-    pub fn kinetic_energy(&self, mass: &[f64], dt: f64) -> f64 {
-        (0..self.x.len()).map(|k| 0.5 * mass[k] * self.velocity(k, dt).length_squared()).sum()
+    /// Velocity of node `k`.
+    pub fn velocity(&self, k: usize) -> Vec3 {
+        self.v[k]
+    }
+
+    /// Kinetic energy `½ Σ m |v|²`.
+    pub fn kinetic_energy(&self, mass: &[f64]) -> f64 {
+        self.v.iter().zip(mass).map(|(v, &m)| 0.5 * m * v.length_squared()).sum()
     }
 }

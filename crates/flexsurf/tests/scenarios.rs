@@ -206,7 +206,12 @@ fn hanging_sheet(lambda: f64, kind: ModelKind) -> (Model, State) {
     model.pinned[grid.index(0, 0)] = true;
     model.pinned[grid.index(8, 0)] = true;
     model.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.2), normal: Vec3::Z }.scaled(lambda).unwrap());
-    model.contact = ContactParams { stiffness: 1e4 / l2, offset: 0.005 * lambda, friction: 0.3 };
+    model.contact = ContactParams {
+        stiffness: 1e4 / l2,
+        offset: 0.005 * lambda,
+        friction: 0.3,
+        slip_speed: ContactParams::SLIP_SPEED * lambda,
+    };
     (model.build().unwrap(), State::at_rest(rest))
 }
 

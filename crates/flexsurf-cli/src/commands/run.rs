@@ -52,6 +52,7 @@ enum ModelArg {
 enum IntegratorArg {
     Linearized,
     Lagged,
+    Bdf2,
     Static,
 }
 
@@ -83,6 +84,7 @@ impl Overrides {
             spec.integrator.kind = match i {
                 IntegratorArg::Linearized => IntegratorKind::Linearized,
                 IntegratorArg::Lagged => IntegratorKind::Lagged,
+                IntegratorArg::Bdf2 => IntegratorKind::Bdf2,
                 IntegratorArg::Static => IntegratorKind::Static,
             };
         }

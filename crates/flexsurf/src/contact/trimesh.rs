@@ -96,7 +96,7 @@ fn face_index(token: &str, vertices: usize) -> Result<u32, String> {
 }
 
 /// Vertices and fan-triangulated faces of OBJ text (`v` and `f` lines; everything else is ignored).
-fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), TriMeshError> {
+pub(crate) fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), TriMeshError> {
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for (n, raw) in text.lines().enumerate() {

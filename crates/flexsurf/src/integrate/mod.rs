@@ -23,7 +23,7 @@ use crate::energy::Operator;
 use crate::math::{finite, Vec3};
 use crate::model::{Energies, Model};
 use crate::potential::inertia::Inertia;
-use crate::potential::{Context, Motion, Stage, Values, Want, Workspace};
+use crate::potential::{Motion, Stage, Values, Want, Workspace};
 use crate::state::State;
 use linsolve::{LinearError, LinearSolver};
 pub use params::{Bounds, Method, Scheme, StepParams};
@@ -111,6 +111,62 @@ pub struct Stepper {
     rhs: Vec<Vec3>,
     delta: Vec<Vec3>,
     y: Vec<Vec3>,
+    history: History,
+}
+
+/// The scheme's form of a step from one state ([`Motion`]): the inertial target, the damping centre and the
+/// two coefficients, computed once at the start of the step.
+#[derive(Debug, Clone, Default)]
+struct History {
+    target: Vec<Vec3>,
+    center: Vec<Vec3>,
+    alpha: f64,
+    beta: f64,
+}
+
+impl History {
+    /// Fills the history of a step of `scheme` from `state`.
+    fn fill(&mut self, scheme: Scheme, state: &State, dt: f64) {
+        let n = state.x.len();
+        self.target.resize(n, Vec3::ZERO);
+        self.center.resize(n, Vec3::ZERO);
+        match scheme {
+            Scheme::Linearized | Scheme::Lagged => {
+                for k in 0..n {
+                    self.target[k] = state.x[k] * 2.0 - state.x_prev[k];
+                    self.center[k] = state.x_prev[k];
+                }
+                self.alpha = 1.0 / (dt * dt);
+                self.beta = 0.5 / dt;
+            }
+            Scheme::Bdf2 => {
+                for k in 0..n {
+                    let z = (state.x[k] * 4.0 - state.x_prev[k]) / 3.0;
+                    self.center[k] = z;
+                    self.target[k] = z + (state.v[k] * 8.0 - state.v_prev[k] * 2.0) * (dt / 9.0);
+                }
+                self.alpha = 2.25 / (dt * dt);
+                self.beta = 1.5 / dt;
+            }
+        }
+    }
+
+    /// The step's motion from `state`.
+    fn motion<'a>(&'a self, model: &'a Model, state: &'a State, dt: f64, predict: bool) -> Motion<'a> {
+        Motion {
+            x: &state.x,
+            v: &state.v,
+            v_prev: &state.v_prev,
+            target: &self.target,
+            damp_center: &self.center,
+            inertia: self.alpha,
+            damp: self.beta,
+            dt,
+            mass: &model.mass,
+            damping: &model.damping,
+            predict,
+        }
+    }
 }
 
 impl Stepper {
@@ -127,12 +183,13 @@ impl Stepper {
             rhs: vec![Vec3::ZERO; n],
             delta: vec![Vec3::ZERO; n],
             y: vec![Vec3::ZERO; n],
+            history: History::default(),
         })
     }
 
     fn operator(&self) -> Operator {
         match self.params.scheme {
-            Scheme::Linearized => Operator::Projected,
+            Scheme::Linearized | Scheme::Bdf2 => Operator::Projected,
             Scheme::Lagged => Operator::Secant,
         }
     }
@@ -140,25 +197,21 @@ impl Stepper {
     /// Assembles the step system at `state` without solving: afterwards [`Stepper::matrix`] is `A_t` (before
     /// pinned unknowns are eliminated) and [`Stepper::rhs`] the right-hand side for the increment `x⁺ − x_t`.
     pub fn assemble(&mut self, model: &Model, state: &State) -> Values {
+        self.history.fill(self.params.scheme, state, self.params.dt);
         self.y.copy_from_slice(&state.x);
         let want = Want { grad: true, hess: Some(self.operator()) };
         self.assemble_at(model, state, true, want)
     }
 
-    /// The step's context: the motion from `state`.
-    fn context<'a>(model: &'a Model, state: &'a State, dt: f64, predict: bool) -> Context<'a> {
-        let motion =
-            Motion { x: &state.x, x_prev: &state.x_prev, dt, mass: &model.mass, damping: &model.damping, predict };
-        model.potential.context(Some(motion))
-    }
-
-    /// Assembles the Newton system of the implicit central-difference equation
-    /// `M(y − 2x_t + x⁻)/Δt² + C(y − x⁻)/(2Δt) + ∇Π(y) = 0` at the iterate `y = self.y`: the matrix
-    /// `M/Δt² + C/(2Δt) + K(y)` (when `want` asks for it) and the residual, the right-hand side for the
-    /// correction of `y`. At `y = x_t` this is exactly the linearised step (46)–(48). With `predict`, contact
-    /// candidates also include nodes whose extrapolated position `2x_t − x⁻` is inside the contact layer.
+    /// Assembles the Newton system of the step's implicit equation
+    /// `M α (y − ŷ) + C β (y − z) + ∇Π(y) = 0` ([`Motion`]; for central differences
+    /// `M(y − 2x_t + x⁻)/Δt² + C(y − x⁻)/(2Δt) + ∇Π(y) = 0`) at the iterate `y = self.y`: the matrix
+    /// `M α + C β + K(y)` (when `want` asks for it) and the residual, the right-hand side for the correction of
+    /// `y`. At `y = x_t` this is exactly the linearised step (46)–(48). With `predict` (the first assembly of a
+    /// step), contact candidates also include nodes whose target `ŷ` is inside the contact layer, and lagged
+    /// quantities (friction) are taken here.
     fn assemble_at(&mut self, model: &Model, state: &State, predict: bool, want: Want) -> Values {
-        let cx = Self::context(model, state, self.params.dt, predict);
+        let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, predict)));
         let values = model.potential.assemble(&self.y, &cx, Some(&Inertia), want, &mut self.ws);
         self.residual_from_gradient(model);
         values
@@ -186,7 +239,7 @@ impl Stepper {
             if round == self.params.active_set_rounds {
                 break;
             }
-            let cx = Self::context(model, state, self.params.dt, false);
+            let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, false)));
             if !model.potential.refine(&self.y, &self.delta, &cx, want, &mut self.ws) {
                 break;
             }
@@ -262,13 +315,14 @@ impl Stepper {
     ) -> Result<(f64, f64), StepError> {
         let n = model.grid.len();
         let (mut tf, mut t_solve) = (0.0, 0.0);
+        let mut model_error = 0.0;
         for iter in 0..self.params.newton_iterations.max(1) {
             if iter > 0 {
                 let ta = Instant::now();
                 // Residual first (gradient and contact forces only); the matrix only if a correction is due.
                 self.assemble_at(model, state, false, Want::GRADIENT);
                 let res = (0..n).filter(|&k| !model.pinned()[k]).map(|k| self.rhs[k].length()).fold(0.0, f64::max);
-                if res <= self.params.newton_tolerance * force_scale {
+                if res <= self.params.newton_tolerance * force_scale && model_error <= crate::potential::friction::NEWTON_TOLERANCE {
                     *t_assembly += ta.elapsed().as_secs_f64();
                     break;
                 }
@@ -290,6 +344,9 @@ impl Stepper {
             if self.params.scheme == Scheme::Lagged || !model.potential.conservative() || force_scale == 0.0 {
                 break;
             }
+            // How far the lagged laws (friction) are from the linear model just solved with.
+            let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, false)));
+            model_error = model.potential.model_error(&self.y, &cx, &mut self.ws);
         }
         Ok((tf, t_solve))
     }
@@ -304,6 +361,12 @@ impl Stepper {
         if worst_speed > self.bounds.max_speed {
             let what = format!("node speed {worst_speed:.3e} m/s exceeds the bound {:.3e} m/s", self.bounds.max_speed);
             return Err(self.diverged(step, what));
+        }
+        // v⁺ = (3x⁺ − 4x_t + x⁻)/(2Δt): BDF2's own velocity, and the second-order estimate for central
+        // differences (exact for a constant acceleration).
+        std::mem::swap(&mut state.v_prev, &mut state.v);
+        for k in 0..state.x.len() {
+            state.v[k] = (self.y[k] * 3.0 - state.x[k] * 4.0 + state.x_prev[k]) * (0.5 * idt);
         }
         std::mem::swap(&mut state.x_prev, &mut state.x);
         state.x.copy_from_slice(&self.y);
@@ -329,12 +392,54 @@ impl Stepper {
                  about h/sqrt(A11/rho) (9e-5 s for the 1 m, 21x21 demo sheet): use integrator = \"linearized\" or a \
                  much smaller dt"
             }
-            Scheme::Linearized => {
+            Scheme::Linearized | Scheme::Bdf2 => {
                 "try a smaller dt, a larger contact offset, or a softer contact stiffness (contact is implicit only to \
                  first order)"
             }
         }
     }
+}
+
+/// The consistent start of a dynamic run at positions `x` with velocities `v` (zero on fixed nodes) for the
+/// step `dt`: the accelerations at t = 0 from every force of the model (elastic, gravity and loads, springs,
+/// contact, damping `−c v`, Coulomb friction: kinetic for a sliding node, static up to `μλ` for one at rest) give the history of [`State::start`], so the first step makes no O(Δt) error
+/// (docs/model.md §8.3). Non-finite forces are an error naming the node.
+pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
+    let n = x.len();
+    let fixed = model.pinned();
+    let mut grad = vec![Vec3::ZERO; n];
+    model.potential.evaluate(&x, &mut crate::energy::Sink::grad(&mut grad));
+    let mut force: Vec<Vec3> = (0..n).map(|k| -grad[k] - v[k] * model.damping[k]).collect();
+    // Coulomb friction at t = 0: kinetic against a tangential velocity, else static up to the limit.
+    for (k, normal, limit) in model.potential.coulomb(&x) {
+        let tangential = |w: Vec3| w - normal * normal.dot(w);
+        let vt = tangential(v[k]);
+        let ft = tangential(force[k]);
+        force[k] -= if vt.length() > 0.0 {
+            vt * (limit / vt.length())
+        } else if ft.length() <= limit {
+            ft
+        } else {
+            ft * (limit / ft.length())
+        };
+    }
+    let mut a = vec![Vec3::ZERO; n];
+    let mut v = v;
+    for k in 0..n {
+        if fixed[k] {
+            v[k] = Vec3::ZERO;
+            continue;
+        }
+        let m = model.mass[k];
+        if m > 0.0 {
+            a[k] = force[k] / m;
+        }
+        if !finite(a[k]) || !finite(v[k]) {
+            let what = format!("non-finite initial acceleration or velocity at node {k}");
+            return Err(StepError::Diverged { step: 0, what, hint: "check the initial positions and velocities" });
+        }
+    }
+    Ok(State::start(x, v, &a, dt))
 }
 
 /// Deepest penetration below any obstacle's surface (0 when none), in metres.

@@ -174,7 +174,7 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>,
     for _ in 0..1500 {
         stepper.step(&dyn_model, &mut state).map_err(|e| LabError::Step { test: "cusick", source: e })?;
         steps += 1;
-        let vmax = (0..state.x.len()).map(|k| state.velocity(k, dt).length()).fold(0.0, f64::max);
+        let vmax = (0..state.x.len()).map(|k| state.velocity(k).length()).fold(0.0, f64::max);
         if vmax < 1e-4 {
             break;
         }

@@ -2,10 +2,12 @@
 //! outward normal `ν` and the contact offset `δ`, a pressure `c (δ − d)` when `d < δ`, applied as a force per
 //! node times the node's rest area (so `c` is N/m³ and contact does not depend on the grid): energy
 //! `½ c a (δ − d)²`, stiffness `c a ν νᵀ` in the step's matrix (implicit contact, with `d` linearised about the
-//! detection point). Coulomb friction acts, explicitly, on the tangential velocity of the step's start (only in
-//! a dynamic step). The active set is found by [`Term::prepare`] and corrected by [`Term::refine`] after each
-//! solve; the obstacles' geometry lives in [`crate::contact`].
+//! detection point). Coulomb friction is implicit too: a lagged dissipative potential ([`super::friction`]) for
+//! every node touching at the start of a step, with its value, gradient and positive semi-definite Hessian in
+//! the step. The active set is found by [`Term::prepare`] and corrected by [`Term::refine`] after each solve;
+//! the obstacles' geometry lives in [`crate::contact`].
 
+use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
 use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::{closest_cached, ContactCache, Obstacle};
 use crate::energy::Sink;
@@ -21,6 +23,26 @@ pub struct ContactParams {
     pub offset: f64,
     /// Coulomb friction coefficient μ (0 = frictionless).
     pub friction: f64,
+    /// Slip speed `ε_v` (m/s) below which friction is static (smoothed): a node held by friction creeps at
+    /// most at this speed ([`super::friction`]).
+    pub slip_speed: f64,
+}
+
+impl ContactParams {
+    /// Default slip speed `ε_v` (m/s): a sheet held on a slope creeps at most 0.3 mm in 3 s.
+    pub const SLIP_SPEED: f64 = 1e-4;
+
+    /// How many times the fabric's weight per area the default stiffness carries with half the offset.
+    pub const PRESSURE_RATIO: f64 = 100.0;
+
+    /// The default penalty for a fabric of areal density `density` (kg/m²) under `gravity` and the offset
+    /// `offset` (> 0): `c = 2 · 100 ρ g / δ`, so a contact pressure of 100 times the fabric's weight per area
+    /// compresses the layer by half the offset (docs/model.md §10), as IPC scales its barrier stiffness by the
+    /// weight and the distance. Without gravity, standard gravity sets the scale.
+    pub fn default_stiffness(density: f64, gravity: crate::math::Vec3, offset: f64) -> f64 {
+        let g = if gravity.length() > 0.0 { gravity.length() } else { 9.80665 };
+        2.0 * Self::PRESSURE_RATIO * density * g / offset
+    }
 }
 
 /// One node's contact, with the signed distance linearised about a reference point:
@@ -124,21 +146,8 @@ pub fn detect_predicted(
     }
 }
 
-/// Coulomb friction on a contact node moving with velocity `v` (mass `m`, step `dt`): opposes the tangential
-/// velocity with magnitude `μ F_n`, capped so that it cannot reverse the tangential motion within one step.
-#[inline]
-pub fn friction(contact: &Contact, mu: f64, v: Vec3, m: f64, dt: f64) -> Vec3 {
-    if mu <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let vt = v - contact.normal * v.dot(contact.normal);
-    let speed = vt.length();
-    if speed == 0.0 {
-        return Vec3::ZERO;
-    }
-    let mag = (mu * contact.force.max(0.0)).min(m * speed / dt);
-    -vt / speed * mag
-}
+/// Most friction re-linearisations per assembly.
+const FRICTION_ROUNDS: usize = 2;
 
 /// Penalty contact of the sheet's nodes (rest areas `area`) with `obstacles`.
 #[derive(Debug, Clone)]
@@ -155,6 +164,10 @@ pub struct ContactScratch {
     contacts: Vec<Contact>,
     predicted: Vec<Vec3>,
     has_contact: Vec<bool>,
+    /// Friction data lagged from the start of the step.
+    lagged: Vec<Lagged>,
+    /// Friction re-linearisations since the last assembly.
+    relinearized: usize,
 }
 
 impl PenaltyContact {
@@ -176,6 +189,8 @@ impl PenaltyContact {
             contacts: Vec::new(),
             predicted: vec![Vec3::ZERO; n],
             has_contact: vec![false; n],
+            lagged: Vec::new(),
+            relinearized: 0,
         })
     }
 
@@ -191,19 +206,52 @@ impl Term for PenaltyContact {
     }
 
     /// Detects the contacts at `y`: nodes inside the contact layer and, in the first assembly of a step, nodes
-    /// whose extrapolated position `2x_t − x⁻` is inside it.
+    /// whose target `ŷ` is inside it. The first assembly of a step also lags the friction data: the normal
+    /// force and normal of every touching contact, and the predicted tangential displacement `P (ŷ − x_t)`
+    /// about which the first solve linearises the friction.
     fn prepare(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) {
         let s = self.scratch(scratch);
         for (k, p) in s.predicted.iter_mut().enumerate() {
             *p = match cx.motion {
-                Some(m) if m.predict => m.x[k] * 2.0 - m.x_prev[k],
+                Some(m) if m.predict => m.target[k],
                 _ => y[k],
             };
         }
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
+        s.relinearized = 0;
+        match cx.motion {
+            Some(m) if m.predict => {
+                s.lagged.clear();
+                if self.params.friction > 0.0 {
+                    let eps = self.params.slip_speed * m.dt;
+                    for c in s.contacts.iter().filter(|c| c.force > 0.0 && !cx.fixed[c.node]) {
+                        let k = c.node;
+                        let mut l = Lagged {
+                            node: k,
+                            limit: self.params.friction * c.force,
+                            normal: c.normal,
+                            at: Vec3::ZERO,
+                            majorant: false,
+                        };
+                        // The first solve linearises about the slip the node's motion predicts,
+                        // `(v + ½ a Δt) Δt` with `a Δt ≈ v − v⁻`.
+                        l.linearize(l.tangential((m.v[k] * 1.5 - m.v_prev[k] * 0.5) * m.dt), eps, true);
+                        s.lagged.push(l);
+                    }
+                }
+            }
+            // A Newton iteration linearises about the iterate.
+            Some(m) => {
+                let eps = self.params.slip_speed * m.dt;
+                for l in &mut s.lagged {
+                    l.linearize(l.tangential(y[l.node] - m.x[l.node]), eps, false);
+                }
+            }
+            None => s.lagged.clear(),
+        }
     }
 
-    fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let s = self.scratch(scratch);
         let mut total = 0.0;
         for c in &s.contacts {
@@ -213,23 +261,44 @@ impl Term for PenaltyContact {
         }
         for c in &s.contacts {
             let k = c.node;
-            // Friction (in a step only) is an explicit force from the step's start velocity and the contact's
-            // normal force: not the gradient of an energy, and not in the matrix (docs/model.md §10).
-            let force = match cx.motion {
-                Some(m) if !cx.fixed[k] => {
-                    let v = (m.x[k] - m.x_prev[k]) / m.dt;
-                    c.force_vector() + friction(c, self.params.friction, v, m.mass[k], m.dt)
-                }
-                _ => c.force_vector(),
-            };
             if let Some(g) = sink.grad.as_deref_mut() {
                 if !cx.fixed[k] {
-                    g[k] -= force;
+                    g[k] -= c.force_vector();
                 }
             }
             sink.add_block(cx.diag[k], k, k, c.stiffness_block());
         }
+        if let Some(m) = cx.motion {
+            let eps = self.params.slip_speed * m.dt;
+            for l in &s.lagged {
+                let k = l.node;
+                let law = FrictionLaw { limit: l.limit, eps };
+                let u = l.tangential(y[k] - m.x[k]);
+                let (e, g0, h0) = l.model(&law, u);
+                sink.energy += e;
+                total += e;
+                if let Some(g) = sink.grad.as_deref_mut() {
+                    g[k] += g0;
+                }
+                sink.add_block(cx.diag[k], k, k, h0);
+            }
+        }
         total
+    }
+
+    /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
+    /// each node's Coulomb limit `μλ` (largest over the nodes).
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
+        let Some(m) = cx.motion else { return 0.0 };
+        let eps = self.params.slip_speed * m.dt;
+        let s = self.scratch(scratch);
+        let mut worst: f64 = 0.0;
+        for l in &s.lagged {
+            let law = FrictionLaw { limit: l.limit, eps };
+            let u = l.tangential(y[l.node] - m.x[l.node]);
+            worst = worst.max(l.model_error(&law, u));
+        }
+        worst
     }
 
     /// Active-set update after a solve giving the correction `delta` of `y`: a contact stays if its linearised
@@ -266,7 +335,30 @@ impl Term for PenaltyContact {
         if changed {
             s.contacts.sort_by_key(|c| c.node);
         }
+        // Friction whose linear model is off at the proposal is re-linearised there (at most
+        // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
+        if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {
+            s.relinearized += 1;
+            let eps = params.slip_speed * m.dt;
+            for l in &mut s.lagged {
+                let law = FrictionLaw { limit: l.limit, eps };
+                let u = l.tangential(y[l.node] + delta[l.node] - m.x[l.node]);
+                if l.model_error(&law, u) > MODEL_TOLERANCE {
+                    l.linearize(u, eps, false);
+                    changed = true;
+                }
+            }
+        }
         changed
+    }
+
+    fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
+        if self.params.friction <= 0.0 {
+            return Vec::new();
+        }
+        let mut contacts = Vec::new();
+        detect(&self.obstacles, &self.params, &self.area, x, &mut contacts);
+        contacts.iter().filter(|c| c.force > 0.0).map(|c| (c.node, c.normal, self.params.friction * c.force)).collect()
     }
 
     fn active(&self, scratch: &Scratch) -> usize {
@@ -302,18 +394,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn penalty_force_and_friction() {
+    fn penalty_force() {
         let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 1.0 };
-        let params = ContactParams { stiffness: 100.0, offset: 0.01, friction: 0.5 };
+        let params = ContactParams { stiffness: 100.0, offset: 0.01, friction: 0.5, slip_speed: 1e-4 };
         let mut out = Vec::new();
         detect(&[s], &params, &[0.5, 0.5], &[Vec3::new(0.0, 0.0, 0.995), Vec3::new(0.0, 0.0, 2.0)], &mut out);
         assert_eq!(out.len(), 1);
         // c a (δ − d) = 100 · 0.5 · (0.01 + 0.005).
         assert!((out[0].force - 0.75).abs() < 1e-12);
-        let f = friction(&out[0], 0.5, Vec3::new(1.0, 0.0, 0.0), 1.0, 0.01);
-        assert!((f + Vec3::new(0.375, 0.0, 0.0)).length() < 1e-12);
-        // Capped: a slow node is stopped, not reversed.
-        let f = friction(&out[0], 0.5, Vec3::new(1e-4, 0.0, 0.0), 1.0, 0.01);
-        assert!((f.x + 1e-2).abs() < 1e-12);
     }
 }

@@ -1,7 +1,7 @@
-//! The dynamic step's own term: inertia and damping of the central-difference equation (the paper's (46)–(48)),
-//! `½ m |y − 2x_t + x⁻|²/Δt² + ¼ c |y − x⁻|²/Δt` per node, whose gradient is
-//! `m (y − 2x_t + x⁻)/Δt² + c (y − x⁻)/(2Δt)` and Hessian `(m/Δt² + c/(2Δt)) I`. It reads the motion from the
-//! [`Context`]; without one (a static solve) it is zero.
+//! The dynamic step's own term: inertia and damping, `½ m α |y − ŷ|² + ½ c β |y − z|²` per node with the
+//! scheme's target `ŷ`, damping centre `z` and coefficients `α`, `β` ([`super::Motion`]), whose gradient is
+//! `m α (y − ŷ) + c β (y − z)` and Hessian `(m α + c β) I`. For central differences this is the paper's
+//! (46)–(48): gradient `m (y − 2x_t + x⁻)/Δt² + c (y − x⁻)/(2Δt)`. Without a motion (a static solve) it is zero.
 
 use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::Sink;
@@ -17,19 +17,17 @@ impl Term for Inertia {
     }
     fn evaluate(&self, y: &[Vec3], cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let Some(motion) = cx.motion else { return 0.0 };
-        let (idt, idt2) = (1.0 / motion.dt, 1.0 / (motion.dt * motion.dt));
+        let (alpha, beta) = (motion.inertia, motion.damp);
         let mut total = 0.0;
         for k in 0..y.len() {
-            let (m, c) = (motion.mass[k], motion.damping[k]);
-            let (yk, x, xm) = (y[k], motion.x[k], motion.x_prev[k]);
-            let a = y[k] - x * 2.0 + xm;
-            let b = yk - xm;
-            total += 0.5 * m * idt2 * a.length_squared() + 0.25 * c * idt * b.length_squared();
+            let (m, c) = (motion.mass[k] * alpha, motion.damping[k] * beta);
+            let a = y[k] - motion.target[k];
+            let b = y[k] - motion.damp_center[k];
+            total += 0.5 * (m * a.length_squared() + c * b.length_squared());
             if let Some(g) = sink.grad.as_deref_mut() {
-                g[k] += (yk - x * 2.0 + xm) * (m * idt2);
-                g[k] += (yk - xm) * (0.5 * c * idt);
+                g[k] += a * m + b * c;
             }
-            sink.add_block(cx.diag[k], k, k, diag(m * idt2 + 0.5 * c * idt));
+            sink.add_block(cx.diag[k], k, k, diag(m + c));
         }
         sink.energy += total;
         total

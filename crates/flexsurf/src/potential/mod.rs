@@ -19,6 +19,7 @@
 pub mod contact;
 pub mod elastic;
 pub mod external;
+pub mod friction;
 pub mod inertia;
 pub mod springs;
 
@@ -77,20 +78,35 @@ pub struct TermInfo {
     pub part: Part,
 }
 
-/// The motion a dynamic step starts from: `x_t`, `x_{t−Δt}`, `Δt` and the lumped masses.
+/// The motion a dynamic step starts from, in the form every scheme shares: the step minimises
+/// `Π(y) + Σ ½ m α |y − ŷ|² + ½ c β |y − z|²` over the new positions `y` (docs/model.md §8), where the scheme
+/// chooses the inertial target `ŷ`, the damping centre `z` and the coefficients `α`, `β`:
+/// central differences `ŷ = 2x_t − x⁻`, `z = x⁻`, `α = 1/Δt²`, `β = 1/(2Δt)`; BDF2
+/// `ŷ = (4x_t − x⁻)/3 + (8v_t − 2v⁻)Δt/9`, `z = (4x_t − x⁻)/3`, `α = 9/(4Δt²)`, `β = 3/(2Δt)`.
 #[derive(Debug, Clone, Copy)]
 pub struct Motion<'a> {
-    /// Positions at the start of the step.
+    /// Positions at the start of the step (friction's anchor).
     pub x: &'a [Vec3],
-    /// Positions one step earlier.
-    pub x_prev: &'a [Vec3],
+    /// Velocities at the start of the step.
+    pub v: &'a [Vec3],
+    /// Velocities one step earlier.
+    pub v_prev: &'a [Vec3],
+    /// The inertial target `ŷ`: where the nodes go with no force (also the contact prediction).
+    pub target: &'a [Vec3],
+    /// The damping centre `z`.
+    pub damp_center: &'a [Vec3],
+    /// `α` (1/s²).
+    pub inertia: f64,
+    /// `β` (1/s).
+    pub damp: f64,
     /// Time step (s).
     pub dt: f64,
     /// Lumped node masses (kg).
     pub mass: &'a [f64],
     /// Lumped node damping (kg/s).
     pub damping: &'a [f64],
-    /// Contact candidates also come from the extrapolated positions `2x_t − x⁻` (the first assembly of a step).
+    /// The first assembly of a step: contact candidates also come from the target `ŷ`, and lagged quantities
+    /// (friction's normal forces and tangent planes) are taken at this configuration.
     pub predict: bool,
 }
 
@@ -194,6 +210,17 @@ pub trait Term: Send + Sync + Debug + TermClone {
     /// After a solve proposing `x + delta`, updates the support (the contact active set); true if it changed.
     fn refine(&self, _x: &[Vec3], _delta: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> bool {
         false
+    }
+    /// How far the term at `x` is from the linear model of it that the last assembly solved with (a lagged
+    /// or linearised law, friction), relative to the term's own force scale; 0 for terms whose model is their
+    /// Newton linearisation. A step makes Newton corrections while this exceeds its tolerance.
+    fn model_error(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
+        0.0
+    }
+    /// The Coulomb limits of the term's touching contacts at `x`: `(node, unit normal, μλ)` (friction; the
+    /// consistent start of a run needs them).
+    fn coulomb(&self, _x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
+        Vec::new()
     }
     /// Magnitude of the prescribed forces of this term for a sheet of size `length` (N), the scale of residual
     /// tolerances; 0 for terms that only react.
@@ -516,6 +543,20 @@ impl Potential {
             ws.matrix.blocks[id as usize] = blk;
         }
         ws.journal.clear();
+    }
+
+    /// Every term's [`Term::coulomb`] limits at `x`.
+    pub fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
+        self.terms.iter().flat_map(|t| t.coulomb(x)).collect()
+    }
+
+    /// Largest [`Term::model_error`] over every term at `x`.
+    pub fn model_error(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
+        let mut worst: f64 = 0.0;
+        for (t, term) in self.terms.iter().enumerate() {
+            worst = worst.max(term.model_error(x, cx, &mut ws.scratch[t]));
+        }
+        worst
     }
 
     /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.

@@ -158,6 +158,7 @@ fn solve_static(
         StaticSolver::new(model).and_then(|mut s| s.solve(model, &mut state.x, options)).map_err(RunError::Static)?;
     let wall = t.elapsed().as_secs_f64();
     state.x_prev.copy_from_slice(&state.x);
+    state.v.iter_mut().chain(state.v_prev.iter_mut()).for_each(|v| *v = crate::math::Vec3::ZERO);
     state.step = 1;
     progress(state);
     rec.record(state)?;

@@ -92,7 +92,7 @@ impl<'a> Recorder<'a> {
     pub fn record(&mut self, state: &State) -> Result<(), RunError> {
         let (scene, model) = (self.scene, &self.scene.model);
         // Only the energies: penetration and strain of every step are not written, so not computed here.
-        csv_row(&mut self.csv, &sim::energies(model, state, scene.dt));
+        csv_row(&mut self.csv, &sim::energies(model, state));
         if self.outputs.binary_search(&state.step).is_ok() {
             let mesh = CoonsSurface::new(&model.grid, &state.x).tessellate(scene.output.coons_subdivisions);
             let name = format!("frame_{:05}.{}", state.step, scene.output.format.extension());

@@ -119,7 +119,7 @@ pub(super) struct Finished {
 pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
     let model = &scene.model;
     let Finished { stats, timings, static_report, frames } = done;
-    let d = sim::diagnose(model, state, scene.dt, 0);
+    let d = sim::diagnose(model, state, 0);
     Summary {
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),

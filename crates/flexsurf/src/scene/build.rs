@@ -4,6 +4,7 @@
 //! all in one place (`assemble`).
 
 use super::garment::{GarmentInfo, GarmentSpec};
+use super::initial;
 use super::material::relative_to;
 use super::spec::{BuiltinBody, ObstacleSpec, OutputSpec, SceneSpec, SheetSpec, SpringTarget};
 use super::validate::Validator;
@@ -54,7 +55,7 @@ pub struct Scene {
 /// The checked sheet or garment, before the model is built.
 enum Body<'s> {
     /// A `[sheet]`: its grid and its rest (and initial) positions.
-    Sheet { grid: Grid, rest: Vec<Vec3> },
+    Sheet { grid: Grid, rest: Vec<Vec3>, initial: Vec<Vec3> },
     /// A `[garment]` and its built geometry.
     Garment { spec: &'s GarmentSpec, shape: GarmentShape },
 }
@@ -64,6 +65,14 @@ impl Body<'_> {
         match self {
             Body::Sheet { grid, .. } => grid,
             Body::Garment { shape, .. } => &shape.grid,
+        }
+    }
+
+    /// Replaces the initial positions (the rest shape stays).
+    fn set_initial(&mut self, x: Vec<Vec3>) {
+        match self {
+            Body::Sheet { initial, .. } => *initial = x,
+            Body::Garment { shape, .. } => shape.initial = x,
         }
     }
 }
@@ -122,20 +131,39 @@ impl SceneSpec {
         for (i, o) in self.obstacles.iter().enumerate() {
             obstacles.push(obstacle(&v, i, o)?);
         }
-        let contact = ContactParams {
-            stiffness: v.positive("contact.stiffness", self.contact.stiffness, "N/m³")?,
-            offset: v.non_negative("contact.offset", self.contact.offset, "m")?,
-            friction: v.non_negative("contact.friction", self.contact.friction, "")?,
-        };
-
         // Material.
         let material = self.material.resolve(file, "material")?;
         let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
             .map_err(|e| v.bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
         let gravity = v.finite3("gravity", self.gravity)?;
 
+        let offset = v.non_negative("contact.offset", self.contact.offset, "m")?;
+        let contact_stiffness = match self.contact.stiffness {
+            Some(c) => v.positive("contact.stiffness", c, "N/m³")?,
+            None if offset > 0.0 => ContactParams::default_stiffness(material.fabric.density, gravity, offset),
+            None if obstacles.is_empty() => 0.0,
+            None => {
+                return Err(v.bad(
+                    "contact.offset",
+                    "is 0, so the default contact stiffness (scaled by the fabric's weight over the offset) is \
+                     undefined: give a positive offset or an explicit contact.stiffness"
+                        .to_string(),
+                ))
+            }
+        };
+        let contact = ContactParams {
+            stiffness: contact_stiffness,
+            offset,
+            friction: v.non_negative("contact.friction", self.contact.friction, "")?,
+            slip_speed: v.positive("contact.slip_speed", self.contact.slip_speed, "m/s")?,
+        };
+
         // Sheet or garment, then pins and springs on its grid, then output.
-        let body = self.body(&v, &obstacles, contact.offset)?;
+        let mut body = self.body(&v, &obstacles, contact.offset)?;
+        let condition = self.initial.condition(&v)?;
+        if let Some(x) = self.initial.positions(&v, body.grid())? {
+            body.set_initial(x);
+        }
         let (pins, springs) = self.constraints(&v, body.grid())?;
         self.check_output(&v)?;
 
@@ -145,15 +173,23 @@ impl SceneSpec {
             .unwrap_or_else(|| file.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned()));
         let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
         let (model, initial, garment) = self.assemble(&v, parts)?;
+        let method = self.integrator.kind.method(dt, self.integrator.solver);
+        let state = match method {
+            Method::Static(_) => State::at_rest(initial),
+            Method::Dynamic(p) => {
+                let velocities = initial::velocities(&initial, &model.mass, model.pinned(), &condition);
+                crate::integrate::start(&model, initial, velocities, p.dt).map_err(|e| v.bad("initial", e.to_string()))?
+            }
+        };
         Ok(Scene {
             name,
             file: file.to_path_buf(),
             model,
-            state: State::at_rest(initial),
+            state,
             dt,
             steps: self.time.steps,
             output_every,
-            method: self.integrator.kind.method(dt, self.integrator.solver),
+            method,
             calibration: self.calibration,
             material: material.name,
             output: self.output,
@@ -170,9 +206,9 @@ impl SceneSpec {
     ) -> Result<(Model, Vec<Vec3>, Option<GarmentInfo>), SceneError> {
         let Parts { body, fabric, stiffness, gravity, obstacles, contact, pins, springs } = parts;
         let (mut model, initial, garment) = match body {
-            Body::Sheet { grid, rest } => {
-                let model = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, self.model.kind, gravity);
-                (model, rest, None)
+            Body::Sheet { grid, rest, initial } => {
+                let model = ModelBuilder::new(grid, rest, fabric, stiffness, self.model.kind, gravity);
+                (model, initial, None)
             }
             Body::Garment { spec: g, shape } => {
                 let options = ElasticOptions { warp_angle: g.warp.angle(), flat_pattern: true, ..Default::default() };
@@ -225,7 +261,8 @@ impl SceneSpec {
                 let grid = sheet_grid(v, s)?;
                 let center = v.finite3("sheet.center", s.center)?;
                 let angles = v.finite3("sheet.rotate_deg", s.rotate_deg)?;
-                Ok(Body::Sheet { grid, rest: initial_positions(&grid, center, angles) })
+                let rest = initial_positions(&grid, center, angles);
+                Ok(Body::Sheet { grid, initial: rest.clone(), rest })
             }
             (None, Some(g)) => Ok(Body::Garment { spec: g, shape: g.shape(obstacles, offset, v.file())? }),
         }

@@ -9,6 +9,7 @@
 //! - `spec.rs`: [`SceneSpec`] and the types of its tables, plain serde data (`deny_unknown_fields`), every
 //!   default in [`defaults`], and the JSON schema ([`SceneSpec::json_schema`]).
 //! - [`material`]: `[material]` and material files (presets, SI, KES-F and FAST units) resolved to SI constants.
+//! - [`initial`]: `[initial]`, the initial velocities and positions.
 //! - [`garment`]: `[garment]`, its check, and the call into [`crate::garment`], which builds the skirt.
 //! - `build.rs`: [`SceneSpec::build`], which checks every value and builds the [`Scene`] (model, initial state,
 //!   run settings).
@@ -19,6 +20,7 @@
 mod build;
 mod error;
 pub mod garment;
+pub mod initial;
 pub mod keys;
 pub mod material;
 mod spec;
@@ -26,6 +28,7 @@ mod validate;
 
 pub use build::Scene;
 pub use error::SceneError;
+pub use initial::{InitialCondition, InitialSpec};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use material::{MaterialSpec, Preset, Units};
 pub use spec::{

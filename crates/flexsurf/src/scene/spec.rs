@@ -5,6 +5,7 @@
 
 use super::error::{parse_toml, SceneError};
 use super::garment::GarmentSpec;
+use super::initial::InitialSpec;
 use super::material::{MaterialSpec, Preset};
 use crate::grid::Topology;
 use crate::integrate::statics;
@@ -22,8 +23,8 @@ pub mod defaults {
     pub const GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
     /// Time step (s).
     pub const DT: f64 = 0.01;
-    /// Penalty contact stiffness `c` (N/m³).
-    pub const CONTACT_STIFFNESS: f64 = 1e4;
+    /// Friction's slip speed `ε_v` (m/s).
+    pub const SLIP_SPEED: f64 = crate::potential::contact::ContactParams::SLIP_SPEED;
     /// Contact offset `δ` (m).
     pub const CONTACT_OFFSET: f64 = 0.005;
     /// Coulomb friction coefficient.
@@ -75,6 +76,9 @@ pub struct SceneSpec {
     /// Penalty contact with the obstacles.
     #[serde(default)]
     pub contact: ContactSpec,
+    /// The initial condition: velocity, angular velocity, positions from a frame.
+    #[serde(default)]
+    pub initial: InitialSpec,
     /// Pinned nodes (`[[pin]]`), held exactly at their initial position.
     #[serde(default, rename = "pin")]
     pub pins: Vec<NodeSetSpec>,
@@ -154,6 +158,8 @@ pub enum IntegratorKind {
     Linearized,
     /// The paper's literal lagged-coefficient step.
     Lagged,
+    /// Second-order BDF2 with `H⁺`: little numerical damping.
+    Bdf2,
     /// No time stepping: the quasi-static equilibrium (drape) by projected Newton ([`statics`]). A run then
     /// writes the initial and the equilibrium frame.
     Static,
@@ -165,6 +171,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Linearized => "linearized",
             IntegratorKind::Lagged => "lagged",
+            IntegratorKind::Bdf2 => "bdf2",
             IntegratorKind::Static => "static",
         }
     }
@@ -175,6 +182,7 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Linearized => dynamic(Scheme::Linearized),
             IntegratorKind::Lagged => dynamic(Scheme::Lagged),
+            IntegratorKind::Bdf2 => dynamic(Scheme::Bdf2),
             IntegratorKind::Static => Method::Static(statics::StaticOptions::default()),
         }
     }
@@ -261,24 +269,28 @@ fn default_normal() -> [f64; 3] {
     [0.0, 0.0, 1.0]
 }
 
-/// `[contact]`: penalty pressure `c (δ − d)` below distance `δ`, times the node's area.
+/// `[contact]`: penalty pressure `c (δ − d)` below distance `δ`, times the node's area, and Coulomb friction.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ContactSpec {
-    /// Penalty `c`, pressure per penetration depth (N/m³), default 1e4.
-    pub stiffness: f64,
+    /// Penalty `c`, pressure per penetration depth (N/m³). Default: from the fabric's weight and the offset,
+    /// `c = 200 ρ g / δ` (a pressure of 100 times the fabric's weight per area compresses the layer by half).
+    pub stiffness: Option<f64>,
     /// Contact offset `δ` (m), default 0.005.
     pub offset: f64,
     /// Coulomb friction coefficient μ, default 0.
     pub friction: f64,
+    /// Slip speed `ε_v` (m/s) below which friction holds (smoothed static friction), default 1e-4.
+    pub slip_speed: f64,
 }
 
 impl Default for ContactSpec {
     fn default() -> Self {
         Self {
-            stiffness: defaults::CONTACT_STIFFNESS,
+            stiffness: None,
             offset: defaults::CONTACT_OFFSET,
             friction: defaults::CONTACT_FRICTION,
+            slip_speed: defaults::SLIP_SPEED,
         }
     }
 }
