@@ -155,6 +155,7 @@ impl History {
     fn motion<'a>(&'a self, model: &'a Model, state: &'a State, dt: f64, predict: bool) -> Motion<'a> {
         Motion {
             x: &state.x,
+            x_prev: &state.x_prev,
             v: &state.v,
             v_prev: &state.v_prev,
             target: &self.target,

@@ -147,7 +147,7 @@ pub fn detect_predicted(
 }
 
 /// Most friction re-linearisations per assembly.
-const FRICTION_ROUNDS: usize = 2;
+const FRICTION_ROUNDS: usize = 3;
 
 /// Penalty contact of the sheet's nodes (rest areas `area`) with `obstacles`.
 #[derive(Debug, Clone)]
@@ -233,9 +233,17 @@ impl Term for PenaltyContact {
                             at: Vec3::ZERO,
                             majorant: false,
                         };
-                        // The first solve linearises about the slip the node's motion predicts,
-                        // `(v + ½ a Δt) Δt` with `a Δt ≈ v − v⁻`.
-                        l.linearize(l.tangential((m.v[k] * 1.5 - m.v_prev[k] * 0.5) * m.dt), eps, true);
+                        // The first solve linearises about the slip the node's motion predicts: for a node
+                        // that slid, `(v + ½ a Δt) Δt` with `a Δt ≈ v − v⁻`; for one that stuck (moved less
+                        // than ε in the last step), that step's slip, from which the majorant's iteration
+                        // approaches the creep from below (holding, never overshooting).
+                        let last = l.tangential(m.x[k] - m.x_prev[k]);
+                        let predicted = if last.length() < eps {
+                            last
+                        } else {
+                            l.tangential((m.v[k] * 1.5 - m.v_prev[k] * 0.5) * m.dt)
+                        };
+                        l.linearize(predicted, eps, true);
                         s.lagged.push(l);
                     }
                 }

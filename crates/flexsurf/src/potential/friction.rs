@@ -31,7 +31,7 @@ use crate::math::{outer, Mat3, Vec3};
 
 /// Largest error of the friction force's linear model, relative to `μλ`, that a step's solve accepts without
 /// re-linearising and re-solving (docs/model.md §10.2; at most two re-solves per Newton iteration).
-pub const MODEL_TOLERANCE: f64 = 0.1;
+pub const MODEL_TOLERANCE: f64 = 0.01;
 
 /// Friction model error (relative to `μλ`) above which a step makes a Newton correction: a slip reversed or
 /// stopped within the step that the re-solves did not settle.

@@ -87,6 +87,8 @@ pub struct TermInfo {
 pub struct Motion<'a> {
     /// Positions at the start of the step (friction's anchor).
     pub x: &'a [Vec3],
+    /// Positions one step earlier.
+    pub x_prev: &'a [Vec3],
     /// Velocities at the start of the step.
     pub v: &'a [Vec3],
     /// Velocities one step earlier.
