@@ -144,3 +144,75 @@ fn sheet_on_an_incline_slides_as_coulomb_says() {
         assert!(errs[2] < 1e-3 || errs[2] < 0.6 * errs[1], "θ = {theta_deg}°, μ = {mu}: errors {errs:?}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------------------------
+// Contact that cannot be passed through
+// ---------------------------------------------------------------------------------------------------------------
+
+/// The shipped ball drop with `[time]` replaced (`dt`, `steps`) and the material `material` (a preset line or a
+/// file line), built as a scene in the repository's `scenes/` folder.
+fn ball_drop(dt: f64, steps: usize, material: &str) -> flexsurf::scene::Scene {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let path = root.join("ball_drop.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut out = String::new();
+    let mut section = String::new();
+    for line in text.lines() {
+        if line.starts_with('[') {
+            section = line.to_string();
+        }
+        let replaced = match (section.as_str(), line.split('=').next().map(str::trim)) {
+            ("[time]", Some("dt")) => format!("dt = {dt}"),
+            ("[time]", Some("steps")) => format!("steps = {steps}"),
+            ("[time]", Some("output_every")) => format!("output_every = {steps}"),
+            ("[material]", Some("preset")) => material.to_string(),
+            ("[contact]", Some("stiffness")) => String::new(),
+            _ => line.to_string(),
+        };
+        out.push_str(&replaced);
+        out.push('\n');
+    }
+    let spec = flexsurf::scene::SceneSpec::from_toml(&out, &path).unwrap();
+    spec.build(&path).unwrap()
+}
+
+/// Runs a scene; returns the deepest penetration below the ball's surface seen after any step and at the end.
+fn penetration(scene: &flexsurf::scene::Scene) -> (f64, f64, State) {
+    let params = scene.step_params();
+    let mut stepper = Stepper::new(&scene.model, &params).unwrap();
+    let mut state = scene.state.clone();
+    let mut worst: f64 = 0.0;
+    for _ in 0..scene.steps {
+        let info = stepper.step(&scene.model, &mut state).unwrap();
+        worst = worst.max(info.max_penetration);
+    }
+    (worst, integrate::max_penetration(&scene.model, &state.x), state)
+}
+
+#[test]
+fn ball_drop_cannot_be_passed_through_at_large_steps() {
+    // Δt = 0.1 s and 1 s: the sheet stays on the ball (the centre node above the ball's top), and no node is
+    // ever deeper below the surface than the contact offset.
+    for (dt, steps) in [(0.1, 30), (1.0, 5)] {
+        let scene = ball_drop(dt, steps, "preset = \"paper-cotton\"");
+        let (worst, last, state) = penetration(&scene);
+        let centre = state.x[scene.model.grid.index(10, 10)];
+        assert!(centre.z > 0.29 && centre.z < 0.31, "Δt = {dt}: centre node at z = {}", centre.z);
+        assert!(state.x.iter().all(|p| p.z > -1.0), "Δt = {dt}: the sheet fell");
+        assert!(worst < 0.02 && last < 0.005, "Δt = {dt}: penetration {worst:e} m seen, {last:e} m at the end");
+    }
+}
+
+#[test]
+fn rest_penetration_is_below_the_offset_for_every_shipped_fabric() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../materials");
+    let mut names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    names.sort();
+    for file in names {
+        let line = format!("file = \"../materials/{}\"", file.file_name().unwrap().to_string_lossy());
+        let scene = ball_drop(0.01, 300, &line);
+        let (worst, last, _) = penetration(&scene);
+        let offset = scene.model.contact_params().unwrap().offset;
+        assert!(last < offset && worst < offset, "{}: penetration {worst:e} m seen, {last:e} m at rest", file.display());
+    }
+}

@@ -44,6 +44,18 @@ pub enum StepError {
         /// What to try.
         hint: &'static str,
     },
+    /// A node passed through an obstacle within the step although continuous detection gave it a contact (the
+    /// active-set re-solves ran out).
+    #[error(
+        "node {node} passed through an obstacle at step {step}: the contact re-solves did not settle; try a \
+         smaller dt or a stiffer contact"
+    )]
+    Tunnelled {
+        /// Step.
+        step: usize,
+        /// Node.
+        node: usize,
+    },
     /// The linear solve failed.
     #[error("linear solve failed at step {step}: {cause}")]
     Linear {
@@ -112,7 +124,14 @@ pub struct Stepper {
     delta: Vec<Vec3>,
     y: Vec<Vec3>,
     history: History,
+    /// The length of the (sub-)step being taken.
+    h: f64,
+    /// Steps that were split into sub-steps, and sub-steps taken in all.
+    pub split: (usize, usize),
 }
+
+/// Most halvings of a step that failed (divergence or a node through an obstacle) before the error is reported.
+pub const MAX_HALVINGS: usize = 8;
 
 /// The scheme's form of a step from one state ([`Motion`]): the inertial target, the damping centre and the
 /// two coefficients, computed once at the start of the step.
@@ -185,6 +204,8 @@ impl Stepper {
             delta: vec![Vec3::ZERO; n],
             y: vec![Vec3::ZERO; n],
             history: History::default(),
+            h: params.dt,
+            split: (0, 0),
         })
     }
 
@@ -198,7 +219,7 @@ impl Stepper {
     /// Assembles the step system at `state` without solving: afterwards [`Stepper::matrix`] is `A_t` (before
     /// pinned unknowns are eliminated) and [`Stepper::rhs`] the right-hand side for the increment `x⁺ − x_t`.
     pub fn assemble(&mut self, model: &Model, state: &State) -> Values {
-        self.history.fill(self.params.scheme, state, self.params.dt);
+        self.history.fill(self.params.scheme, state, self.h);
         self.y.copy_from_slice(&state.x);
         let want = Want { grad: true, hess: Some(self.operator()) };
         self.assemble_at(model, state, true, want)
@@ -212,7 +233,7 @@ impl Stepper {
     /// step), contact candidates also include nodes whose target `ŷ` is inside the contact layer, and lagged
     /// quantities (friction) are taken here.
     fn assemble_at(&mut self, model: &Model, state: &State, predict: bool, want: Want) -> Values {
-        let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, predict)));
+        let cx = model.potential.context(Some(self.history.motion(model, state, self.h, predict)));
         let values = model.potential.assemble(&self.y, &cx, Some(&Inertia), want, &mut self.ws);
         self.residual_from_gradient(model);
         values
@@ -240,7 +261,7 @@ impl Stepper {
             if round == self.params.active_set_rounds {
                 break;
             }
-            let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, false)));
+            let cx = model.potential.context(Some(self.history.motion(model, state, self.h, false)));
             if !model.potential.refine(&self.y, &self.delta, &cx, want, &mut self.ws) {
                 break;
             }
@@ -271,7 +292,55 @@ impl Stepper {
     /// as spurious stretch. Contact is implicit: the penalty stiffness is in the matrix for every node inside
     /// the contact layer at the start of the step or predicted to enter it, and the active set is corrected by
     /// re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
+    ///
+    /// A step that fails (a speed or strain bound, a non-finite value, a node through an obstacle, a failed
+    /// solve) is retaken as two half steps from the same state (at most [`MAX_HALVINGS`] times nested), whose
+    /// history is the second-order one of the half step: so any Δt the user gives either completes or stops
+    /// with the step and the cause. The lagged scheme is not split (its instability is its defining property).
     pub fn step(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
+        let info = self.step_split(model, state, self.params.dt, 0);
+        self.h = self.params.dt;
+        info
+    }
+
+    fn step_split(&mut self, model: &Model, state: &mut State, h: f64, depth: usize) -> Result<StepInfo, StepError> {
+        self.h = h;
+        // A failed step leaves the state as it was.
+        let error = match self.step_once(model, state) {
+            Ok(info) => return Ok(info),
+            Err(e) => e,
+        };
+        if depth >= MAX_HALVINGS || self.params.scheme == Scheme::Lagged {
+            return Err(error);
+        }
+        let saved = state.clone();
+        if depth == 0 {
+            self.split.0 += 1;
+        }
+        // Two half steps from the saved state with the half step's history.
+        let half = 0.5 * h;
+        *state = saved.clone();
+        for k in 0..state.x.len() {
+            let a = (saved.v[k] - saved.v_prev[k]) / h;
+            state.x_prev[k] = saved.x[k] - saved.v[k] * half + a * (0.5 * half * half);
+            state.v_prev[k] = saved.v[k] - a * half;
+        }
+        let mut info = self.step_split(model, state, half, depth + 1)?;
+        state.step = saved.step;
+        let second = self.step_split(model, state, half, depth + 1)?;
+        self.split.1 += 2;
+        info.timings.add(&second.timings);
+        info.timings.steps = 1;
+        info.max_penetration = second.max_penetration;
+        // Back to the history of the whole step.
+        state.x_prev.copy_from_slice(&saved.x);
+        state.v_prev.copy_from_slice(&saved.v);
+        state.step = saved.step + 1;
+        state.time = saved.time + h;
+        Ok(info)
+    }
+
+    fn step_once(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
         let t0 = Instant::now();
         let contact_before = self.ws.contact_seconds;
         let solves_before = self.counters.solves;
@@ -346,15 +415,16 @@ impl Stepper {
                 break;
             }
             // How far the lagged laws (friction) are from the linear model just solved with.
-            let cx = model.potential.context(Some(self.history.motion(model, state, self.params.dt, false)));
+            let cx = model.potential.context(Some(self.history.motion(model, state, self.h, false)));
             model_error = model.potential.model_error(&self.y, &cx, &mut self.ws);
         }
         Ok((tf, t_solve))
     }
 
-    /// Checks the speed bound, moves `state` to the new positions and checks the strain bound.
+    /// Checks the speed bound, the paths through obstacles and the strain bound, then moves `state` to the new
+    /// positions.
     fn advance(&mut self, model: &Model, state: &mut State, step: usize) -> Result<(), StepError> {
-        let idt = 1.0 / self.params.dt;
+        let idt = 1.0 / self.h;
         let mut worst_speed: f64 = 0.0;
         for k in 0..model.grid.len() {
             worst_speed = worst_speed.max((self.y[k] - state.x[k]).length() * idt);
@@ -363,6 +433,16 @@ impl Stepper {
             let what = format!("node speed {worst_speed:.3e} m/s exceeds the bound {:.3e} m/s", self.bounds.max_speed);
             return Err(self.diverged(step, what));
         }
+        if let Some(k) = model.potential.tunnelled(&state.x, &self.y, &mut self.ws) {
+            return Err(StepError::Tunnelled { step, node: k });
+        }
+        let strain = model.max_strain(&self.y);
+        if strain > self.bounds.max_strain {
+            let what =
+                format!("edge strain {:.1}% exceeds the bound {:.0}%", 100.0 * strain, 100.0 * self.bounds.max_strain);
+            return Err(self.diverged(step, what));
+        }
+        // Every check passed: only now is the state changed (a failed step leaves it as it was).
         // v⁺ = (3x⁺ − 4x_t + x⁻)/(2Δt): BDF2's own velocity, and the second-order estimate for central
         // differences (exact for a constant acceleration).
         std::mem::swap(&mut state.v_prev, &mut state.v);
@@ -372,13 +452,7 @@ impl Stepper {
         std::mem::swap(&mut state.x_prev, &mut state.x);
         state.x.copy_from_slice(&self.y);
         state.step = step;
-        state.time += self.params.dt;
-        let strain = model.max_strain(&state.x);
-        if strain > self.bounds.max_strain {
-            let what =
-                format!("edge strain {:.1}% exceeds the bound {:.0}%", 100.0 * strain, 100.0 * self.bounds.max_strain);
-            return Err(self.diverged(step, what));
-        }
+        state.time += self.h;
         Ok(())
     }
 

@@ -9,7 +9,7 @@
 
 use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
 use super::{Context, Part, Scratch, Stage, Term, TermInfo};
-use crate::contact::{closest_cached, ContactCache, Obstacle};
+use crate::contact::{closest_cached, first_hit, ContactCache, Obstacle};
 use crate::energy::Sink;
 use crate::math::{outer, Mat3, Vec3};
 use serde::Serialize;
@@ -137,10 +137,9 @@ pub fn detect_predicted(
         if d < params.offset {
             out.push(Contact::new(k, p, p, d, n, params, area[k]));
         } else if d - motion < params.offset {
-            if let Some((dq, nq)) = closest_cached(obstacles, cache, k, q, params.offset) {
-                if dq < params.offset {
-                    out.push(Contact::new(k, p, q, dq, nq, params, area[k]));
-                }
+            // The first point of the predicted path inside the layer (a fast node is caught before it crosses).
+            if let Some((_, hit, dh, nh)) = first_hit(obstacles, cache, k, p, q, params.offset) {
+                out.push(Contact::new(k, p, hit, dh, nh, params, area[k]));
             }
         }
     }
@@ -330,14 +329,14 @@ impl Term for PenaltyContact {
                 continue;
             }
             let q = y[k] + delta[k];
-            if s.cache.lower_bound(k, q) >= params.offset {
+            if s.cache.lower_bound(k, y[k]) >= params.offset + delta[k].length() {
                 continue;
             }
-            if let Some((d, n)) = closest_cached(&self.obstacles, &mut s.cache, k, q, params.offset) {
-                if d < params.offset {
-                    s.contacts.push(Contact::new(k, y[k], q, d, n, params, self.area[k]));
-                    changed = true;
-                }
+            // Continuous detection along the proposed motion: a node that would cross the layer (or the whole
+            // obstacle) within the step gets a contact linearised where it first enters the layer.
+            if let Some((_, hit, d, n)) = first_hit(&self.obstacles, &mut s.cache, k, y[k], q, params.offset) {
+                s.contacts.push(Contact::new(k, y[k], hit, d, n, params, self.area[k]));
+                changed = true;
             }
         }
         if changed {
@@ -358,6 +357,34 @@ impl Term for PenaltyContact {
             }
         }
         changed
+    }
+
+    /// A node whose straight path `from → to` crossed an obstacle's surface and left it again on the far side
+    /// (passed through), with the obstacle-free length it travelled inside.
+    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize> {
+        if self.obstacles.is_empty() || self.params.stiffness <= 0.0 {
+            return None;
+        }
+        let s = self.scratch(scratch);
+        for k in 0..from.len() {
+            let (p, q) = (from[k], to[k]);
+            let reach = (q - p).length();
+            if s.cache.lower_bound(k, p) > reach {
+                continue;
+            }
+            let Some((dp, _)) = closest_cached(&self.obstacles, &mut s.cache, k, p, reach) else { continue };
+            let Some((dq, _)) = closest_cached(&self.obstacles, &mut s.cache, k, q, f64::INFINITY) else { continue };
+            // Outside at both ends, but the path went below the surface on the way.
+            if dp > 0.0 && dq > 0.0 {
+                let skin = 1e-3 * self.params.offset.max(1e-9);
+                if let Some((_, _, d, _)) = first_hit(&self.obstacles, &mut s.cache, k, p, q, skin) {
+                    if d < 0.0 {
+                        return Some(k);
+                    }
+                }
+            }
+        }
+        None
     }
 
     fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {

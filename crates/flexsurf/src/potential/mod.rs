@@ -219,6 +219,11 @@ pub trait Term: Send + Sync + Debug + TermClone {
     fn model_error(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
         0.0
     }
+    /// A node whose straight path from `from` to `to` passed through an obstacle (continuous detection after a
+    /// step); `None` when none did.
+    fn tunnelled(&self, _from: &[Vec3], _to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
+        None
+    }
     /// The Coulomb limits of the term's touching contacts at `x`: `(node, unit normal, μλ)` (friction; the
     /// consistent start of a run needs them).
     fn coulomb(&self, _x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
@@ -545,6 +550,11 @@ impl Potential {
             ws.matrix.blocks[id as usize] = blk;
         }
         ws.journal.clear();
+    }
+
+    /// The first node any term reports as having passed through an obstacle between `from` and `to`.
+    pub fn tunnelled(&self, from: &[Vec3], to: &[Vec3], ws: &mut Workspace) -> Option<usize> {
+        self.terms.iter().enumerate().find_map(|(t, term)| term.tunnelled(from, to, &mut ws.scratch[t]))
     }
 
     /// Every term's [`Term::coulomb`] limits at `x`.
