@@ -216,3 +216,112 @@ fn rest_penetration_is_below_the_offset_for_every_shipped_fabric() {
         assert!(last < offset && worst < offset, "{}: penetration {worst:e} m seen, {last:e} m at rest", file.display());
     }
 }
+
+// ---------------------------------------------------------------------------------------------------------------
+// Integrators on a swinging hanging sheet: the hanging chain
+// ---------------------------------------------------------------------------------------------------------------
+
+/// First zero of the Bessel function J0.
+const J01: f64 = 2.404_825_557_695_773;
+
+/// J0 by its power series (|x| ≤ 3 here).
+fn bessel_j0(x: f64) -> f64 {
+    let (mut term, mut sum) = (1.0, 1.0);
+    for k in 1..40 {
+        term *= -(x * x) / (4.0 * (k * k) as f64);
+        sum += term;
+    }
+    sum
+}
+
+/// A 0.2 m × 1 m strip hanging from its pinned top edge, started with the hanging chain's first mode as an
+/// out-of-plane velocity; returns the period (s) and the amplitude ratio per period of its modal coordinate.
+fn swing(scheme: Scheme, dt: f64) -> (f64, f64) {
+    let (width, length) = (0.2, 1.0);
+    let f = fabric(0.0);
+    let stiffness = Stiffness::calibrate(&f, Calibration::Kes).unwrap();
+    let grid = Grid::sheet(5, 41, width, length).unwrap();
+    let rest: Vec<Vec3> = (0..grid.len())
+        .map(|k| {
+            let (i, j) = grid.coords(k);
+            Vec3::new(i as f64 * grid.h1, 0.0, -(j as f64) * grid.h2)
+        })
+        .collect();
+    let mut b = ModelBuilder::new(grid, rest.clone(), f, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    for i in 0..grid.m {
+        b.pinned[grid.index(i, 0)] = true;
+    }
+    let model = b.build().unwrap();
+    let omega = 0.5 * J01 * (G / length).sqrt();
+    let mode: Vec<f64> = rest.iter().map(|p| bessel_j0(2.0 * omega * ((length + p.z).max(0.0) / G).sqrt())).collect();
+    let v0: Vec<Vec3> = mode.iter().map(|&phi| Vec3::new(0.0, 0.05 * phi, 0.0)).collect();
+    let mut state = integrate::start(&model, rest.clone(), v0, dt).unwrap();
+    let params = StepParams { scheme, ..StepParams::with_dt(dt) };
+    let mut stepper = Stepper::new(&model, &params).unwrap();
+    let norm: f64 = mode.iter().zip(&model.mass).map(|(p, m)| m * p * p).sum();
+    let q = |x: &[Vec3]| x.iter().zip(&mode).zip(&model.mass).map(|((p, phi), m)| m * phi * p.y).sum::<f64>() / norm;
+    // Peaks of the modal coordinate, located by the parabola through the three samples around each maximum.
+    let (mut prev2, mut prev1) = (f64::NAN, q(&state.x));
+    let mut peaks: Vec<(f64, f64)> = Vec::new();
+    let steps = (5.5 / dt).round() as usize;
+    for n in 1..=steps {
+        stepper.step(&model, &mut state).unwrap();
+        let now = q(&state.x);
+        if prev1 > prev2 && prev1 >= now {
+            let (a, b, c) = (prev2, prev1, now);
+            let shift = 0.5 * (a - c) / (a - 2.0 * b + c);
+            let t = (n as f64 - 1.0 + shift) * dt;
+            peaks.push((t, b - 0.25 * (a - c) * shift));
+        }
+        prev2 = prev1;
+        prev1 = now;
+    }
+    assert!(peaks.len() >= 3, "{scheme:?} at {dt}: peaks {peaks:?}");
+    let periods = (peaks.len() - 1) as f64;
+    let period = (peaks[peaks.len() - 1].0 - peaks[0].0) / periods;
+    let ratio = (peaks[peaks.len() - 1].1 / peaks[0].1).powf(1.0 / periods);
+    (period, ratio)
+}
+
+/// Per-period amplitude ratio of an undamped oscillator of angular frequency `omega` under the scheme's own
+/// amplification factor at step `h`: central differences with the force at the new positions,
+/// `ρ² − 2ρ + 1 = −(ωh)² ρ²`; BDF2 on the first-order system, `(3 − 2hλ) ρ² − 4ρ + 1 = 0`, `λ = iω`.
+fn amplification_per_period(scheme: Scheme, omega: f64, h: f64) -> f64 {
+    let per_step = match scheme {
+        Scheme::Bdf2 => {
+            // ρ = (2 + √(1 + 2hλ)) / (3 − 2hλ) with complex arithmetic on (re, im).
+            let z = (1.0, 2.0 * h * omega);
+            let r = (z.0 * z.0 + z.1 * z.1).sqrt();
+            let sqrt = (((r + z.0) / 2.0).sqrt(), ((r - z.0) / 2.0).sqrt().copysign(z.1));
+            let num = (2.0 + sqrt.0, sqrt.1);
+            let den = (3.0, -2.0 * h * omega);
+            ((num.0 * num.0 + num.1 * num.1) / (den.0 * den.0 + den.1 * den.1)).sqrt()
+        }
+        _ => 1.0 / (1.0 + (omega * h).powi(2)).sqrt(),
+    };
+    per_step.powf(2.0 * std::f64::consts::PI / (omega * h))
+}
+
+#[test]
+fn swinging_sheet_period_and_decay_match_the_chain_and_the_schemes() {
+    let chain = 4.0 * std::f64::consts::PI / J01 * (1.0_f64 / G).sqrt();
+    let (t2, r2) = swing(Scheme::Bdf2, 0.02);
+    let (t1, r1) = swing(Scheme::Bdf2, 0.01);
+    let (t05, r05) = swing(Scheme::Bdf2, 0.005);
+    // The hanging chain's period (the strip's small bending stiffness and the 41-node grid: within 1 %).
+    assert!((t05 - chain).abs() / chain < 0.01, "BDF2 period {t05} s, chain {chain} s");
+    // Second order in Δt: the period's change quarters when Δt halves.
+    let order = ((t2 - t1) / (t1 - t05)).abs().log2();
+    assert!(order > 1.6 && order < 2.6, "periods {t2} {t1} {t05}: order {order}");
+    // Low dissipation: < 1 % amplitude loss per period at Δt = 0.01 s, as the amplification factor says.
+    assert!(r1 > 0.99, "BDF2 amplitude ratio per period {r1} at 0.01 s ({r2} at 0.02, {r05} at 0.005)");
+    let omega = 2.0 * std::f64::consts::PI / t1;
+    let predicted = amplification_per_period(Scheme::Bdf2, omega, 0.01);
+    assert!((1.0 - r1 - (1.0 - predicted)).abs() < 0.3 * (1.0 - predicted) + 2e-3, "BDF2: {r1} vs {predicted}");
+    // The default scheme damps as its amplification factor says (≈ 11 % per period at 0.01 s).
+    let (td, rd) = swing(Scheme::Linearized, 0.01);
+    let predicted = amplification_per_period(Scheme::Linearized, 2.0 * std::f64::consts::PI / td, 0.01);
+    assert!((rd - predicted).abs() < 0.02, "linearized: ratio {rd} per period, amplification factor {predicted}");
+    println!("chain {chain:.5} s; BDF2 periods {t2:.5} {t1:.5} {t05:.5}, ratios {r2:.5} {r1:.5} {r05:.5}");
+    println!("linearized at 0.01 s: period {td:.5} s, ratio {rd:.5} (factor {predicted:.5})");
+}
