@@ -11,7 +11,7 @@ use flexsurf::contact::{mannequin, Obstacle};
 use flexsurf::energy::bending::Bending;
 use flexsurf::energy::frame::Warp;
 use flexsurf::energy::membrane::Membrane;
-use flexsurf::energy::Operator;
+use flexsurf::energy::{Operator, Sink};
 use flexsurf::grid::Grid;
 use flexsurf::integrate::statics::{StaticError, StaticOptions, StaticSolver};
 use flexsurf::integrate::{StepParams, Stepper};
@@ -23,7 +23,8 @@ use flexsurf::potential::elastic::TerzopoulosBending;
 use flexsurf::potential::external::External;
 use flexsurf::potential::inertia::Inertia;
 use flexsurf::potential::springs::Springs;
-use flexsurf::potential::{Motion, Term};
+use flexsurf::potential::friction::{FrictionLaw, Lagged};
+use flexsurf::potential::{Context, Motion, Part, Scratch, Stage, Term, TermInfo};
 use flexsurf::state::State;
 use flexsurf::testing::{alone, check, cotton, cylinder, eigen_range, hessians, perturbed};
 use std::sync::Arc;
@@ -227,8 +228,22 @@ fn the_step_system_matches_finite_differences() {
     let x_prev = perturbed(&rest, 0.002, 6);
     let x_t = perturbed(&rest, 0.002, 7);
     let y = perturbed(&rest, 0.001, 8);
-    let motion =
-        Motion { x: &x_t, x_prev: &x_prev, dt: 0.01, mass: &model.mass, damping: &model.damping, predict: false };
+    let (v, v_prev) = (perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 12), perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 13));
+    let target: Vec<Vec3> = x_t.iter().zip(&x_prev).map(|(a, b)| *a * 2.0 - *b).collect();
+    let motion = Motion {
+        x: &x_t,
+        x_prev: &x_prev,
+        v: &v,
+        v_prev: &v_prev,
+        target: &target,
+        damp_center: &x_prev,
+        inertia: 1e4,
+        damp: 50.0,
+        dt: 0.01,
+        mass: &model.mass,
+        damping: &model.damping,
+        predict: false,
+    };
     check(&alone(g.len(), Box::new(Inertia)), &y, Some(motion), None, Operator::Exact).assert_below("inertia", TOL);
     check(&model.potential, &y, Some(motion), Some(&Inertia), Operator::Exact).assert_below("step potential", TOL);
 }
@@ -252,13 +267,28 @@ fn the_stepper_uses_the_potential_assembly() {
     b.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.002), normal: Vec3::Z });
     b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
     let model: Model = b.build().unwrap();
-    let state = State { x: perturbed(&rest, 0.001, 9), x_prev: perturbed(&rest, 0.001, 10), time: 0.0, step: 0 };
+    let zero = vec![Vec3::ZERO; rest.len()];
+    let state = State {
+        x: perturbed(&rest, 0.001, 9),
+        x_prev: perturbed(&rest, 0.001, 10),
+        v: perturbed(&zero, 0.01, 14),
+        v_prev: perturbed(&zero, 0.01, 15),
+        time: 0.0,
+        step: 0,
+    };
     let mut st = Stepper::new(&model, &StepParams::default()).unwrap();
     let values = st.assemble(&model, &state);
     assert!(values.contacts > 0, "the plane should touch");
+    let target: Vec<Vec3> = state.x.iter().zip(&state.x_prev).map(|(a, b)| *a * 2.0 - *b).collect();
     let motion = Motion {
         x: &state.x,
         x_prev: &state.x_prev,
+        v: &state.v,
+        v_prev: &state.v_prev,
+        target: &target,
+        damp_center: &state.x_prev,
+        inertia: 1.0 / (0.01 * 0.01),
+        damp: 0.5 / 0.01,
         dt: 0.01,
         mass: &model.mass,
         damping: &model.damping,
@@ -346,4 +376,56 @@ fn a_flat_pattern_model_matches_finite_differences() {
     .unwrap();
     let x = perturbed(&restc, 0.005, 12);
     check(&model.potential, &x, None, None, Operator::Exact).assert_below("garment elastic terms", TOL);
+}
+
+/// Coulomb friction of one node through the shared checker: the smoothed law `μλ f₀(|u|)` itself (both regimes),
+/// its tangent model about a slip, and its majorant, each value/gradient/Hessian consistent.
+#[derive(Debug, Clone)]
+struct OneFriction {
+    law: FrictionLaw,
+    lagged: Lagged,
+    anchor: Vec3,
+    /// 0: the law itself; 1: the current linear model of `lagged`.
+    which: u8,
+}
+
+impl Term for OneFriction {
+    fn info(&self) -> TermInfo {
+        TermInfo { name: "friction", stage: Stage::Contact, part: Part::Contact }
+    }
+    fn evaluate(&self, y: &[Vec3], cx: &Context, _s: &mut Scratch, sink: &mut Sink) -> f64 {
+        let u = self.lagged.tangential(y[0] - self.anchor);
+        let (e, g, h) = if self.which == 0 {
+            (self.law.energy(u.length()), self.law.gradient(u), self.law.hessian(u, self.lagged.projector()))
+        } else {
+            self.lagged.model(&self.law, u)
+        };
+        sink.energy += e;
+        if let Some(gr) = sink.grad.as_deref_mut() {
+            gr[0] += g;
+        }
+        sink.add_block(cx.diag[0], 0, 0, h);
+        e
+    }
+}
+
+#[test]
+fn friction_law_and_models_pass_the_checker() {
+    let normal = Vec3::new(0.3, -0.2, 0.9).normalize();
+    let eps = 1e-3;
+    let law = FrictionLaw { limit: 0.7, eps };
+    let anchor = Vec3::new(0.1, 0.2, 0.3);
+    let tangent = (Vec3::X - normal * normal.x).normalize();
+    for (slip, majorant) in [(0.4e-3, true), (2.5e-3, false), (2.5e-3, true), (0.05, false)] {
+        let lagged = Lagged { node: 0, limit: law.limit, normal, at: tangent * slip, majorant };
+        for which in [0u8, 1] {
+            for s in [0.3e-3, 0.8e-3, 4e-3, 0.03] {
+                let y = vec![anchor + (tangent * 0.8 + normal.cross(tangent) * 0.6) * s + normal * 1e-4];
+                let term = OneFriction { law, lagged, anchor, which };
+                let r = check(&alone(1, Box::new(term)), &y, None, None, Operator::Exact);
+                let name = format!("friction which={which} slip={slip} majorant={majorant} s={s}");
+                r.assert_below(&name, 1e-5);
+            }
+        }
+    }
 }
