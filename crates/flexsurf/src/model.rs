@@ -112,7 +112,12 @@ impl ModelBuilder {
             options: ElasticOptions::default(),
             gravity,
             obstacles: Vec::new(),
-            contact: ContactParams { stiffness: 0.0, offset: 0.0, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED },
+            contact: ContactParams {
+                stiffness: 0.0,
+                offset: 0.0,
+                friction: 0.0,
+                slip_speed: ContactParams::SLIP_SPEED,
+            },
             pinned: vec![false; n],
             springs: Vec::new(),
             loads: vec![Vec3::ZERO; n],

@@ -21,9 +21,9 @@ use flexsurf::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Spring};
 use flexsurf::potential::contact::{ContactParams, PenaltyContact};
 use flexsurf::potential::elastic::TerzopoulosBending;
 use flexsurf::potential::external::External;
+use flexsurf::potential::friction::{FrictionLaw, Lagged};
 use flexsurf::potential::inertia::Inertia;
 use flexsurf::potential::springs::Springs;
-use flexsurf::potential::friction::{FrictionLaw, Lagged};
 use flexsurf::potential::{Context, Motion, Part, Scratch, Stage, Term, TermInfo};
 use flexsurf::state::State;
 use flexsurf::testing::{alone, check, cotton, cylinder, eigen_range, hessians, perturbed};
@@ -101,7 +101,11 @@ fn gravity_loads_and_springs_match_finite_differences() {
 
 fn contact_term(obstacle: Obstacle, n: usize, offset: f64) -> PenaltyContact {
     let area: Vec<f64> = (0..n).map(|k| 0.002 + 1e-4 * k as f64).collect();
-    PenaltyContact::new(vec![obstacle], ContactParams { stiffness: 1e4, offset, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED }, area)
+    PenaltyContact::new(
+        vec![obstacle],
+        ContactParams { stiffness: 1e4, offset, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED },
+        area,
+    )
 }
 
 /// Nodes inside the contact layer of a plane: the penalty energy, force and stiffness are exact (the distance to
@@ -228,7 +232,8 @@ fn the_step_system_matches_finite_differences() {
     let x_prev = perturbed(&rest, 0.002, 6);
     let x_t = perturbed(&rest, 0.002, 7);
     let y = perturbed(&rest, 0.001, 8);
-    let (v, v_prev) = (perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 12), perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 13));
+    let (v, v_prev) =
+        (perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 12), perturbed(&vec![Vec3::ZERO; rest.len()], 0.1, 13));
     let target: Vec<Vec3> = x_t.iter().zip(&x_prev).map(|(a, b)| *a * 2.0 - *b).collect();
     let motion = Motion {
         x: &x_t,

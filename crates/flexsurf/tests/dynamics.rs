@@ -105,12 +105,8 @@ fn incline_slide(theta: f64, mu: f64, dt: f64, t: f64, scheme: Scheme) -> f64 {
     let rest: Vec<Vec3> = grid.flat_positions(0.0).into_iter().map(|p| rotate(p) + normal * h).collect();
     let mut model = ModelBuilder::new(grid, rest.clone(), f, stiffness, ModelKind::Tfs, gravity);
     model.obstacles.push(Obstacle::Plane { point: Vec3::ZERO, normal });
-    model.contact = ContactParams {
-        stiffness: contact_stiffness,
-        offset,
-        friction: mu,
-        slip_speed: ContactParams::SLIP_SPEED,
-    };
+    model.contact =
+        ContactParams { stiffness: contact_stiffness, offset, friction: mu, slip_speed: ContactParams::SLIP_SPEED };
     let model = model.build().unwrap();
     let mut state = integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], dt).unwrap();
     let params = StepParams { scheme, ..StepParams::with_dt(dt) };
@@ -213,7 +209,11 @@ fn rest_penetration_is_below_the_offset_for_every_shipped_fabric() {
         let scene = ball_drop(0.01, 300, &line);
         let (worst, last, _) = penetration(&scene);
         let offset = scene.model.contact_params().unwrap().offset;
-        assert!(last < offset && worst < offset, "{}: penetration {worst:e} m seen, {last:e} m at rest", file.display());
+        assert!(
+            last < offset && worst < offset,
+            "{}: penetration {worst:e} m seen, {last:e} m at rest",
+            file.display()
+        );
     }
 }
 

@@ -335,7 +335,8 @@ fn linear_spring_system_step_equals_paper_equations() {
     let model = model.build().unwrap();
     let x0 = perturbed(&rest, 0.002, 6);
     let xm = perturbed(&rest, 0.002, 7);
-    let mut state = State { x: x0.clone(), x_prev: xm.clone(), time: 0.0, step: 0 };
+    let zero = vec![Vec3::ZERO; x0.len()];
+    let mut state = State { x: x0.clone(), x_prev: xm.clone(), v: zero.clone(), v_prev: zero, time: 0.0, step: 0 };
     let dt = 0.01;
     let mut st = Stepper::new(&model, &StepParams::with_dt(dt)).unwrap();
     st.step(&model, &mut state).unwrap();

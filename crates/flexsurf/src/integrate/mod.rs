@@ -392,7 +392,9 @@ impl Stepper {
                 // Residual first (gradient and contact forces only); the matrix only if a correction is due.
                 self.assemble_at(model, state, false, Want::GRADIENT);
                 let res = (0..n).filter(|&k| !model.pinned()[k]).map(|k| self.rhs[k].length()).fold(0.0, f64::max);
-                if res <= self.params.newton_tolerance * force_scale && model_error <= crate::potential::friction::NEWTON_TOLERANCE {
+                if res <= self.params.newton_tolerance * force_scale
+                    && model_error <= crate::potential::friction::NEWTON_TOLERANCE
+                {
                     *t_assembly += ta.elapsed().as_secs_f64();
                     break;
                 }

@@ -167,7 +167,9 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>,
     dyn_model.damping = dyn_model.area.iter().map(|a| a * damping).collect();
     let mut state = State::at_rest(start);
     let dt = 0.04;
-    let params = StepParams { dt, solver: SolverKind::Cholesky, ..StepParams::default() };
+    // At most one Newton correction per step, as this relaxation was calibrated with: a drape has several
+    // equilibria, and the relaxation path (not the physics) picks one.
+    let params = StepParams { dt, solver: SolverKind::Cholesky, newton_iterations: 2, ..StepParams::default() };
     let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", source: e })?;
     // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
     let mut steps = 0;

@@ -178,7 +178,8 @@ impl SceneSpec {
             Method::Static(_) => State::at_rest(initial),
             Method::Dynamic(p) => {
                 let velocities = initial::velocities(&initial, &model.mass, model.pinned(), &condition);
-                crate::integrate::start(&model, initial, velocities, p.dt).map_err(|e| v.bad("initial", e.to_string()))?
+                crate::integrate::start(&model, initial, velocities, p.dt)
+                    .map_err(|e| v.bad("initial", e.to_string()))?
             }
         };
         Ok(Scene {

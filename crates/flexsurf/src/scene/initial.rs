@@ -53,8 +53,8 @@ impl InitialSpec {
         let dir = v.file().parent().unwrap_or(Path::new("."));
         let path = dir.join(rel);
         let key = "initial.positions";
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| v.bad(key, format!("cannot read `{}`: {e}", path.display())))?;
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| v.bad(key, format!("cannot read `{}`: {e}", path.display())))?;
         let (vertices, _) = parse_obj(&text, &path.display().to_string()).map_err(|e| v.bad(key, e.to_string()))?;
         let nodes = grid_nodes(grid, &vertices).ok_or_else(|| {
             v.bad(

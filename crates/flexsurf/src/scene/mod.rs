@@ -28,8 +28,8 @@ mod validate;
 
 pub use build::Scene;
 pub use error::SceneError;
-pub use initial::{InitialCondition, InitialSpec};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
+pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};
 pub use spec::{
     defaults, BuiltinBody, ContactSpec, FrameFormat, Initial, IntegratorKind, IntegratorSpec, MeshSpec, ModelSpec,
