@@ -225,7 +225,7 @@ mod tests {
         // Straight through the centre, from 1 m above to 1 m below: both ends are far outside.
         let (t, x, d, n) =
             first_hit(&s, &mut cache, 0, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, -1.0), 0.005).unwrap();
-        assert!(d < 0.005 && d >= 0.0025 && (x.z - 0.3 - d).abs() < 1e-12 && (n - Vec3::Z).length() < 1e-12);
+        assert!((0.0025..0.005).contains(&d) && (x.z - 0.3 - d).abs() < 1e-12 && (n - Vec3::Z).length() < 1e-12);
         assert!((t - (1.0 - 0.3 - d) / 2.0).abs() < 1e-12);
         // Beside the ball: no hit.
         let far = first_hit(&s, &mut cache, 0, Vec3::new(0.4, 0.0, 1.0), Vec3::new(0.4, 0.0, -1.0), 0.005);
