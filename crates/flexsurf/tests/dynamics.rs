@@ -325,3 +325,27 @@ fn swinging_sheet_period_and_decay_match_the_chain_and_the_schemes() {
     println!("chain {chain:.5} s; BDF2 periods {t2:.5} {t1:.5} {t05:.5}, ratios {r2:.5} {r1:.5} {r05:.5}");
     println!("linearized at 0.01 s: period {td:.5} s, ratio {rd:.5} (factor {predicted:.5})");
 }
+
+#[test]
+fn bad_starts_and_bodies_are_clear_errors() {
+    use flexsurf::contact::trimesh::TriMeshBody;
+    // A sheet started 0.2 m inside the ball.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let path = root.join("ball_drop.toml");
+    let text = std::fs::read_to_string(&path).unwrap().replace("center = [0.0, 0.0, 0.35]", "center = [0.0, 0.0, 0.1]");
+    let err = flexsurf::scene::SceneSpec::from_toml(&text, &path).unwrap().build(&path).unwrap_err().to_string();
+    assert!(err.contains("obstacle[0]") && err.contains("start inside") && err.contains("0.2000 m"), "{err}");
+    // A unit cube, closed and outward: accepted; one face missing: open; every face reversed: inside out.
+    let v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+    let faces = ["f 1 4 3 2", "f 5 6 7 8", "f 1 2 6 5", "f 2 3 7 6", "f 3 4 8 7", "f 4 1 5 8"];
+    let cube = format!("{v}{}\n", faces.join("\n"));
+    assert!(TriMeshBody::from_obj_str(&cube, "cube.obj").is_ok());
+    let open = format!("{v}{}\n", faces[..5].join("\n"));
+    let e = TriMeshBody::from_obj_str(&open, "open.obj").unwrap_err().to_string();
+    assert!(e.contains("open.obj") && e.contains("not closed") && e.contains("4 edges"), "{e}");
+    let reversed: Vec<String> =
+        faces.iter().map(|f| format!("f {}", f[2..].split(' ').rev().collect::<Vec<_>>().join(" "))).collect();
+    let inside_out = format!("{v}{}\n", reversed.join("\n"));
+    let e = TriMeshBody::from_obj_str(&inside_out, "rev.obj").unwrap_err().to_string();
+    assert!(e.contains("rev.obj") && e.contains("inside out") && e.contains("-1.000e0"), "{e}");
+}

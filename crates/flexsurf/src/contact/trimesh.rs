@@ -14,7 +14,7 @@ use std::path::Path;
 use thiserror::Error;
 
 /// What is wrong with a mesh or an OBJ file.
-#[derive(Debug, Error, Clone, PartialEq, Eq)]
+#[derive(Debug, Error, Clone, PartialEq)]
 pub enum TriMeshError {
     /// The file could not be read.
     #[error("{file}: cannot read the file: {message}")]
@@ -33,6 +33,30 @@ pub enum TriMeshError {
         line: usize,
         /// What is wrong.
         message: String,
+    },
+    /// The mesh is not a closed, consistently oriented surface: a body needs an inside.
+    #[error(
+        "{file}: the mesh is not closed ({edges} edges are not shared by exactly two triangles of opposite \
+         orientation, e.g. between vertices {first:?}): an obstacle mesh must bound a solid"
+    )]
+    Open {
+        /// File name.
+        file: String,
+        /// Edges that are open, non-manifold or inconsistently oriented.
+        edges: usize,
+        /// One of them (1-based vertex numbers, as in the file).
+        first: (u32, u32),
+    },
+    /// The triangles wind clockwise seen from outside (the enclosed volume is negative).
+    #[error(
+        "{file}: the mesh is inside out (its enclosed volume is {volume:.3e} m³ with the faces' winding): list each \
+         face's vertices counter-clockwise seen from outside"
+    )]
+    InsideOut {
+        /// File name.
+        file: String,
+        /// Signed volume (m³).
+        volume: f64,
     },
     /// A vertex coordinate is NaN or infinite.
     #[error("vertex {index} is not finite")]
@@ -128,6 +152,46 @@ pub(crate) fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 
     Ok((vertices, triangles))
 }
 
+/// A closed, consistently oriented surface with positive enclosed volume: every directed edge once and its
+/// reverse once (vertices at the same position are one vertex).
+fn check_closed(vertices: &[Vec3], triangles: &[[u32; 3]], file: &str) -> Result<(), TriMeshError> {
+    use std::collections::HashMap;
+    let mut id: HashMap<[u64; 3], u32> = HashMap::new();
+    let canon: Vec<u32> = vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| *id.entry([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).or_insert(i as u32))
+        .collect();
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        let c = t.map(|i| canon[i as usize]);
+        for e in 0..3 {
+            *directed.entry((c[e], c[(e + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let mut bad: Vec<(u32, u32)> = directed
+        .iter()
+        .filter(|(&(a, b), &n)| a != b && (n != 1 || directed.get(&(b, a)) != Some(&1)))
+        .map(|(&(a, b), _)| (a.min(b) + 1, a.max(b) + 1))
+        .collect();
+    bad.sort_unstable();
+    bad.dedup();
+    if let Some(&first) = bad.first() {
+        return Err(TriMeshError::Open { file: file.to_string(), edges: bad.len(), first });
+    }
+    let volume: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    if volume <= 0.0 {
+        return Err(TriMeshError::InsideOut { file: file.to_string(), volume });
+    }
+    Ok(())
+}
+
 impl TriMeshBody {
     /// A body from vertices and counter-clockwise (seen from outside) triangles.
     pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self, TriMeshError> {
@@ -149,6 +213,7 @@ impl TriMeshBody {
                 return Err(TriMeshError::IndexOutOfRange { triangle: t, index, vertices: vertices.len() });
             }
         }
+        check_closed(&vertices, &triangles, file)?;
         let verts = vertices.into_iter().map(to_parry).collect();
         let flags = TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES;
         let mesh =

@@ -60,6 +60,38 @@ enum Body<'s> {
     Garment { spec: &'s GarmentSpec, shape: GarmentShape },
 }
 
+/// The sheet must not start inside an obstacle deeper than the contact offset (the penalty would throw it out
+/// violently, or hold it inside): an error naming the obstacle, the count and the deepest node.
+fn starts_outside(v: &Validator<'_>, model: &Model, x: &[Vec3]) -> Result<(), SceneError> {
+    let offset = model.contact_params().map_or(0.0, |c| c.offset);
+    for (i, o) in model.obstacles().iter().enumerate() {
+        let (mut count, mut deepest, mut at) = (0usize, 0.0_f64, 0usize);
+        for (k, p) in x.iter().enumerate() {
+            if let Some((d, _)) = o.distance_hinted(*p, &mut None, offset) {
+                if d < -offset {
+                    count += 1;
+                    if -d > deepest {
+                        (deepest, at) = (-d, k);
+                    }
+                }
+            }
+        }
+        if count > 0 {
+            let (a, b) = model.grid.coords(at);
+            return Err(v.bad(
+                &format!("obstacle[{i}]"),
+                format!(
+                    "{count} of the sheet's {} nodes start inside this obstacle, deeper than the contact offset \
+                     ({offset} m); the deepest, node [{a}, {b}], is {deepest:.4} m inside: move the sheet or the \
+                     obstacle",
+                    x.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl Body<'_> {
     fn grid(&self) -> &Grid {
         match self {
@@ -173,6 +205,7 @@ impl SceneSpec {
             .unwrap_or_else(|| file.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned()));
         let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
         let (model, initial, garment) = self.assemble(&v, parts)?;
+        starts_outside(&v, &model, &initial)?;
         let method = self.integrator.kind.method(dt, self.integrator.solver);
         let state = match method {
             Method::Static(_) => State::at_rest(initial),
