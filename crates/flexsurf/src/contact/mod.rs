@@ -214,6 +214,24 @@ pub fn first_hit(
     closest_cached(obstacles, cache, k, x, f64::INFINITY).map(|(d, n)| (t, x, d, n))
 }
 
+/// True when the straight path `p → q` of node `k` goes below an obstacle's surface: the first point within
+/// `skin` of a surface ([`first_hit`]) is followed, just past it or at one of eight later points of the path, by
+/// a point inside.
+pub fn passes_inside(obstacles: &[Obstacle], cache: &mut ContactCache, k: usize, p: Vec3, q: Vec3, skin: f64) -> bool {
+    let Some((t, _, d, _)) = first_hit(obstacles, cache, k, p, q, skin) else { return false };
+    if d < 0.0 {
+        return true;
+    }
+    let len = (q - p).length();
+    if len == 0.0 {
+        return false;
+    }
+    let just_past = (t + 2.0 * skin / len).min(1.0);
+    std::iter::once(just_past)
+        .chain((1..=8).map(|i| t + (1.0 - t) * i as f64 / 8.0))
+        .any(|s| closest_cached(obstacles, cache, k, p + (q - p) * s, 0.0).is_some_and(|(d, _)| d < 0.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,6 +248,11 @@ mod tests {
         // Beside the ball: no hit.
         let far = first_hit(&s, &mut cache, 0, Vec3::new(0.4, 0.0, 1.0), Vec3::new(0.4, 0.0, -1.0), 0.005);
         assert!(far.is_none());
+        // Through it, and grazing it from outside.
+        assert!(passes_inside(&s, &mut cache, 0, Vec3::new(0.1, 0.0, 1.0), Vec3::new(0.1, 0.0, -1.0), 1e-6));
+        let graze =
+            passes_inside(&s, &mut cache, 0, Vec3::new(-1.0, 0.0, 0.3 + 1e-7), Vec3::new(1.0, 0.0, 0.3 + 1e-7), 1e-6);
+        assert!(!graze);
     }
 
     #[test]

@@ -9,7 +9,7 @@
 
 use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
 use super::{Context, Part, Scratch, Stage, Term, TermInfo};
-use crate::contact::{closest_cached, first_hit, ContactCache, Obstacle};
+use crate::contact::{closest_cached, first_hit, passes_inside, ContactCache, Obstacle};
 use crate::energy::Sink;
 use crate::math::{outer, Mat3, Vec3};
 use serde::Serialize;
@@ -137,9 +137,37 @@ pub fn detect_predicted(
         if d < params.offset {
             out.push(Contact::new(k, p, p, d, n, params, area[k]));
         } else if d - motion < params.offset {
-            // The first point of the predicted path inside the layer (a fast node is caught before it crosses).
-            if let Some((_, hit, dh, nh)) = first_hit(obstacles, cache, k, p, q, params.offset) {
-                out.push(Contact::new(k, p, hit, dh, nh, params, area[k]));
+            if let Some((at, dh, nh)) = entry(obstacles, cache, k, p, q, params.offset) {
+                out.push(Contact::new(k, p, at, dh, nh, params, area[k]));
+            }
+        }
+    }
+}
+
+/// Where a node moving from `p` to `q` needs a contact, as (linearisation point, distance, normal) there: at
+/// `q` when it ends in the contact layer no deeper than the offset below the surface (its own closest point is
+/// the right one); at the first point of the path inside the layer when it ends deeper, or ends outside after
+/// passing through the obstacle (continuous detection: a node that would cross the whole obstacle within the
+/// step is caught where it enters); `None` for a path that stays outside the obstacle and ends outside the layer.
+fn entry(
+    obstacles: &[Obstacle],
+    cache: &mut ContactCache,
+    k: usize,
+    p: Vec3,
+    q: Vec3,
+    offset: f64,
+) -> Option<(Vec3, f64, Vec3)> {
+    let layer_entry =
+        |cache: &mut ContactCache| first_hit(obstacles, cache, k, p, q, offset).map(|(_, a, d, n)| (a, d, n));
+    match closest_cached(obstacles, cache, k, q, offset) {
+        Some((d, n)) if d < offset && d >= -offset => Some((q, d, n)),
+        Some((d, _)) if d < offset => layer_entry(cache),
+        // Ends outside the layer: a contact only if the path went through the obstacle on the way.
+        _ => {
+            if passes_inside(obstacles, cache, k, p, q, 1e-3 * offset.max(1e-9)) {
+                layer_entry(cache)
+            } else {
+                None
             }
         }
     }
@@ -294,16 +322,17 @@ impl Term for PenaltyContact {
     }
 
     /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
-    /// each node's Coulomb limit `μλ` (largest over the nodes).
+    /// the largest Coulomb limit `μλ` of the step's contacts (largest over the nodes).
     fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
         let Some(m) = cx.motion else { return 0.0 };
         let eps = self.params.slip_speed * m.dt;
         let s = self.scratch(scratch);
+        let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);
         let mut worst: f64 = 0.0;
         for l in &s.lagged {
             let law = FrictionLaw { limit: l.limit, eps };
             let u = l.tangential(y[l.node] - m.x[l.node]);
-            worst = worst.max(l.model_error(&law, u));
+            worst = worst.max(l.model_error(&law, u) / scale);
         }
         worst
     }
@@ -332,10 +361,8 @@ impl Term for PenaltyContact {
             if s.cache.lower_bound(k, y[k]) >= params.offset + delta[k].length() {
                 continue;
             }
-            // Continuous detection along the proposed motion: a node that would cross the layer (or the whole
-            // obstacle) within the step gets a contact linearised where it first enters the layer.
-            if let Some((_, hit, d, n)) = first_hit(&self.obstacles, &mut s.cache, k, y[k], q, params.offset) {
-                s.contacts.push(Contact::new(k, y[k], hit, d, n, params, self.area[k]));
+            if let Some((at, d, n)) = entry(&self.obstacles, &mut s.cache, k, y[k], q, params.offset) {
+                s.contacts.push(Contact::new(k, y[k], at, d, n, params, self.area[k]));
                 changed = true;
             }
         }
@@ -347,10 +374,11 @@ impl Term for PenaltyContact {
         if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {
             s.relinearized += 1;
             let eps = params.slip_speed * m.dt;
+            let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);
             for l in &mut s.lagged {
                 let law = FrictionLaw { limit: l.limit, eps };
                 let u = l.tangential(y[l.node] + delta[l.node] - m.x[l.node]);
-                if l.model_error(&law, u) > MODEL_TOLERANCE {
+                if l.model_error(&law, u) > MODEL_TOLERANCE * scale {
                     l.linearize(u, eps, false);
                     changed = true;
                 }
@@ -375,13 +403,11 @@ impl Term for PenaltyContact {
             let Some((dp, _)) = closest_cached(&self.obstacles, &mut s.cache, k, p, reach) else { continue };
             let Some((dq, _)) = closest_cached(&self.obstacles, &mut s.cache, k, q, f64::INFINITY) else { continue };
             // Outside at both ends, but the path went below the surface on the way.
-            if dp > 0.0 && dq > 0.0 {
-                let skin = 1e-3 * self.params.offset.max(1e-9);
-                if let Some((_, _, d, _)) = first_hit(&self.obstacles, &mut s.cache, k, p, q, skin) {
-                    if d < 0.0 {
-                        return Some(k);
-                    }
-                }
+            if dp > 0.0
+                && dq > 0.0
+                && passes_inside(&self.obstacles, &mut s.cache, k, p, q, 1e-3 * self.params.offset.max(1e-9))
+            {
+                return Some(k);
             }
         }
         None

@@ -29,11 +29,11 @@
 
 use crate::math::{outer, Mat3, Vec3};
 
-/// Largest error of the friction force's linear model, relative to `μλ`, that a step's solve accepts without
-/// re-linearising and re-solving (docs/model.md §10.2; at most two re-solves per Newton iteration).
+/// Largest error of a node's friction force model, relative to the largest Coulomb limit `μλ` of the step's
+/// contacts, that a step's solve accepts without re-linearising and re-solving (docs/model.md §10.2; at most two re-solves per Newton iteration).
 pub const MODEL_TOLERANCE: f64 = 0.01;
 
-/// Friction model error (relative to `μλ`) above which a step makes a Newton correction: a slip reversed or
+/// Friction model error (relative to the largest `μλ`) above which a step makes a Newton correction: a slip reversed or
 /// stopped within the step that the re-solves did not settle.
 pub const NEWTON_TOLERANCE: f64 = 1.0;
 
@@ -141,9 +141,9 @@ impl Lagged {
         (law.energy(self.at.length()) + g0.dot(d) + 0.5 * d.dot(h0 * d), g0 + h0 * d, h0)
     }
 
-    /// The model's force error at `u`, relative to `μλ`.
+    /// The model's force error at `u` (N).
     pub fn model_error(&self, law: &FrictionLaw, u: Vec3) -> f64 {
-        (law.gradient(u) - self.model(law, u).1).length() / self.limit
+        (law.gradient(u) - self.model(law, u).1).length()
     }
 }
 

@@ -124,7 +124,7 @@ impl Cholesky {
     /// Relative residual a preconditioned re-solve must reach.
     pub const NEARBY_TOLERANCE: f64 = 1e-11;
     /// Conjugate-gradient iterations allowed before refactorising.
-    pub const NEARBY_ITERATIONS: usize = 30;
+    pub const NEARBY_ITERATIONS: usize = 10;
 
     fn factor(&mut self) -> Result<(), LinearError> {
         let n = self.rhs.len();
