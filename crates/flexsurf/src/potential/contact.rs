@@ -164,7 +164,11 @@ fn entry(
         Some((d, _)) if d < offset => layer_entry(cache),
         // Ends outside the layer: a contact only if the path went through the obstacle on the way.
         _ => {
-            if passes_inside(obstacles, cache, k, p, q, 1e-3 * offset.max(1e-9)) {
+            // It cannot have gone below the surface unless it moved farther than its distance from it.
+            let reach = (q - p).length();
+            let near = cache.lower_bound(k, p) < reach
+                && closest_cached(obstacles, cache, k, p, reach).is_some_and(|(d, _)| d < reach);
+            if near && passes_inside(obstacles, cache, k, p, q, 1e-3 * offset.max(1e-9)) {
                 layer_entry(cache)
             } else {
                 None
