@@ -167,7 +167,11 @@ impl StripModel {
 /// Relative errors of the tip drop, the tip angle and the chord angle against the elastica.
 fn errors(fe: Shape, r: Shape) -> [f64; 3] {
     let chord = |s: Shape| (-s.z).atan2(s.x);
-    [(fe.z - r.z).abs() / r.z.abs(), (fe.psi - r.psi).abs() / r.psi.abs(), (chord(fe) - chord(r)).abs() / chord(r).abs()]
+    [
+        (fe.z - r.z).abs() / r.z.abs(),
+        (fe.psi - r.psi).abs() / r.psi.abs(),
+        (chord(fe) - chord(r)).abs() / chord(r).abs(),
+    ]
 }
 
 /// Greenhill's critical `q = w ℓ³ / K` of a heavy column clamped upright (the first zero of `J_{−1/3}`:

@@ -9,9 +9,11 @@
 //!   smallest shift `μ ≥ 0` that makes the matrix positive definite and keeps the quadratic model honest; the
 //!   step is accepted on the ratio of the actual to the predicted decrease of `Π` and `μ` adapted from it (the
 //!   positive semi-definite Hessian stands in where the exact one cannot be factorised at the current shift).
-//! - **Second-order correction**: a rotation step, linear in the nodes, stretches the sheet to second order,
-//!   which its membrane stiffness punishes; a rejected step is corrected by `q = −(H + μI)⁻¹ ∇Π(x + p)` with the
-//!   same factor (one back-substitution), which restores the lengths, and judged again.
+//! - **Watchdog** (Chamberlain, Powell, Lemaréchal and Pedersen 1982): a rotation step, linear in the nodes,
+//!   stretches the sheet to second order, which its membrane stiffness punishes, so `Π` rejects good steps. A
+//!   rejected step is followed anyway by further Newton steps (the next one restores the lengths) for up to
+//!   [`WATCH_STEPS`] iterations; the first point below the checkpoint's sufficient decrease ends the watch, else
+//!   the solver returns to the checkpoint with a larger shift.
 //! - **Saddle escape**: at a stationary point where the exact Hessian is not positive semi-definite (a straight
 //!   strip standing past its buckling height), the direction of most negative curvature (inverse iteration on
 //!   the shifted Hessian) is followed until `Π` decreases, and Newton continues from there.
@@ -135,6 +137,8 @@ const FIRST_MIN: usize = 40;
 const STEP_CAP: usize = 15;
 /// A load step this quick doubles the next increment.
 const STEP_QUICK: usize = 6;
+/// Saddle escapes of one Newton solve at most.
+const MAX_ESCAPES: usize = 8;
 /// Sufficient decrease of `Π` (fraction of the model's).
 const ARMIJO: f64 = 1e-4;
 /// Tentative Newton steps of a watchdog.
@@ -238,20 +242,16 @@ impl StaticSolver {
             budget
         };
         match self.newton(model, x, 1.0, load, opts.tolerance, first)? {
-            Outcome::Converged(it, residual, potential, escapes) => {
-                return Ok(StaticReport {
-                    iterations: it,
-                    residual,
-                    potential,
-                    load_steps: vec![LoadStep { load: 1.0, iterations: it }],
-                    abandoned: 0,
-                    escapes,
-                })
-            }
-            Outcome::Runaway(drift, force) => return Err(StaticError::NoEquilibrium { drift, force }),
-            Outcome::Failed(it, residual) if first == budget => {
-                return Err(self.diagnose(model, x, &start, it, residual, 1.0));
-            }
+            Outcome::Converged(it, residual, potential, escapes) => Ok(StaticReport {
+                iterations: it,
+                residual,
+                potential,
+                load_steps: vec![LoadStep { load: 1.0, iterations: it }],
+                abandoned: 0,
+                escapes,
+            }),
+            Outcome::Runaway(drift, force) => Err(StaticError::NoEquilibrium { drift, force }),
+            Outcome::Failed(it, residual) if first == budget => Err(self.diagnose(model, x, &start, it, residual, 1.0)),
             Outcome::Failed(it, _) => {
                 x.copy_from_slice(&start);
                 self.continuation(model, x, load, opts, it)
@@ -381,7 +381,7 @@ impl StaticSolver {
                 }
             }
             let pt = self.eval(model, &y, 1.0, Want::VALUE);
-            if !(pt < pi - 0.5 * f * t) {
+            if pt.is_nan() || pt >= pi - 0.5 * f * t {
                 return None;
             }
         }
@@ -402,8 +402,7 @@ impl StaticSolver {
     /// Factorises the assembled matrix plus `s I` (added in place, then removed); true on success.
     fn factor_with(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
         self.shift(model, s);
-        let ok =
-            self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, false).is_ok();
+        let ok = self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, false).is_ok();
         self.shift(model, -s);
         ok
     }
@@ -417,7 +416,7 @@ impl StaticSolver {
     }
 
     /// Newton's method at load factor `lam` from `x`, at most `budget` iterations: the trust region, the
-    /// second-order correction, the watchdog and the saddle escape of the module documentation.
+    /// watchdog and the saddle escape of the module documentation.
     #[allow(clippy::too_many_lines)]
     fn newton(
         &mut self,
@@ -429,14 +428,11 @@ impl StaticSolver {
         budget: usize,
     ) -> Result<Outcome, StaticError> {
         let n = x.len();
-        let fixed = model.pinned();
         let start = x.to_vec();
         let mut runaway = 1e3 * model.length_scale();
         let mut grad = vec![Vec3::ZERO; n];
         let mut step = vec![Vec3::ZERO; n];
-        let mut corr = vec![Vec3::ZERO; n];
         let mut trial = x.to_vec();
-        let mut trial2 = x.to_vec();
         // Levenberg shift relative to the matrix scale (0: pure Newton).
         let mut mu: f64 = 0.0;
         let mut escapes = 0;
@@ -445,6 +441,8 @@ impl StaticSolver {
         let mut fresh = true;
         let mut pi = 0.0;
         let mut op = Operator::Exact;
+        // The last factorisation was of the exact Hessian with no more than the floor shift.
+        let mut certified = false;
         // Watchdog: a rejected full step is followed tentatively for a few Newton steps from this checkpoint.
         let mut watch: Option<Watch> = None;
         // Accepted steps since the last failed watchdog (a watchdog is armed after two).
@@ -476,9 +474,16 @@ impl StaticSolver {
                     }
                 }
                 if res <= tol && watch.is_none() {
-                    if let Some(o) = self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, &mut escapes)? {
-                        return Ok(o(it, res, pi));
+                    // A positive definite exact Hessian factorised at μ = 0 on the last iteration certifies
+                    // stability; else check (and leave a saddle).
+                    if certified
+                        || escapes >= MAX_ESCAPES
+                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, true)?
+                    {
+                        return Ok(Outcome::Converged(it, res, pi, escapes));
                     }
+                    escapes += 1;
+                    certified = false;
                     it += 1;
                     mu = 0.0;
                     continue;
@@ -504,6 +509,7 @@ impl StaticSolver {
                 }
                 if self.factor_with(model, s, &mut step) {
                     ok = true;
+                    certified = op == Operator::Exact && mu * scale <= EPS_SHIFT * scale;
                     break;
                 }
                 if op == Operator::Exact {
@@ -524,7 +530,7 @@ impl StaticSolver {
             for k in 0..n {
                 trial[k] = x[k] + step[k];
             }
-            if !(pred < 0.0) || -pred <= 1e-14 * pi.abs().max(f64::MIN_POSITIVE) {
+            if pred.is_nan() || pred >= 0.0 || -pred <= 1e-14 * pi.abs().max(f64::MIN_POSITIVE) {
                 // Π cannot resolve the decrease: judge the step on the residual instead.
                 let pt = self.eval(model, &trial, lam, Want::GRADIENT);
                 let rt = self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
@@ -534,9 +540,15 @@ impl StaticSolver {
                     continue;
                 }
                 if res <= tol.sqrt() && watch.is_none() {
-                    if let Some(o) = self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, &mut escapes)? {
-                        return Ok(o(it, res, pi));
+                    let exact_at_x = fresh && op == Operator::Exact;
+                    if certified
+                        || escapes >= MAX_ESCAPES
+                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, exact_at_x)?
+                    {
+                        return Ok(Outcome::Converged(it, res, pi, escapes));
                     }
+                    escapes += 1;
+                    certified = false;
                     mu = 0.0;
                     fresh = true;
                     continue;
@@ -549,42 +561,14 @@ impl StaticSolver {
                 continue;
             }
             let pt = self.eval(model, &trial, lam, Want::VALUE);
-            let mut rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
-            let mut second = false;
-            if rho < 0.25 && pt.is_finite() && watch.is_none() {
-                // Second-order correction with the same factor.
-                trial2.copy_from_slice(&trial);
-                for _ in 0..2 {
-                    self.eval(model, &trial2, lam, Want::GRADIENT);
-                    for (c, g) in corr.iter_mut().zip(&self.ws.grad) {
-                        *c = -*g;
-                    }
-                    if !self.resolve(model, s, &mut corr) {
-                        break;
-                    }
-                    for k in 0..n {
-                        if !fixed[k] {
-                            trial2[k] += corr[k];
-                        }
-                    }
-                    let p2 = self.eval(model, &trial2, lam, Want::VALUE);
-                    let rho2 = if p2.is_finite() { (p2 - pi) / pred } else { f64::NEG_INFINITY };
-                    if rho2 > rho {
-                        rho = rho2;
-                        second = true;
-                    }
-                    if rho2 >= 0.25 {
-                        break;
-                    }
-                }
-            }
+            let rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
             if watch.is_some() {
                 // Tentative: follow the Newton step whatever Π does (the checkpoint decides).
                 x.copy_from_slice(&trial);
                 fresh = true;
                 mu = 0.0;
             } else if rho > ARMIJO {
-                x.copy_from_slice(if second { &trial2 } else { &trial });
+                x.copy_from_slice(&trial);
                 if rho > 0.75 {
                     mu = if mu <= 1e-10 { 0.0 } else { mu * 0.125 };
                 } else if rho < 0.25 {
@@ -605,6 +589,14 @@ impl StaticSolver {
                 let need = gn / (alpha * pp.sqrt()) / scale;
                 mu = (mu * 4.0).max(need.min(mu * 1e3 + 1e-10)).max(1e-10);
                 fresh = false;
+                if mu > 1e6 {
+                    // No step of any length decreases Π: round-off, if the residual is that small.
+                    return Ok(if res <= tol.sqrt() {
+                        Outcome::Converged(it, res, pi, escapes)
+                    } else {
+                        Outcome::Failed(it, res)
+                    });
+                }
             }
         }
         Ok(Outcome::Failed(it, res))
@@ -617,9 +609,9 @@ impl StaticSolver {
         *since_watch = 0;
     }
 
-    /// At a converged point: `Some(outcome)` if it is stable (or cannot be left), else leaves the saddle along
-    /// its most negative curvature into `x` and returns `None`.
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    /// At a converged point `x`: true if it is stable (or cannot be left); else leaves the saddle along its most
+    /// negative curvature (into `x`) and returns false. `exact_at_x`: the workspace holds the exact Hessian at `x`.
+    #[allow(clippy::too_many_arguments)]
     fn stable_or_escape(
         &mut self,
         model: &Model,
@@ -628,29 +620,23 @@ impl StaticSolver {
         pi: f64,
         grad: &[Vec3],
         trial: &mut [Vec3],
-        escapes: &mut usize,
-    ) -> Result<Option<Box<dyn Fn(usize, f64, f64) -> Outcome>>, StaticError> {
-        let e = *escapes;
-        let done = move |it, res, pi| Outcome::Converged(it, res, pi, e);
-        if *escapes >= 8 {
-            return Ok(Some(Box::new(done)));
+        exact_at_x: bool,
+    ) -> Result<bool, StaticError> {
+        if !exact_at_x {
+            self.eval(model, x, lam, Want { grad: false, hess: Some(Operator::Exact) });
         }
-        // The workspace holds the exact Hessian at x (the last full evaluation).
-        self.eval(model, x, lam, Want { grad: false, hess: Some(Operator::Exact) });
-        let Some(d) = self.negative_curvature(model, x)? else { return Ok(Some(Box::new(done))) };
+        let Some(d) = self.negative_curvature(model)? else { return Ok(true) };
         if !self.escape(model, x, lam, pi, grad, &d, trial) {
-            return Ok(Some(Box::new(done)));
+            return Ok(true);
         }
-        *escapes += 1;
         x.copy_from_slice(trial);
-        Ok(None)
+        Ok(false)
     }
 
     /// At a stationary point `x`: the direction of most negative curvature of the exact Hessian (assembled in
     /// the workspace by the last evaluation at `x`), or `None` when the Hessian is positive semi-definite to
     /// [`EPS_SHIFT`] of its scale.
-    fn negative_curvature(&mut self, model: &Model, x: &[Vec3]) -> Result<Option<Vec<Vec3>>, StaticError> {
-        let _ = x;
+    fn negative_curvature(&mut self, model: &Model) -> Result<Option<Vec<Vec3>>, StaticError> {
         let n = model.potential.fixed().len();
         let fixed = model.pinned();
         let scale = self.scale();
@@ -682,7 +668,11 @@ impl StaticSolver {
         // Inverse iteration on H + hi I from a fixed, generic start.
         for (k, d) in v.iter_mut().enumerate() {
             let h = (k as f64 * 0.618_033_988_75).fract();
-            *d = if fixed[k] { Vec3::ZERO } else { Vec3::new(h - 0.5, (3.0 * h).fract() - 0.5, (7.0 * h).fract() - 0.5) };
+            *d = if fixed[k] {
+                Vec3::ZERO
+            } else {
+                Vec3::new(h - 0.5, (3.0 * h).fract() - 0.5, (7.0 * h).fract() - 0.5)
+            };
         }
         if !self.factor_with(model, hi, &mut v) {
             return Ok(None);
@@ -725,7 +715,7 @@ impl StaticSolver {
         let gd: f64 = grad.iter().zip(d).map(|(g, v)| g.dot(*v)).sum();
         let sign = if gd > 0.0 { -1.0 } else { 1.0 };
         let big = d.iter().map(|v| v.length()).fold(0.0, f64::max);
-        if !(big > 0.0) {
+        if big.is_nan() || big <= 0.0 {
             return false;
         }
         let mut alpha = 0.1 * model.length_scale() / big;
