@@ -61,7 +61,7 @@ fn shoot(q: f64, psi0: f64, a: f64) -> (f64, Shape, bool) {
 /// `ψ'(1) = 0` (bracketed on a scan of `[−q/2, 0)`, then bisected), or `None` when only the straight column is
 /// a solution.
 fn elastica(q: f64, psi0: f64) -> Option<Shape> {
-    let n = 2000;
+    let n = 400;
     let at = |i: usize| -0.6 * q * (n - i) as f64 / n as f64;
     let mut best = None;
     for i in 0..n - 1 {

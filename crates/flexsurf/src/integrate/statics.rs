@@ -41,7 +41,8 @@ pub enum StaticError {
     /// Newton did not reach the tolerance within the iteration budget (or stalled at round-off above it).
     #[error(
         "static solve did not converge within {iterations} Newton iterations: relative residual {residual:.3e} \
-         reached at load factor {load:.3} (hint: raise the iteration limit or start closer to the equilibrium)"
+         reached at load factor {load:.3} (hint: this does not mean there is no equilibrium; start closer to it, \
+         raise the solver's iteration limit, or relax the sheet dynamically with `integrator.kind = \"linearized\"`)"
     )]
     NotConverged {
         /// Iterations made.
@@ -51,15 +52,15 @@ pub enum StaticError {
         /// Load factor reached (1: the full load).
         load: f64,
     },
-    /// The total potential is unbounded below: there is no equilibrium to find.
+    /// The total potential is unbounded below (shown along a rigid translation): there is no equilibrium.
     #[error(
-        "static solve: no equilibrium: the total potential decreases without bound (the sheet moved {drift:.3e} m \
-         along a net force of {force:.3e} N without meeting a support) (hint: a static solve needs the sheet held \
-         by pins or springs, or resting on a support it cannot slide off without friction; for a drop or a slide \
-         use `integrator.kind = \"linearized\"`)"
+        "static solve: no equilibrium: the total potential decreases without bound (a rigid translation of \
+         {drift:.3e} m along the net force of {force:.3e} N lowers it at no less than half that force's rate, meeting no support) \
+         (hint: a static solve needs the sheet held by pins or springs, or resting on a support it cannot slide \
+         off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
     )]
     NoEquilibrium {
-        /// How far the sheet ran (m).
+        /// Length of the translation probed, or of the iterates' run-away (m).
         drift: f64,
         /// The net force on the free nodes along the runaway (N).
         force: f64,
@@ -251,7 +252,9 @@ impl StaticSolver {
                 escapes,
             }),
             Outcome::Runaway(drift, force) => Err(StaticError::NoEquilibrium { drift, force }),
-            Outcome::Failed(it, residual) if first == budget => Err(self.diagnose(model, x, &start, it, residual, 1.0)),
+            Outcome::Failed(it, residual) if first == budget => {
+                Err(self.diagnose(model, x, &start, it, residual, 1.0, load))
+            }
             Outcome::Failed(it, _) => {
                 x.copy_from_slice(&start);
                 self.continuation(model, x, load, opts, it)
@@ -296,7 +299,7 @@ impl StaticSolver {
             let tol = if last { opts.tolerance } else { intermediate };
             let left = opts.max_iterations.saturating_sub(used);
             if left == 0 {
-                return Err(self.diagnose(model, x, &start, used, f64::NAN, lam));
+                return Err(self.diagnose(model, x, &start, used, f64::NAN, lam, load));
             }
             // A step that Newton does not finish quickly is cut.
             let cap = left.min(STEP_CAP);
@@ -326,7 +329,7 @@ impl StaticSolver {
                     used += it;
                     inc *= 0.5;
                     if inc < 1e-4 {
-                        return Err(self.diagnose(model, x, &start, used, residual, lam));
+                        return Err(self.diagnose(model, x, &start, used, residual, lam, load));
                     }
                 }
             }
@@ -334,7 +337,8 @@ impl StaticSolver {
     }
 
     /// The error of a failed solve: no equilibrium if `Π` is unbounded below along a rigid translation, else
-    /// not converged.
+    /// not converged (the residual relative to `force_scale`, evaluated here when not given).
+    #[allow(clippy::too_many_arguments)]
     fn diagnose(
         &mut self,
         model: &Model,
@@ -343,6 +347,7 @@ impl StaticSolver {
         iterations: usize,
         residual: f64,
         load: f64,
+        force_scale: f64,
     ) -> StaticError {
         if let Some((drift, force)) = self.unbounded(model, x) {
             return StaticError::NoEquilibrium { drift, force };
@@ -354,7 +359,7 @@ impl StaticSolver {
             residual
         } else {
             self.eval(model, x, load, Want::GRADIENT);
-            self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / Self::force_scale(model, x)
+            self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / force_scale
         };
         StaticError::NotConverged { iterations, residual, load }
     }
