@@ -34,7 +34,8 @@ struct Shape {
     psi: f64,
 }
 
-/// Integrates `ψ'' = q (1 − σ) cos ψ` (moment balance of the weight beyond σ: `K ψ' = −∫ w (x(t) − x(σ)) dt`)
+/// Integrates `ψ'' = q (1 − σ) cos ψ` (moment balance of the weight beyond σ:
+/// `K ψ' = −∫ w (x(t) − x(σ)) dt`)
 /// from `ψ(0) = ψ0`, `ψ'(0) = a`; returns `(ψ'(1), shape, ψ monotone along the arc)`.
 fn shoot(q: f64, psi0: f64, a: f64) -> (f64, Shape, bool) {
     let h = 1.0 / STEPS as f64;

@@ -55,9 +55,9 @@ pub enum StaticError {
     /// The total potential is unbounded below (shown along a rigid translation): there is no equilibrium.
     #[error(
         "static solve: no equilibrium: the total potential decreases without bound (a rigid translation of \
-         {drift:.3e} m along the net force of {force:.3e} N lowers it at no less than half that force's rate, meeting no support) \
-         (hint: a static solve needs the sheet held by pins or springs, or resting on a support it cannot slide \
-         off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
+         {drift:.3e} m along the net force of {force:.3e} N lowers it at no less than half that force's rate, \
+         meeting no support) (hint: a static solve needs the sheet held by pins or springs, or resting on a \
+         support it cannot slide off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
     )]
     NoEquilibrium {
         /// Length of the translation probed, or of the iterates' run-away (m).
