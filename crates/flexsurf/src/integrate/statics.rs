@@ -1,28 +1,69 @@
 //! Quasi-static equilibrium (docs/model.md §9): minimises the total potential
 //! `Π(x) = E_h(x) − Σ m g·x + contact penalty + springs` ([`crate::potential`], the same assembly as the time
-//! step) over the free nodes by Newton's method: the exact Hessian where it is positive definite, else the
-//! positive semi-definite one (plus a Levenberg shift when needed), with a backtracking (Armijo) line search on
-//! `Π`. Convergence is judged on the residual force relative to the largest load. A potential with a
-//! non-conservative term (the Terzopoulos force) has no `Π` to minimise and is refused.
+//! step) over the free nodes, to a stable equilibrium (a local minimum, not a saddle).
+//!
+//! The globalisation, for energies that are far from convex (large rotations of a sheet that is stiff in
+//! stretch and soft in bending, buckling, penalty contact):
+//!
+//! - **Levenberg–Marquardt trust region** on the exact Hessian: the step solves `(H + μI) p = −∇Π` with the
+//!   smallest shift `μ ≥ 0` that makes the matrix positive definite and keeps the quadratic model honest; the
+//!   step is accepted on the ratio of the actual to the predicted decrease of `Π` and `μ` adapted from it (the
+//!   positive semi-definite Hessian stands in where the exact one cannot be factorised at the current shift).
+//! - **Watchdog** (Chamberlain, Powell, Lemaréchal and Pedersen 1982): a rotation step, linear in the nodes,
+//!   stretches the sheet to second order, which its membrane stiffness punishes, so `Π` rejects good steps. A
+//!   rejected step is followed anyway by further Newton steps (the next one restores the lengths) for up to
+//!   [`WATCH_STEPS`] iterations; the first point below the checkpoint's sufficient decrease ends the watch, else
+//!   the solver returns to the checkpoint with a larger shift.
+//! - **Saddle escape**: at a stationary point where the exact Hessian is not positive semi-definite (a straight
+//!   strip standing past its buckling height), the direction of most negative curvature (inverse iteration on
+//!   the shifted Hessian) is followed until `Π` decreases, and Newton continues from there.
+//! - **Load continuation** as the fallback: if the full load does not converge within a share of the iteration
+//!   budget, the load terms (energy part [`Part::Load`]) are ramped by a load factor in adaptive increments from
+//!   the start, each increment started from the extrapolation of the last two equilibria.
+//!
+//! A potential that decreases without bound (an unpinned sheet falling with nothing below it) has no
+//! equilibrium: detected when the iterates run away or, after a failure, when a rigid translation along the
+//! net force lowers `Π` linearly for ever ([`StaticError::NoEquilibrium`]). Convergence is judged on the residual
+//! force relative to the largest load. A potential with a non-conservative term (the Terzopoulos force) has no
+//! `Π` to minimise and is refused.
 
 use super::linsolve::{LinearSolver, SolverKind};
 use crate::energy::Operator;
 use crate::math::{diag, Vec3};
 use crate::model::Model;
-use crate::potential::{Want, Workspace};
+use crate::potential::{Part, Want, Workspace};
 use serde::Serialize;
 use thiserror::Error;
 
 /// Failure of the static solve.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum StaticError {
-    /// Newton did not reach the tolerance.
-    #[error("static solve did not converge: relative residual {residual:.3e} after {iterations} Newton iterations")]
+    /// Newton did not reach the tolerance within the iteration budget (or stalled at round-off above it).
+    #[error(
+        "static solve did not converge within {iterations} Newton iterations: relative residual {residual:.3e} \
+         reached at load factor {load:.3} (hint: this does not mean there is no equilibrium; start closer to it, \
+         raise the solver's iteration limit, or relax the sheet dynamically with `integrator.kind = \"linearized\"`)"
+    )]
     NotConverged {
         /// Iterations made.
         iterations: usize,
         /// Relative residual reached.
         residual: f64,
+        /// Load factor reached (1: the full load).
+        load: f64,
+    },
+    /// The total potential is unbounded below (shown along a rigid translation): there is no equilibrium.
+    #[error(
+        "static solve: no equilibrium: the total potential decreases without bound (a rigid translation of \
+         {drift:.3e} m along the net force of {force:.3e} N lowers it at no less than half that force's rate, \
+         meeting no support) (hint: a static solve needs the sheet held by pins or springs, or resting on a \
+         support it cannot slide off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
+    )]
+    NoEquilibrium {
+        /// Length of the translation probed, or of the iterates' run-away (m).
+        drift: f64,
+        /// The net force on the free nodes along the runaway (N).
+        force: f64,
     },
     /// A term of the potential is not the gradient of an energy: there is no potential to minimise.
     #[error(
@@ -43,78 +84,141 @@ pub enum StaticError {
 pub struct StaticOptions {
     /// Stop when `|r|∞ ≤ tolerance · (largest nodal external load)`.
     pub tolerance: f64,
-    /// Newton iteration limit.
+    /// Newton iteration limit, all load steps together.
     pub max_iterations: usize,
 }
 
 impl Default for StaticOptions {
     fn default() -> Self {
-        Self { tolerance: 1e-9, max_iterations: 200 }
+        Self { tolerance: 1e-9, max_iterations: 500 }
     }
 }
 
-/// Result of a converged static solve.
+/// One load step of a converged static solve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LoadStep {
+    /// Load factor at the end of the step (1: the full load).
+    pub load: f64,
+    /// Newton iterations of the step.
+    pub iterations: usize,
+}
+
+/// Result of a converged static solve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StaticReport {
-    /// Newton iterations taken.
+    /// Newton iterations taken, all load steps (and an abandoned full-load attempt) together.
     pub iterations: usize,
     /// Final relative residual.
     pub residual: f64,
     /// Final total potential (J).
     pub potential: f64,
+    /// The load steps (one, at load factor 1, without continuation).
+    pub load_steps: Vec<LoadStep>,
+    /// Iterations of a full-load attempt abandoned for load continuation (0 if none).
+    pub abandoned: usize,
+    /// Saddle points left along a direction of negative curvature.
+    pub escapes: usize,
 }
+
+/// How one Newton solve at a fixed load factor ended.
+enum Outcome {
+    /// Converged to a stable equilibrium: (iterations, residual, potential, escapes).
+    Converged(usize, f64, f64, usize),
+    /// Ran out of iterations or stalled: (iterations, residual).
+    Failed(usize, f64),
+    /// The iterates ran away along a direction where `Π` falls for ever: (distance, net force).
+    Runaway(f64, f64),
+}
+
+/// The full-load attempt leaves this share of the iteration budget (1/4) to continuation.
+const FIRST_SHARE: usize = 4;
+/// Least iterations of the full-load attempt.
+const FIRST_MIN: usize = 40;
+/// Newton iterations of one load step before its increment is halved.
+const STEP_CAP: usize = 15;
+/// A load step this quick doubles the next increment.
+const STEP_QUICK: usize = 6;
+/// Saddle escapes of one Newton solve at most.
+const MAX_ESCAPES: usize = 8;
+/// Sufficient decrease of `Π` (fraction of the model's).
+const ARMIJO: f64 = 1e-4;
+/// Tentative Newton steps of a watchdog.
+const WATCH_STEPS: usize = 4;
+/// Accepted steps after a failed watchdog before the next one.
+const WATCH_REARM: usize = 2;
+
+/// A watchdog's checkpoint: the point, its value, the rejected step's predicted decrease, the shift, and the
+/// tentative steps left.
+struct Watch {
+    x: Vec<Vec3>,
+    pi: f64,
+    pred: f64,
+    mu: f64,
+    left: usize,
+}
+
+/// Relative diagonal shift that keeps free rigid modes solvable and is the threshold of "negative" curvature.
+const EPS_SHIFT: f64 = 1e-12;
 
 /// Newton solver workspace for one model.
 pub struct StaticSolver {
     solver: LinearSolver,
     ws: Workspace,
-    /// Try the exact Hessian first (see [`StaticSolver::solve`]).
-    exact: bool,
+    /// Gradient of the load terms (load continuation).
+    load_grad: Vec<Vec3>,
 }
 
 impl StaticSolver {
     /// Analyses the model's pattern.
     pub fn new(model: &Model) -> Result<Self, StaticError> {
+        let n = model.potential.fixed().len();
         Ok(Self {
             solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern())?,
             ws: Workspace::new(&model.potential),
-            exact: true,
+            load_grad: vec![Vec3::ZERO; n],
         })
     }
 
     /// Total potential and (optionally) its gradient over free nodes (written into `grad`), from cold contact
     /// queries.
     pub fn potential(model: &Model, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
-        Self::potential_in(&mut Workspace::new(&model.potential), model, x, grad)
-    }
-
-    fn potential_in(ws: &mut Workspace, model: &Model, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
+        let mut ws = Workspace::new(&model.potential);
         ws.cold();
         let want = if grad.is_some() { Want::GRADIENT } else { Want::VALUE };
-        let values = model.potential.assemble(x, &model.potential.context(None), None, want, ws);
+        let values = model.potential.assemble(x, &model.potential.context(None), None, want, &mut ws);
         if let Some(g) = grad {
             g.copy_from_slice(&ws.grad);
         }
         values.total
     }
 
-    /// The matrix at `x` (into the workspace): the Hessian approximation `op` of every term.
-    fn assemble(&mut self, model: &Model, x: &[Vec3], op: Operator) {
+    /// `Π_λ(x) = Π(x) − (1 − λ) Π_load(x)` at load factor `lam` and what `want` asks (gradient into
+    /// `self.ws.grad`, matrix into `self.ws.matrix`), from cold contact queries. The load terms' Hessian is not
+    /// scaled: gravity and constant loads are linear in `x` (zero Hessian).
+    fn eval(&mut self, model: &Model, x: &[Vec3], lam: f64, want: Want) -> f64 {
         self.ws.cold();
-        let want = Want { grad: false, hess: Some(op) };
-        model.potential.assemble(x, &model.potential.context(None), None, want, &mut self.ws);
+        let mut total = model.potential.assemble(x, &model.potential.context(None), None, want, &mut self.ws).total;
+        if lam != 1.0 {
+            let c = 1.0 - lam;
+            if want.grad {
+                self.load_grad.fill(Vec3::ZERO);
+                let v = model.potential.value_of(x, |p| p == Part::Load, Some(&mut self.load_grad)).total;
+                total -= c * v;
+                for ((g, l), &f) in self.ws.grad.iter_mut().zip(&self.load_grad).zip(model.pinned()) {
+                    if !f {
+                        *g -= *l * c;
+                    }
+                }
+            } else {
+                total -= c * model.potential.value_of(x, |p| p == Part::Load, None).total;
+            }
+        }
+        total
     }
 
     /// Size of the matrix entries, for relative shifts.
     fn scale(&self) -> f64 {
-        self.ws.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max)
-    }
-
-    /// Subtracts `s I` from every diagonal block.
-    fn unshift(&mut self, model: &Model, s: f64) {
-        for d in model.potential.diag_ids() {
-            self.ws.matrix.blocks[*d as usize] -= diag(s);
-        }
+        self.ws.matrix.blocks.iter().map(|b| b.abs().to_cols_array()[0]).fold(0.0, f64::max).max(f64::MIN_POSITIVE)
     }
 
     /// Adds `s I` to every diagonal block.
@@ -129,37 +233,164 @@ impl StaticSolver {
         if let Some(term) = model.potential.non_conservative() {
             return Err(StaticError::NonConservative { term });
         }
-        let n = x.len();
         let load = Self::force_scale(model, x);
-        let mut grad = vec![Vec3::ZERO; n];
-        let mut step = vec![Vec3::ZERO; n];
-        let mut trial = x.to_vec();
-        let mut shift: f64 = 0.0;
-        for it in 0..opts.max_iterations {
-            grad.fill(Vec3::ZERO);
-            let pi = Self::potential_in(&mut self.ws, model, x, Some(&mut grad));
-            let res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
-            if res <= opts.tolerance {
-                return Ok(StaticReport { iterations: it, residual: res, potential: pi });
+        let start = x.to_vec();
+        let budget = opts.max_iterations;
+        // The full load first, with a share of the budget when continuation can take over.
+        let first = if model.potential.load_scale(None, model.length_scale()) > 0.0 {
+            (budget - budget / FIRST_SHARE).max(FIRST_MIN).min(budget)
+        } else {
+            budget
+        };
+        match self.newton(model, x, 1.0, load, opts.tolerance, first)? {
+            Outcome::Converged(it, residual, potential, escapes) => Ok(StaticReport {
+                iterations: it,
+                residual,
+                potential,
+                load_steps: vec![LoadStep { load: 1.0, iterations: it }],
+                abandoned: 0,
+                escapes,
+            }),
+            Outcome::Runaway(drift, force) => Err(StaticError::NoEquilibrium { drift, force }),
+            Outcome::Failed(it, residual) if first == budget => {
+                Err(self.diagnose(model, x, &start, it, residual, 1.0, load))
             }
-            if !self.direction(model, x, &grad, &mut step, &mut shift) {
-                return Err(StaticError::NotConverged { iterations: it, residual: res });
+            Outcome::Failed(it, _) => {
+                x.copy_from_slice(&start);
+                self.continuation(model, x, load, opts, it)
             }
-            let slope: f64 = grad.iter().zip(&step).map(|(g, d)| g.dot(*d)).sum();
-            // Newton decrement at round-off of Π: no further progress is representable.
-            if -slope <= 1e-13 * pi.abs().max(f64::MIN_POSITIVE) && res <= opts.tolerance.sqrt() {
-                return Ok(StaticReport { iterations: it, residual: res, potential: pi });
-            }
-            if !self.line_search(model, x, &step, pi, slope, &mut trial) {
-                // No decrease possible at this precision.
-                return Err(StaticError::NotConverged { iterations: it, residual: res });
-            }
-            x.copy_from_slice(&trial);
         }
-        grad.fill(Vec3::ZERO);
-        let _ = Self::potential_in(&mut self.ws, model, x, Some(&mut grad));
-        let res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
-        Err(StaticError::NotConverged { iterations: opts.max_iterations, residual: res })
+    }
+
+    /// Load continuation from `x` (the start) after a full-load attempt of `abandoned` iterations: the load
+    /// factor ramps to 1 in increments that grow after quick steps and halve after failed ones; each step starts
+    /// from the secant extrapolation of the last two equilibria.
+    fn continuation(
+        &mut self,
+        model: &Model,
+        x: &mut [Vec3],
+        load: f64,
+        opts: &StaticOptions,
+        abandoned: usize,
+    ) -> Result<StaticReport, StaticError> {
+        let start = x.to_vec();
+        let mut used = abandoned;
+        let mut steps = Vec::new();
+        let mut escapes = 0;
+        // Last two equilibria (load factor, positions); the start counts as the equilibrium of load 0 only for
+        // the extrapolation's direction.
+        let mut prev: Option<(f64, Vec<Vec3>)> = None;
+        let mut lam = 0.0;
+        let mut inc: f64 = 0.125;
+        let mut base = x.to_vec();
+        let intermediate = opts.tolerance.max(1e-6);
+        loop {
+            let target = (lam + inc).min(1.0);
+            let last = target >= 1.0;
+            // Predictor: secant through the last two equilibria.
+            if let Some((l0, x0)) = &prev {
+                let r = (target - lam) / (lam - l0);
+                for k in 0..x.len() {
+                    x[k] = base[k] + (base[k] - x0[k]) * r;
+                }
+            } else {
+                x.copy_from_slice(&base);
+            }
+            let tol = if last { opts.tolerance } else { intermediate };
+            let left = opts.max_iterations.saturating_sub(used);
+            if left == 0 {
+                return Err(self.diagnose(model, x, &start, used, f64::NAN, lam, load));
+            }
+            // A step that Newton does not finish quickly is cut.
+            let cap = left.min(STEP_CAP);
+            match self.newton(model, x, target, load, tol, cap)? {
+                Outcome::Converged(it, residual, potential, e) => {
+                    used += it;
+                    escapes += e;
+                    steps.push(LoadStep { load: target, iterations: it });
+                    if last {
+                        return Ok(StaticReport {
+                            iterations: used,
+                            residual,
+                            potential,
+                            load_steps: steps,
+                            abandoned,
+                            escapes,
+                        });
+                    }
+                    prev = Some((lam, std::mem::replace(&mut base, x.to_vec())));
+                    lam = target;
+                    if it <= STEP_QUICK {
+                        inc = (inc * 2.0).min(0.5);
+                    }
+                }
+                Outcome::Runaway(drift, force) => return Err(StaticError::NoEquilibrium { drift, force }),
+                Outcome::Failed(it, residual) => {
+                    used += it;
+                    inc *= 0.5;
+                    if inc < 1e-4 {
+                        return Err(self.diagnose(model, x, &start, used, residual, lam, load));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The error of a failed solve: no equilibrium if `Π` is unbounded below along a rigid translation, else
+    /// not converged (the residual relative to `force_scale`, evaluated here when not given).
+    #[allow(clippy::too_many_arguments)]
+    fn diagnose(
+        &mut self,
+        model: &Model,
+        x: &[Vec3],
+        start: &[Vec3],
+        iterations: usize,
+        residual: f64,
+        load: f64,
+        force_scale: f64,
+    ) -> StaticError {
+        if let Some((drift, force)) = self.unbounded(model, x) {
+            return StaticError::NoEquilibrium { drift, force };
+        }
+        if let Some((drift, force)) = self.unbounded(model, start) {
+            return StaticError::NoEquilibrium { drift, force };
+        }
+        let residual = if residual.is_finite() {
+            residual
+        } else {
+            self.eval(model, x, load, Want::GRADIENT);
+            self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / force_scale
+        };
+        StaticError::NotConverged { iterations, residual, load }
+    }
+
+    /// A rigid translation of the free nodes along the net force on them that lowers `Π` linearly for ever
+    /// (probed out to 10⁶ sheet lengths): (distance probed, net force).
+    fn unbounded(&mut self, model: &Model, x: &[Vec3]) -> Option<(f64, f64)> {
+        let pi = self.eval(model, x, 1.0, Want::GRADIENT);
+        let force: Vec3 = self.ws.grad.iter().fold(Vec3::ZERO, |a, g| a - *g);
+        let f = force.length();
+        if !(f > 0.0 && f.is_finite()) {
+            return None;
+        }
+        let dir = force / f;
+        let fixed = model.pinned();
+        let mut y = x.to_vec();
+        let l = model.length_scale();
+        let mut t = l;
+        for _ in 0..6 {
+            t *= 10.0;
+            for k in 0..x.len() {
+                if !fixed[k] {
+                    y[k] = x[k] + dir * t;
+                }
+            }
+            let pt = self.eval(model, &y, 1.0, Want::VALUE);
+            if pt.is_nan() || pt >= pi - 0.5 * f * t {
+                return None;
+            }
+        }
+        Some((t, f))
     }
 
     /// Force scale of the residual: the largest external load or spring force scale, or (for a problem driven by
@@ -173,63 +404,332 @@ impl StaticSolver {
             .max(f64::MIN_POSITIVE)
     }
 
-    /// The Newton direction into `step`: with the exact Hessian where it is positive definite (quadratic
-    /// convergence near a stable equilibrium); where Cholesky meets a non-positive pivot or the direction does not
-    /// descend, with the positive semi-definite Hessian and a Levenberg shift (`shift`, grown on failure and
-    /// relaxed after success) instead. False if no direction was found.
-    fn direction(&mut self, model: &Model, x: &[Vec3], grad: &[Vec3], step: &mut [Vec3], shift: &mut f64) -> bool {
-        if self.exact {
-            self.assemble(model, x, Operator::Exact);
+    /// Factorises the assembled matrix plus `s I` (added in place, then removed); true on success.
+    fn factor_with(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
+        self.shift(model, s);
+        let ok = self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, false).is_ok();
+        self.shift(model, -s);
+        ok
+    }
+
+    /// Back-substitution with the current factor (`rhs` in place); the matrix must be the factorised one.
+    fn resolve(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
+        self.shift(model, s);
+        let ok = self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, true).is_ok();
+        self.shift(model, -s);
+        ok
+    }
+
+    /// Newton's method at load factor `lam` from `x`, at most `budget` iterations: the trust region, the
+    /// watchdog and the saddle escape of the module documentation.
+    #[allow(clippy::too_many_lines)]
+    fn newton(
+        &mut self,
+        model: &Model,
+        x: &mut [Vec3],
+        lam: f64,
+        load: f64,
+        tol: f64,
+        budget: usize,
+    ) -> Result<Outcome, StaticError> {
+        let n = x.len();
+        let start = x.to_vec();
+        let mut runaway = 1e3 * model.length_scale();
+        let mut grad = vec![Vec3::ZERO; n];
+        let mut step = vec![Vec3::ZERO; n];
+        let mut trial = x.to_vec();
+        // Levenberg shift relative to the matrix scale (0: pure Newton).
+        let mut mu: f64 = 0.0;
+        let mut escapes = 0;
+        let mut res = f64::INFINITY;
+        let mut it = 0;
+        let mut fresh = true;
+        let mut pi = 0.0;
+        let mut op = Operator::Exact;
+        // The last factorisation was of the exact Hessian with no more than the floor shift.
+        let mut certified = false;
+        // Watchdog: a rejected full step is followed tentatively for a few Newton steps from this checkpoint.
+        let mut watch: Option<Watch> = None;
+        // Accepted steps since the last failed watchdog (a watchdog is armed after two).
+        let mut since_watch = WATCH_REARM;
+        while it < budget {
+            if fresh {
+                op = Operator::Exact;
+                pi = self.eval(model, x, lam, Want { grad: true, hess: Some(op) });
+                grad.copy_from_slice(&self.ws.grad);
+                res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
+                if !pi.is_finite() || !res.is_finite() {
+                    match watch.take() {
+                        Some(w) => {
+                            self.restore(x, &w, &mut mu, &mut since_watch);
+                            continue;
+                        }
+                        None => return Ok(Outcome::Failed(it, res)),
+                    }
+                }
+                if let Some(w) = &mut watch {
+                    if pi <= w.pi + ARMIJO * w.pred {
+                        watch = None;
+                    } else if w.left == 0 {
+                        let w = watch.take().unwrap_or_else(|| unreachable!());
+                        self.restore(x, &w, &mut mu, &mut since_watch);
+                        continue;
+                    } else {
+                        w.left -= 1;
+                    }
+                }
+                if res <= tol && watch.is_none() {
+                    // A positive definite exact Hessian factorised at μ = 0 on the last iteration certifies
+                    // stability; else check (and leave a saddle).
+                    if certified
+                        || escapes >= MAX_ESCAPES
+                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, true)?
+                    {
+                        return Ok(Outcome::Converged(it, res, pi, escapes));
+                    }
+                    escapes += 1;
+                    certified = false;
+                    it += 1;
+                    mu = 0.0;
+                    continue;
+                }
+                let drift = x.iter().zip(&start).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+                if drift > runaway {
+                    // Far from the start: either the sheet falls for ever, or it drifted along a flat rigid mode.
+                    if let Some((d, f)) = self.unbounded(model, x) {
+                        return Ok(Outcome::Runaway(d.max(drift), f));
+                    }
+                    runaway *= 10.0;
+                }
+            }
+            it += 1;
+            // Factorise H + μ s I, growing μ until positive definite; the PSD operator where the exact one
+            // cannot be factorised at a moderate shift.
             let scale = self.scale();
-            self.shift(model, 1e-12 * scale);
-            if self.solve_for(model, grad, step) {
-                let slope: f64 = grad.iter().zip(step.iter()).map(|(g, d)| g.dot(*d)).sum();
-                if slope < 0.0 {
-                    return true;
+            let mut ok = false;
+            for _ in 0..16 {
+                let s = (mu * scale).max(EPS_SHIFT * scale);
+                for (p, g) in step.iter_mut().zip(&grad) {
+                    *p = -*g;
+                }
+                if self.factor_with(model, s, &mut step) {
+                    ok = true;
+                    certified = op == Operator::Exact && mu * scale <= EPS_SHIFT * scale;
+                    break;
+                }
+                if op == Operator::Exact {
+                    op = Operator::Projected;
+                    self.eval(model, x, lam, Want { grad: false, hess: Some(op) });
+                    continue;
+                }
+                mu = (mu * 10.0).max(1e-10);
+            }
+            if !ok {
+                return Ok(Outcome::Failed(it, res));
+            }
+            let s = (mu * scale).max(EPS_SHIFT * scale);
+            let gp: f64 = grad.iter().zip(&step).map(|(g, p)| g.dot(*p)).sum();
+            let pp: f64 = step.iter().map(|p| p.length_squared()).sum();
+            // Model decrease m(p) = g·p + ½ pᵀHp with (H + sI) p = −g.
+            let pred = 0.5 * (gp - s * pp);
+            for k in 0..n {
+                trial[k] = x[k] + step[k];
+            }
+            if pred.is_nan() || pred >= 0.0 || -pred <= 1e-14 * pi.abs().max(f64::MIN_POSITIVE) {
+                // Π cannot resolve the decrease: judge the step on the residual instead.
+                let pt = self.eval(model, &trial, lam, Want::GRADIENT);
+                let rt = self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
+                if pt.is_finite() && rt < 0.5 * res {
+                    x.copy_from_slice(&trial);
+                    fresh = true;
+                    continue;
+                }
+                if res <= tol.sqrt() && watch.is_none() {
+                    let exact_at_x = fresh && op == Operator::Exact;
+                    if certified
+                        || escapes >= MAX_ESCAPES
+                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, exact_at_x)?
+                    {
+                        return Ok(Outcome::Converged(it, res, pi, escapes));
+                    }
+                    escapes += 1;
+                    certified = false;
+                    mu = 0.0;
+                    fresh = true;
+                    continue;
+                }
+                if mu > 1e6 {
+                    return Ok(Outcome::Failed(it, res));
+                }
+                mu = (mu * 10.0).max(1e-10);
+                fresh = false;
+                continue;
+            }
+            let pt = self.eval(model, &trial, lam, Want::VALUE);
+            let rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
+            if watch.is_some() {
+                // Tentative: follow the Newton step whatever Π does (the checkpoint decides).
+                x.copy_from_slice(&trial);
+                fresh = true;
+                mu = 0.0;
+            } else if rho > ARMIJO {
+                x.copy_from_slice(&trial);
+                if rho > 0.75 {
+                    mu = if mu <= 1e-10 { 0.0 } else { mu * 0.125 };
+                } else if rho < 0.25 {
+                    mu = (mu * 4.0).max(1e-10);
+                }
+                since_watch += 1;
+                fresh = true;
+            } else if since_watch >= WATCH_REARM && pt.is_finite() {
+                watch = Some(Watch { x: x.to_vec(), pi, pred, mu, left: WATCH_STEPS });
+                x.copy_from_slice(&trial);
+                mu = 0.0;
+                fresh = true;
+            } else {
+                // Rejected: the step that the quadratic fit of Π along p would take sets the new shift.
+                let fit = if pt.is_finite() { -gp / (2.0 * (pt - pi - gp)) } else { 0.0 };
+                let alpha = if fit.is_finite() && fit > 0.0 { fit.clamp(0.1, 0.5) } else { 0.1 };
+                let gn: f64 = grad.iter().map(|g| g.length_squared()).sum::<f64>().sqrt();
+                let need = gn / (alpha * pp.sqrt()) / scale;
+                mu = (mu * 4.0).max(need.min(mu * 1e3 + 1e-10)).max(1e-10);
+                fresh = false;
+                if mu > 1e6 {
+                    // No step of any length decreases Π: round-off, if the residual is that small.
+                    return Ok(if res <= tol.sqrt() {
+                        Outcome::Converged(it, res, pi, escapes)
+                    } else {
+                        Outcome::Failed(it, res)
+                    });
                 }
             }
         }
-        self.assemble(model, x, Operator::Projected);
-        // A tiny relative shift keeps free rigid modes (no pins) solvable; grown on failure.
+        Ok(Outcome::Failed(it, res))
+    }
+
+    /// Back to a watchdog's checkpoint after it failed: a larger shift, no new watchdog for a while.
+    fn restore(&mut self, x: &mut [Vec3], w: &Watch, mu: &mut f64, since_watch: &mut usize) {
+        x.copy_from_slice(&w.x);
+        *mu = (w.mu * 4.0).max(1e-8);
+        *since_watch = 0;
+    }
+
+    /// At a converged point `x`: true if it is stable (or cannot be left); else leaves the saddle along its most
+    /// negative curvature (into `x`) and returns false. `exact_at_x`: the workspace holds the exact Hessian at `x`.
+    #[allow(clippy::too_many_arguments)]
+    fn stable_or_escape(
+        &mut self,
+        model: &Model,
+        x: &mut [Vec3],
+        lam: f64,
+        pi: f64,
+        grad: &[Vec3],
+        trial: &mut [Vec3],
+        exact_at_x: bool,
+    ) -> Result<bool, StaticError> {
+        if !exact_at_x {
+            self.eval(model, x, lam, Want { grad: false, hess: Some(Operator::Exact) });
+        }
+        let Some(d) = self.negative_curvature(model)? else { return Ok(true) };
+        if !self.escape(model, x, lam, pi, grad, &d, trial) {
+            return Ok(true);
+        }
+        x.copy_from_slice(trial);
+        Ok(false)
+    }
+
+    /// At a stationary point `x`: the direction of most negative curvature of the exact Hessian (assembled in
+    /// the workspace by the last evaluation at `x`), or `None` when the Hessian is positive semi-definite to
+    /// [`EPS_SHIFT`] of its scale.
+    fn negative_curvature(&mut self, model: &Model) -> Result<Option<Vec<Vec3>>, StaticError> {
+        let n = model.potential.fixed().len();
+        let fixed = model.pinned();
         let scale = self.scale();
-        for attempt in 0..8 {
-            let s = if attempt == 0 { shift.max(1e-12 * scale) } else { (*shift * 10.0).max(1e-8 * scale) };
-            self.shift(model, s);
-            if self.solve_for(model, grad, step) {
-                *shift = s * 0.1;
-                return true;
+        let mut v = vec![Vec3::ZERO; n];
+        let mut lo = EPS_SHIFT * scale;
+        if self.factor_with(model, lo, &mut v) {
+            return Ok(None);
+        }
+        // Bracket the smallest shift that factorises, then narrow it to a few per cent.
+        let mut hi = lo;
+        loop {
+            hi *= 10.0;
+            if hi > 1e3 * scale {
+                return Ok(None);
             }
-            self.unshift(model, s);
-            *shift = s;
+            if self.factor_with(model, hi, &mut v) {
+                break;
+            }
+            lo = hi;
         }
-        false
+        for _ in 0..6 {
+            let mid = (lo * hi).sqrt();
+            if self.factor_with(model, mid, &mut v) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        // Inverse iteration on H + hi I from a fixed, generic start.
+        for (k, d) in v.iter_mut().enumerate() {
+            let h = (k as f64 * 0.618_033_988_75).fract();
+            *d = if fixed[k] {
+                Vec3::ZERO
+            } else {
+                Vec3::new(h - 0.5, (3.0 * h).fract() - 0.5, (7.0 * h).fract() - 0.5)
+            };
+        }
+        if !self.factor_with(model, hi, &mut v) {
+            return Ok(None);
+        }
+        for _ in 0..12 {
+            let norm = v.iter().map(|d| d.length_squared()).sum::<f64>().sqrt();
+            if !(norm > 0.0 && norm.is_finite()) {
+                return Ok(None);
+            }
+            v.iter_mut().for_each(|d| *d /= norm);
+            if !self.resolve(model, hi, &mut v) {
+                return Ok(None);
+            }
+        }
+        let norm = v.iter().map(|d| d.length_squared()).sum::<f64>().sqrt();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return Ok(None);
+        }
+        v.iter_mut().for_each(|d| *d /= norm);
+        // Rayleigh quotient with the unshifted matrix.
+        let mut hv = vec![Vec3::ZERO; n];
+        self.ws.matrix.mul_add(model.potential.pattern(), &v, &mut hv);
+        let curv: f64 = v.iter().zip(&hv).zip(fixed).filter(|(_, &f)| !f).map(|((a, b), _)| a.dot(*b)).sum();
+        Ok((curv < -EPS_SHIFT * scale).then_some(v))
     }
 
-    /// Solves the assembled matrix for `step = −A⁻¹ grad`; false if the factorisation fails.
-    fn solve_for(&mut self, model: &Model, grad: &[Vec3], step: &mut [Vec3]) -> bool {
-        for (s, g) in step.iter_mut().zip(grad) {
-            *s = -*g;
-        }
-        self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), step, false).is_ok()
-    }
-
-    /// Armijo backtracking on Π along `step` from `x` (value `pi`, slope `slope`): the accepted point in `trial`.
-    fn line_search(
+    /// Leaves a saddle at `x` (value `pi`, gradient `grad`) along the unit direction `d`: the largest step, from
+    /// a tenth of the sheet's size down, that lowers `Π`, into `trial`. False if none does.
+    #[allow(clippy::too_many_arguments)]
+    fn escape(
         &mut self,
         model: &Model,
         x: &[Vec3],
-        step: &[Vec3],
+        lam: f64,
         pi: f64,
-        slope: f64,
+        grad: &[Vec3],
+        d: &[Vec3],
         trial: &mut [Vec3],
     ) -> bool {
-        let mut alpha = 1.0;
+        let gd: f64 = grad.iter().zip(d).map(|(g, v)| g.dot(*v)).sum();
+        let sign = if gd > 0.0 { -1.0 } else { 1.0 };
+        let big = d.iter().map(|v| v.length()).fold(0.0, f64::max);
+        if big.is_nan() || big <= 0.0 {
+            return false;
+        }
+        let mut alpha = 0.1 * model.length_scale() / big;
         for _ in 0..30 {
             for k in 0..x.len() {
-                trial[k] = x[k] + step[k] * alpha;
+                trial[k] = x[k] + d[k] * (sign * alpha);
             }
-            let pt = Self::potential_in(&mut self.ws, model, trial, None);
-            if pt.is_finite() && pt <= pi + 1e-4 * alpha * slope {
+            let pt = self.eval(model, trial, lam, Want::VALUE);
+            if pt < pi {
                 return true;
             }
             alpha *= 0.5;

@@ -45,11 +45,8 @@ pub enum RunError {
     /// The step failed (divergence or a failed solve); the message carries the step number and a hint.
     #[error(transparent)]
     Step(#[from] StepError),
-    /// The static equilibrium solve failed.
-    #[error(
-        "{0} (hint: a static solve needs an equilibrium to find: the sheet held by pins or springs, or resting on \
-         a support it cannot slide off without friction; for a drop or a slide use `integrator.kind = \"linearized\"`)"
-    )]
+    /// The static equilibrium solve failed (the message carries the hint that fits the failure).
+    #[error(transparent)]
     Static(crate::integrate::statics::StaticError),
 }
 
