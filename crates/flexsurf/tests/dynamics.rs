@@ -89,8 +89,8 @@ fn damped_fall_converges_at_second_order() {
 // ---------------------------------------------------------------------------------------------------------------
 
 /// A 5×5 sheet of 0.1 m lying on a plane inclined at `theta` (rad) with friction `mu`, at the penalty's rest
-/// distance; returns the distance its centre slid down the slope after `t` seconds at step `dt`.
-fn incline_slide(theta: f64, mu: f64, dt: f64, t: f64, scheme: Scheme) -> f64 {
+/// distance: the model, its positions and the downhill direction.
+fn incline(theta: f64, mu: f64) -> (Model, Vec<Vec3>, Vec3) {
     let f = fabric(0.0);
     let stiffness = Stiffness::calibrate(&f, Calibration::Kes).unwrap();
     let grid = Grid::sheet(5, 5, 0.1, 0.1).unwrap();
@@ -107,12 +107,39 @@ fn incline_slide(theta: f64, mu: f64, dt: f64, t: f64, scheme: Scheme) -> f64 {
     model.obstacles.push(Obstacle::Plane { point: Vec3::ZERO, normal });
     model.contact =
         ContactParams { stiffness: contact_stiffness, offset, friction: mu, slip_speed: ContactParams::SLIP_SPEED };
-    let model = model.build().unwrap();
+    (model.build().unwrap(), rest, downhill)
+}
+
+fn centre(x: &[Vec3]) -> Vec3 {
+    x.iter().copied().sum::<Vec3>() / x.len() as f64
+}
+
+/// The distance the incline's sheet slid down the slope after `t` seconds at step `dt`.
+fn incline_slide(theta: f64, mu: f64, dt: f64, t: f64, scheme: Scheme) -> f64 {
+    let (model, rest, downhill) = incline(theta, mu);
     let mut state = integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], dt).unwrap();
     let params = StepParams { scheme, ..StepParams::with_dt(dt) };
     run(&model, &mut state, &params, (t / dt).round() as usize);
-    let centre = |x: &[Vec3]| x.iter().copied().sum::<Vec3>() / x.len() as f64;
     (centre(&state.x) - centre(&rest)).dot(downhill)
+}
+
+#[test]
+fn static_solves_hold_with_friction_and_find_none_without() {
+    use flexsurf::integrate::statics::{StaticError, StaticOptions, StaticSolver};
+    let theta = 30f64.to_radians();
+    for (mu, holds) in [(0.7, true), (0.6, true), (0.3, false), (0.0, false)] {
+        let (model, rest, downhill) = incline(theta, mu);
+        let mut x = rest.clone();
+        let result = StaticSolver::new(&model).unwrap().solve(&model, &mut x, &StaticOptions::default());
+        match (holds, result) {
+            (true, Ok(report)) => {
+                let slid = (centre(&x) - centre(&rest)).dot(downhill);
+                assert!(slid.abs() < 1e-3, "μ = {mu}: slid {slid:e} m ({report:?})");
+            }
+            (false, Err(StaticError::NoEquilibrium { .. })) => {}
+            (_, other) => panic!("μ = {mu}: {other:?}"),
+        }
+    }
 }
 
 #[test]
@@ -121,6 +148,8 @@ fn sheet_on_an_incline_sticks_when_friction_holds() {
         let theta = theta_deg.to_radians();
         assert!(mu > theta.tan());
         let drift = incline_slide(theta, mu, 0.01, 3.0, Scheme::Linearized);
+        let drift_bdf2 = incline_slide(theta, mu, 0.01, 3.0, Scheme::Bdf2);
+        assert!(drift_bdf2.abs() < 1e-3, "BDF2, θ = {theta_deg}°, μ = {mu}: drifted {drift_bdf2:e} m in 3 s");
         assert!(drift.abs() < 1e-3, "θ = {theta_deg}°, μ = {mu}: drifted {drift:e} m in 3 s");
     }
 }

@@ -31,7 +31,7 @@ use super::linsolve::{LinearSolver, SolverKind};
 use crate::energy::Operator;
 use crate::math::{diag, Vec3};
 use crate::model::Model;
-use crate::potential::{Part, Want, Workspace};
+use crate::potential::{Part, StaticFriction, Want, Workspace};
 use serde::Serialize;
 use thiserror::Error;
 
@@ -166,7 +166,16 @@ pub struct StaticSolver {
     ws: Workspace,
     /// Gradient of the load terms (load continuation).
     load_grad: Vec<Vec3>,
+    /// Quasi-static friction: the start of the solve and the lagged Coulomb limits.
+    anchor: Vec<Vec3>,
+    lagged: Vec<(usize, Vec3, f64)>,
 }
+
+/// Most outer iterations of a static solve with friction (re-lagging the normal forces at the equilibrium).
+pub const FRICTION_LAGS: usize = 4;
+
+/// Pseudo-time of a static solve (s): friction's smoothing length is its slip speed times this.
+pub const SLIP_TIME: f64 = 1.0;
 
 impl StaticSolver {
     /// Analyses the model's pattern.
@@ -176,6 +185,8 @@ impl StaticSolver {
             solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern())?,
             ws: Workspace::new(&model.potential),
             load_grad: vec![Vec3::ZERO; n],
+            anchor: Vec::new(),
+            lagged: Vec::new(),
         })
     }
 
@@ -197,7 +208,12 @@ impl StaticSolver {
     /// scaled: gravity and constant loads are linear in `x` (zero Hessian).
     fn eval(&mut self, model: &Model, x: &[Vec3], lam: f64, want: Want) -> f64 {
         self.ws.cold();
-        let mut total = model.potential.assemble(x, &model.potential.context(None), None, want, &mut self.ws).total;
+        let mut cx = model.potential.context(None);
+        if !self.lagged.is_empty() {
+            let slip = model.potential.slip_speed() * SLIP_TIME;
+            cx.friction = Some(StaticFriction { anchor: &self.anchor, lagged: &self.lagged, slip });
+        }
+        let mut total = model.potential.assemble(x, &cx, None, want, &mut self.ws).total;
         if lam != 1.0 {
             let c = 1.0 - lam;
             if want.grad {
@@ -228,8 +244,42 @@ impl StaticSolver {
         }
     }
 
-    /// Solves for equilibrium starting from `x` (pinned nodes stay where they are).
+    /// Solves for equilibrium starting from `x` (pinned nodes stay where they are). With friction, the solve is
+    /// quasi-static and lagged: Coulomb friction resists the tangential displacement from `x` with the normal
+    /// forces of the contacts at `x`, then of the equilibrium found, until they agree to 1 % (at most
+    /// [`FRICTION_LAGS`] solves); a sheet that friction can hold then has an equilibrium.
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
+        self.anchor = x.to_vec();
+        self.lagged = if model.potential.slip_speed() > 0.0 { model.potential.coulomb(x) } else { Vec::new() };
+        let mut report = self.solve_lagged(model, x, opts)?;
+        for _ in 1..FRICTION_LAGS {
+            if self.lagged.is_empty() {
+                break;
+            }
+            let next = model.potential.coulomb(x);
+            let scale = self.lagged.iter().map(|l| l.2).fold(0.0, f64::max);
+            let same = next.len() == self.lagged.len()
+                && next.iter().zip(&self.lagged).all(|(a, b)| a.0 == b.0 && (a.2 - b.2).abs() <= 0.01 * scale);
+            if same {
+                break;
+            }
+            self.lagged = next;
+            let again = self.solve_lagged(model, x, opts)?;
+            report.iterations += again.iterations;
+            report.residual = again.residual;
+            report.potential = again.potential;
+            report.load_steps.extend(again.load_steps);
+            report.escapes += again.escapes;
+        }
+        Ok(report)
+    }
+
+    fn solve_lagged(
+        &mut self,
+        model: &Model,
+        x: &mut [Vec3],
+        opts: &StaticOptions,
+    ) -> Result<StaticReport, StaticError> {
         if let Some(term) = model.potential.non_conservative() {
             return Err(StaticError::NonConservative { term });
         }

@@ -307,6 +307,24 @@ impl Term for PenaltyContact {
             }
             sink.add_block(cx.diag[k], k, k, c.stiffness_block());
         }
+        if let (None, Some(f)) = (cx.motion, cx.friction) {
+            // Quasi-static friction: the smoothed law itself about the solve's start, for the lagged limits.
+            for &(k, normal, limit) in f.lagged {
+                if cx.fixed[k] {
+                    continue;
+                }
+                let l = Lagged { node: k, limit, normal, at: Vec3::ZERO, majorant: false };
+                let law = FrictionLaw { limit, eps: f.slip };
+                let u = l.tangential(y[k] - f.anchor[k]);
+                let e = law.energy(u.length());
+                sink.energy += e;
+                total += e;
+                if let Some(g) = sink.grad.as_deref_mut() {
+                    g[k] += law.gradient(u);
+                }
+                sink.add_block(cx.diag[k], k, k, law.hessian(u, l.projector()));
+            }
+        }
         if let Some(m) = cx.motion {
             let eps = self.params.slip_speed * m.dt;
             for l in &s.lagged {
@@ -415,6 +433,14 @@ impl Term for PenaltyContact {
             }
         }
         None
+    }
+
+    fn slip_speed(&self) -> f64 {
+        if self.params.friction > 0.0 {
+            self.params.slip_speed
+        } else {
+            0.0
+        }
     }
 
     fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {

@@ -121,6 +121,21 @@ pub struct Context<'a> {
     pub diag: &'a [u32],
     /// The step's motion (`None` in a static solve).
     pub motion: Option<Motion<'a>>,
+    /// Quasi-static friction of a static solve (`None` in a step, which lags its own).
+    pub friction: Option<StaticFriction<'a>>,
+}
+
+/// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
+/// `anchor` (the configuration the solve started from) of each node in `lagged` (node, normal, `μλ`, from the
+/// last outer iteration), with the smoothing length `slip`.
+#[derive(Debug, Clone, Copy)]
+pub struct StaticFriction<'a> {
+    /// Positions the displacement is measured from.
+    pub anchor: &'a [Vec3],
+    /// `(node, unit normal, μλ)` of each lagged contact.
+    pub lagged: &'a [(usize, Vec3, f64)],
+    /// Smoothing length `ε` (m).
+    pub slip: f64,
 }
 
 /// Per-run scratch of one term (a contact cache and its active set): created by the term on first use
@@ -223,6 +238,10 @@ pub trait Term: Send + Sync + Debug + TermClone {
     /// step); `None` when none did.
     fn tunnelled(&self, _from: &[Vec3], _to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
         None
+    }
+    /// The slip speed `ε_v` of the term's friction (0 without friction).
+    fn slip_speed(&self) -> f64 {
+        0.0
     }
     /// The Coulomb limits of the term's touching contacts at `x`: `(node, unit normal, μλ)` (friction; the
     /// consistent start of a run needs them).
@@ -460,7 +479,7 @@ impl Potential {
 
     /// The context of an evaluation with `motion` (`None`: static).
     pub fn context<'a>(&'a self, motion: Option<Motion<'a>>) -> Context<'a> {
-        Context { fixed: self.pins.flags(), diag: &self.diag, motion }
+        Context { fixed: self.pins.flags(), diag: &self.diag, motion, friction: None }
     }
 
     /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x`: the value of each
@@ -555,6 +574,11 @@ impl Potential {
     /// The first node any term reports as having passed through an obstacle between `from` and `to`.
     pub fn tunnelled(&self, from: &[Vec3], to: &[Vec3], ws: &mut Workspace) -> Option<usize> {
         self.terms.iter().enumerate().find_map(|(t, term)| term.tunnelled(from, to, &mut ws.scratch[t]))
+    }
+
+    /// The largest slip speed `ε_v` of a term with friction (0 without friction).
+    pub fn slip_speed(&self) -> f64 {
+        self.terms.iter().map(|t| t.slip_speed()).fold(0.0, f64::max)
     }
 
     /// Every term's [`Term::coulomb`] limits at `x`.
