@@ -138,7 +138,7 @@ fn picture(hang: &Hang, r: &CantileverReport, out: &Path) -> Result<(PathBuf, Pa
         "{:?}: dark simulated, red heavy elastica; chord {:.2} deg vs {:.2} deg",
         r.direction, r.chord_angle_deg, r.elastica_deg
     );
-    render::draw_text(&mut img, 10, 10, &caption, 1, [30, 30, 30]);
+    render::draw_text(&mut img, 10, 10, &caption, 15.0, [30, 30, 30]);
     let png = out.join("cantilever_side.png");
     render::save_png(&png, &img).with_context(|| format!("writing {}", png.display()))?;
     Ok((png, obj))
