@@ -52,7 +52,8 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
-    let span = (hi - lo).max(1e-12 * lo.abs().max(1.0));
+    // At least 2 % of the values' magnitude, so that rounding noise does not fill the chart.
+    let span = (hi - lo).max(0.02 * lo.abs().max(hi.abs())).max(1e-12);
     let (lo, hi) = if hi - lo < span { (lo - 0.5 * span, hi + 0.5 * span) } else { (lo, hi) };
     (lo - pad * (hi - lo), hi + pad * (hi - lo))
 }

@@ -35,7 +35,7 @@ pub use camera::{default_view_for, View};
 pub use frame::render;
 /// The picture type the renderer returns (re-exported so callers need not depend on `image`).
 pub use image::RgbImage as Picture;
-pub use panel::{grid_layout, panel, with_title, CAPTION_HEIGHT, CAPTION_SIZE, TITLE_HEIGHT};
+pub use panel::{grid_layout, pad_top, panel, with_title, CAPTION_HEIGHT, CAPTION_SIZE, TITLE_HEIGHT};
 pub use png::{encode_png, save_png};
 pub use scene::{
     bbox_of, checkered_square, uv_sphere, Drawable, BACKGROUND_COLOR, CLOTH_COLOR, GROUND_COLOR, SPHERE_COLOR,

@@ -73,6 +73,13 @@ pub fn with_title(img: &RgbImage, title: &str) -> RgbImage {
     out
 }
 
+/// `img` below a white strip `height` pixels high (for text drawn over it afterwards).
+pub fn pad_top(img: &RgbImage, height: u32) -> RgbImage {
+    let mut out = RgbImage::from_pixel(img.width(), img.height() + height, Rgb([255, 255, 255]));
+    image::imageops::replace(&mut out, img, 0, i64::from(height));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
