@@ -82,7 +82,8 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert_eq!(&w[12..16], &[0.0, 0.0, 1.0, 0.0], "frame 3 is target 2 alone");
     // The obstacle: a sphere mesh of radius 0.3 about the origin, under the z-up root node.
     let ball = doc.nodes().find(|n| n.name().is_some_and(|s| s.contains("sphere"))).expect("the ball");
-    let bp: Vec<[f32; 3]> = ball.mesh().unwrap().primitives().next().unwrap().reader(|_| Some(blob)).read_positions().unwrap().collect();
+    let bp: Vec<[f32; 3]> =
+        ball.mesh().unwrap().primitives().next().unwrap().reader(|_| Some(blob)).read_positions().unwrap().collect();
     assert!(bp.iter().all(|p| ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() - 0.3).abs() < 1e-5));
     let root = doc.scenes().next().unwrap().nodes().next().unwrap();
     assert_eq!(root.children().count(), 2);
@@ -118,10 +119,15 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     };
     let f60 = read("vtk/frame_00060.vtu");
     assert_eq!(f60.num_points(), nv);
-    let names: Vec<&str> = f60.data.point.iter().map(|a| match a {
-        Attribute::DataArray(a) => a.name.as_str(),
-        Attribute::Field { name, .. } => name.as_str(),
-    }).collect();
+    let names: Vec<&str> = f60
+        .data
+        .point
+        .iter()
+        .map(|a| match a {
+            Attribute::DataArray(a) => a.name.as_str(),
+            Attribute::Field { name, .. } => name.as_str(),
+        })
+        .collect();
     assert_eq!(names, ["velocity", "strain", "contact_pressure", "uv"]);
     let points: Vec<f32> = f60.points.into_vec::<f32>().unwrap();
     for (k, p) in last.iter().enumerate() {

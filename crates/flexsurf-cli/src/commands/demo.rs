@@ -87,9 +87,7 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
     let path = out.join("comparison.png");
     let title = format!(
         "{}: {} steps of {} s with both models  (rows: models; columns: simulated time)",
-        first.name,
-        first.steps,
-        first.dt
+        first.name, first.steps, first.dt
     );
     render::save_png(&path, &render::with_title(&render::panel(&images, &labels, columns), &title))
         .with_context(|| format!("writing {}", path.display()))?;

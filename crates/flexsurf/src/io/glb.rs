@@ -233,7 +233,8 @@ pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
             .map(|n| n.try_normalize().unwrap_or(crate::math::Vec3::Z))
             .flat_map(|n| [n.x as f32, n.y as f32, n.z as f32])
             .collect();
-        let (pa, na) = (bin.floats(&p, 3, "VEC3", true, Some(ARRAY_BUFFER)), bin.floats(&n, 3, "VEC3", false, Some(ARRAY_BUFFER)));
+        let (pa, na) =
+            (bin.floats(&p, 3, "VEC3", true, Some(ARRAY_BUFFER)), bin.floats(&n, 3, "VEC3", false, Some(ARRAY_BUFFER)));
         let ia = bin.indices(&m.triangles);
         materials.push(material(&o.name, o.color));
         meshes.push(json!({ "name": o.name, "primitives": [ {
@@ -284,7 +285,8 @@ pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
         text.push(b' ');
     }
     let total = 12 + 8 + text.len() + 8 + bin.data.len();
-    let total = u32::try_from(total).map_err(|_| invalid(format!("a .glb is limited to 4 GiB; this one is {total} bytes")))?;
+    let total =
+        u32::try_from(total).map_err(|_| invalid(format!("a .glb is limited to 4 GiB; this one is {total} bytes")))?;
     let mut out = Vec::with_capacity(total as usize);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());

@@ -48,7 +48,9 @@ pub fn obstacle_meshes(model: &Model, around: &Aabb) -> Vec<(String, TriMesh, bo
         .filter_map(|o| o.look())
         .enumerate()
         .map(|(k, look)| match look {
-            Look::Sphere { center, radius } => (format!("obstacle_{k}_sphere"), uv_sphere(center, radius, 32, 64), false),
+            Look::Sphere { center, radius } => {
+                (format!("obstacle_{k}_sphere"), uv_sphere(center, radius, 32, 64), false)
+            }
             Look::Plane { point, normal } => {
                 let n = normal.try_normalize().unwrap_or(Vec3::Z);
                 let c = around.center();
@@ -101,7 +103,8 @@ impl AnimationRecorder {
             ids.extend(std::iter::repeat_n(k as u32, m.triangle_count()));
         }
         let points: Vec<[f32; 3]> = all.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
-        let s = Surface { points: &points, triangles: &all.triangles, point_data: &[], cell_ids: Some(("obstacle", &ids)) };
+        let s =
+            Surface { points: &points, triangles: &all.triangles, point_data: &[], cell_ids: Some(("obstacle", &ids)) };
         let path = self.out.join(OBSTACLES_VTU);
         vtk::write_vtu(&path, &s, "flexsurf obstacles").map_err(io_err(&path))
     }
@@ -116,7 +119,8 @@ impl AnimationRecorder {
             PointData::Scalar("contact_pressure", &f.pressure),
             PointData::Pair("uv", &self.topology.uv),
         ];
-        let s = Surface { points: &f.positions, triangles: &self.topology.triangles, point_data: &data, cell_ids: None };
+        let s =
+            Surface { points: &f.positions, triangles: &self.topology.triangles, point_data: &data, cell_ids: None };
         let path = self.out.join(&name);
         vtk::write_vtu(&path, &s, &format!("flexsurf step {} t = {} s", state.step, state.time))
             .map_err(io_err(&path))?;

@@ -48,7 +48,8 @@ pub struct Series {
 
 /// Axis range of `values` with a margin; a flat or empty range is widened so the chart has an extent.
 fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
-    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) =
+        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
@@ -59,7 +60,14 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
 }
 
 /// Draws a line chart of `series` into an RGB buffer of `w × h` pixels.
-fn chart_pixels(w: u32, h: u32, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<Vec<u8>, String> {
+fn chart_pixels(
+    w: u32,
+    h: u32,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+) -> Result<Vec<u8>, String> {
     register_plot_font();
     let mut buf = vec![255u8; 3 * w as usize * h as usize];
     {
@@ -85,7 +93,8 @@ fn chart_pixels(w: u32, h: u32, title: &str, x_label: &str, y_label: &str, serie
             .map_err(|e| e.to_string())?;
         for s in series {
             let color = RGBColor(s.color[0], s.color[1], s.color[2]);
-            let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+            let pts: Vec<(f64, f64)> =
+                s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
             chart
                 .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
                 .map_err(|e| e.to_string())?
@@ -118,7 +127,8 @@ pub fn line_chart(
     series: &[Series],
 ) -> std::io::Result<()> {
     let (w, h) = size;
-    let buf = chart_pixels(w, h, title, x_label, y_label, series).map_err(|e| std::io::Error::other(format!("chart: {e}")))?;
+    let buf = chart_pixels(w, h, title, x_label, y_label, series)
+        .map_err(|e| std::io::Error::other(format!("chart: {e}")))?;
     let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| std::io::Error::other("chart buffer size"))?;
     render::save_png(path, &img)
 }
@@ -152,7 +162,9 @@ pub fn write_energy_png(out: &Path, scene: &Scene) -> Result<(), RunError> {
         line("membrane", [31, 119, 180], &|r| r[2]),
         line("bending", [44, 160, 44], &|r| r[3]),
         line("gravity (change from t = 0)", [148, 103, 189], &|r| r[4] - first[4]),
-        line("total (change from t = 0)", [40, 40, 40], &|r| r[1] + r[2] + r[3] + r[4] - (first[1] + first[2] + first[3] + first[4])),
+        line("total (change from t = 0)", [40, 40, 40], &|r| {
+            r[1] + r[2] + r[3] + r[4] - (first[1] + first[2] + first[3] + first[4])
+        }),
     ];
     let title = format!("{}  ·  {} model  ·  energy", scene.name, model_label(scene.model.kind.name()));
     let png = out.join("energy.png");
@@ -167,7 +179,12 @@ mod tests {
     fn a_chart_draws_its_lines() {
         let d = crate::io::scratch_dir("chart");
         let p = d.join("c.png");
-        let s = Series { name: "a".into(), color: [214, 39, 40], points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)], dots: true };
+        let s = Series {
+            name: "a".into(),
+            color: [214, 39, 40],
+            points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)],
+            dots: true,
+        };
         line_chart(&p, (400, 300), "a chart", "x (s)", "y (J)", &[s]).unwrap();
         let img = image::open(&p).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (400, 300));

@@ -109,7 +109,8 @@ fn specimens_chart(dcs: &[f64], mean: f64, name: &str, specimen: f64, out: &Path
         points: vec![(1.0, mean), (dcs.len() as f64, mean)],
         dots: false,
     };
-    let title = format!("Cusick drape of {name}: {:.0} cm specimens on the {:.0} cm disc", 100.0 * specimen, 100.0 * DISC);
+    let title =
+        format!("Cusick drape of {name}: {:.0} cm specimens on the {:.0} cm disc", 100.0 * specimen, 100.0 * DISC);
     line_chart(&path, (720, 420), &title, "specimen", "drape coefficient (%)", &[each, avg])
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
@@ -178,10 +179,12 @@ fn picture(mesh: &TriMesh, drape: &Drape, specimen: f64, title: &str) -> render:
     let items = [render::Drawable::mesh(mesh, [55, 55, 65]), render::Drawable::mesh(&disc, [215, 215, 205])];
     let mut img = render::render(&view, &items, 600, 600);
     let circle = |radius: f64, z: f64, k0: usize, k1: usize| -> Vec<Vec3> {
-        (k0..=k1).map(|k| {
-            let t = k as f64 / 128.0 * std::f64::consts::TAU;
-            Vec3::new(radius * t.cos(), radius * t.sin(), z)
-        }).collect()
+        (k0..=k1)
+            .map(|k| {
+                let t = k as f64 / 128.0 * std::f64::consts::TAU;
+                Vec3::new(radius * t.cos(), radius * t.sin(), z)
+            })
+            .collect()
     };
     // The flat specimen's outline, dashed (what the shadow would be without drape).
     for k in (0..128).step_by(4) {

@@ -25,7 +25,7 @@ pub fn round_length(target: f64) -> (f64, String) {
     let target = if target.is_finite() && target > 0.0 { target } else { 1.0 };
     let e = target.log10().floor();
     let base = 10f64.powf(e);
-    let m = [1.0, 2.0, 5.0, 10.0].into_iter().filter(|m| m * base <= target * 1.0001).last().unwrap_or(1.0);
+    let m = [1.0, 2.0, 5.0, 10.0].into_iter().rfind(|m| m * base <= target * 1.0001).unwrap_or(1.0);
     let l = m * base;
     let label = if l >= 1.0 {
         format!("{} m", trim(l))
@@ -115,7 +115,9 @@ pub fn axis_triad(img: &mut RgbImage, view: &View) {
     let u = r.cross(f);
     let o = [f64::from(w) - 44.0, f64::from(h) - 40.0];
     let len = 26.0;
-    for (axis, name, color) in [(Vec3::X, "x", [200, 40, 40]), (Vec3::Y, "y", [40, 150, 40]), (Vec3::Z, "z", [40, 70, 210])] {
+    for (axis, name, color) in
+        [(Vec3::X, "x", [200, 40, 40]), (Vec3::Y, "y", [40, 150, 40]), (Vec3::Z, "z", [40, 70, 210])]
+    {
         let d = [axis.dot(r), -axis.dot(u)];
         let tip = [o[0] + len * d[0], o[1] + len * d[1]];
         draw_line(img, o, tip, 2.0, color);

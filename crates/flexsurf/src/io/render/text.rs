@@ -116,7 +116,12 @@ mod tests {
         let (p, cap_p, g) = (draw("p"), draw("P"), draw("g"));
         assert_ne!(p, cap_p);
         let baseline = 2 + font().unwrap().as_scaled(PxScale::from(24.0)).ascent().round() as u32;
-        let below = |img: &RgbImage| (baseline + 1..40).flat_map(|y| (0..60).map(move |x| (x, y))).filter(|&(x, y)| img.get_pixel(x, y).0[0] < 128).count();
+        let below = |img: &RgbImage| {
+            (baseline + 1..40)
+                .flat_map(|y| (0..60).map(move |x| (x, y)))
+                .filter(|&(x, y)| img.get_pixel(x, y).0[0] < 128)
+                .count()
+        };
         assert!(below(&g) > 5 && below(&p) > 5 && below(&cap_p) == 0);
         assert!(ink(&draw("m")) > ink(&draw(".")));
         assert!(text_width("mmmm", 20.0) > text_width("iiii", 20.0));
