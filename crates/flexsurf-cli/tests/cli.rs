@@ -102,3 +102,55 @@ fn test_options_belong_to_their_test() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("unrecognized subcommand 'drape'"), "{stderr}");
 }
+
+#[test]
+fn view_writes_a_self_contained_page_and_names_a_folder_without_a_run() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-view-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/ball_drop.toml");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("nodes = [21, 21]", "nodes = [7, 7]")
+        .replace("steps = 300", "steps = 20")
+        .replace("output_every = 100", "output_every = 10")
+        .replace("image_size = [480, 360]", "image_size = [80, 60]");
+    let small = dir.join("small.toml");
+    std::fs::write(&small, text).unwrap();
+    let run = dir.join("run");
+    let (code, _, stderr) = flexsurf(&["run", small.to_str().unwrap(), "--out", run.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let (code, stdout, stderr) = flexsurf(&["view", run.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("view.html"), "{stdout}");
+    let html = std::fs::read_to_string(run.join("view.html")).unwrap();
+    assert!(html.contains("window.flexsurfView") && html.contains("\"glb\":\"Z2xURg"), "the glb is inlined");
+    assert!(!html.contains("__FLEXSURF_DATA__"));
+
+    // A folder without a run: one line naming the missing file, no page, no panic.
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, _, stderr) = flexsurf(&["view", empty.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("animation.glb") && !stderr.contains("panicked"), "{stderr}");
+    assert!(!empty.join("view.html").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn cantilever_sweep_charts_the_chord_angle() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-cantilever-sweep-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, stdout, stderr) = flexsurf(&["test", "cantilever", "--overhang", "0.04,0.07", "--json", "--out", out]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let reports = v["reports"].as_array().unwrap();
+    assert_eq!(reports.len(), 2);
+    let chord = |k: usize| reports[k]["chord_angle_deg"].as_f64().unwrap();
+    // A longer overhang droops more.
+    assert!(chord(1) > chord(0), "{} then {}", chord(0), chord(1));
+    assert!(v["chart"].as_str().unwrap().ends_with("cantilever_sweep.png"));
+    assert!(dir.join("cantilever_sweep.png").metadata().unwrap().len() > 1000);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

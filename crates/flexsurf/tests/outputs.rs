@@ -150,5 +150,17 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert!(html.contains(&flexsurf::io::gltf::base64_encode(&bytes)));
     assert!(html.contains("\"scene\":\"ball_drop\""));
     assert!(!html.contains("<script src") && !html.contains("http://") && !html.contains("https://"));
+
+    // ---- animation.gif from the glb: 0.6 s at 10 pictures a second, the cloth drawn, moving.
+    let gif = viewer::movie::write_gif(&d, 10.0, (160, 120)).unwrap();
+    use image::AnimationDecoder;
+    let dec = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&gif).unwrap())).unwrap();
+    let frames: Vec<image::RgbaImage> = dec.into_frames().map(|f| f.unwrap().into_buffer()).collect();
+    assert_eq!(frames.len(), 7);
+    let cloth = |img: &image::RgbaImage| {
+        img.pixels().filter(|p| p.0[0] > 120 && u16::from(p.0[0]) > 2 * u16::from(p.0[1]) && p.0[2] < 110).count()
+    };
+    assert!(cloth(&frames[0]) > 500, "{} cloth pixels", cloth(&frames[0]));
+    assert_ne!(frames[0], frames[6]);
     std::fs::remove_dir_all(&d).unwrap();
 }

@@ -8,6 +8,8 @@
 //! `setField(name)`, `stats()` (frame, step, time, triangle counts, the cloth's height range, draw count and
 //! errors). `#frame=K&field=NAME` in the address opens it at frame `K` with a field.
 
+pub mod movie;
+
 use crate::io::atomic::write_atomic;
 use crate::io::gltf::base64_encode;
 use crate::runner::animation::GLB_FILE;
