@@ -125,6 +125,19 @@ try {
   check((await page.evaluate(() => window.flexsurfView.field)) === "strain", "the field selector chose strain");
   check(pxS.coloured > 0.01 * pxS.total && pxS.cloth < pxN.cloth, `strain colours on the cloth: ${pxS.coloured} pixels`);
 
+  // The play button plays at the simulated speed: after 1.5 s of a run whose frames are under 1.5 s apart, the
+  // page has moved on from the first frame (or shows a blend between two); the button then pauses it.
+  await page.evaluate(() => window.flexsurfView.setFrame(0));
+  await page.click("#play");
+  await page.waitForTimeout(1500);
+  const playing = await page.evaluate(() => ({ frame: window.flexsurfView.frame, label: document.getElementById("time").textContent }));
+  await page.click("#play");
+  const gap = stats0.frames > 1 ? statsN.time / (stats0.frames - 1) : Infinity;
+  if (gap < 1.4) {
+    check(playing.frame > 0 || /blended/.test(playing.label), `play moved the picture on: "${playing.label}"`);
+  }
+  check((await page.textContent("#play")) === "play", "the play button paused the playback");
+
   if (shotDir) {
     fs.mkdirSync(shotDir, { recursive: true });
     fs.writeFileSync(path.join(shotDir, "view_frame0.png"), shot0);
