@@ -162,5 +162,28 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     };
     assert!(cloth(&frames[0]) > 500, "{} cloth pixels", cloth(&frames[0]));
     assert_ne!(frames[0], frames[6]);
+
+    // ---- a run in progress (no animation.glb or summary.json yet): the viewer reads the VTK series, rebuilt
+    // into the same animation, which the gltf crate validates.
+    std::fs::remove_file(d.join("animation.glb")).unwrap();
+    std::fs::remove_file(d.join("summary.json")).unwrap();
+    let (rebuilt, n) = viewer::series::glb_from_series(&d, &serde_json::json!({})).unwrap();
+    assert_eq!(n, 5);
+    let g2 = gltf::Gltf::from_slice(&rebuilt).expect("a valid glTF binary from the series");
+    let blob2 = g2.blob.as_deref().unwrap();
+    let cloth2 = g2.document.nodes().find(|n| n.name() == Some("cloth")).unwrap();
+    let prim2 = cloth2.mesh().unwrap().primitives().next().unwrap();
+    let r2 = prim2.reader(|_| Some(blob2));
+    let base2: Vec<[f32; 3]> = r2.read_positions().unwrap().collect();
+    let t2: Vec<_> = r2.read_morph_targets().collect();
+    assert_eq!(t2.len(), 4);
+    for (k, (p, dp)) in base2.iter().zip(t2[3].0.clone().unwrap()).enumerate() {
+        for c in 0..3 {
+            assert!((p[c] + dp[c] - last[k][c]).abs() < 1e-5, "vertex {k}");
+        }
+    }
+    assert!(g2.document.nodes().any(|n| n.name().is_some_and(|s| s.starts_with("obstacle_0"))));
+    let html = std::fs::read_to_string(viewer::write_view(&d).unwrap()).unwrap();
+    assert!(html.contains("\"in_progress\":true") && html.contains("\"summary\":null"));
     std::fs::remove_dir_all(&d).unwrap();
 }

@@ -80,6 +80,13 @@ impl AnimationRecorder {
         let k = scene.output.coons_subdivisions.max(1);
         let dir = out.join(VTK_DIR);
         std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+        // An earlier run's animation would stand for this one until it finishes (the viewer reads the VTK
+        // series of a run in progress instead).
+        let glb = out.join(GLB_FILE);
+        match std::fs::remove_file(&glb) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io_err(&glb)(e)),
+            _ => {}
+        }
         let around = Aabb::from_points(x0.iter().copied()).unwrap_or(Aabb { min: Vec3::ZERO, max: Vec3::ZERO });
         let obstacles = obstacle_meshes(model, &around);
         let rec = Self {

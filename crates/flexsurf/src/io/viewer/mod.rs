@@ -9,10 +9,11 @@
 //! errors). `#frame=K&field=NAME` in the address opens it at frame `K` with a field.
 
 pub mod movie;
+pub mod series;
 
 use crate::io::atomic::write_atomic;
 use crate::io::gltf::base64_encode;
-use crate::runner::animation::GLB_FILE;
+use crate::runner::animation::{GLB_FILE, PVD_FILE};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -25,10 +26,10 @@ pub const VIEW_FILE: &str = "view.html";
 /// Why a viewer could not be written.
 #[derive(Debug, Error)]
 pub enum ViewError {
-    /// The folder has no `animation.glb`.
+    /// The folder has no `animation.glb` (and no `animation.pvd` of a run in progress).
     #[error(
-        "{} not found: `flexsurf view` needs a run folder written by `flexsurf run` or `flexsurf demo` (a run \
-         writes animation.glb when it finishes)",
+        "{} not found (nor animation.pvd): `flexsurf view` needs a run folder written by `flexsurf run` or \
+         `flexsurf demo` (a run writes animation.pvd as it goes and animation.glb when it finishes)",
         .0.display()
     )]
     NoAnimation(PathBuf),
@@ -73,12 +74,19 @@ fn check_glb(path: &Path, bytes: &[u8]) -> Result<(), ViewError> {
 /// The page for the run folder `dir` (its `animation.glb` and, if present, `summary.json`).
 pub fn view_html(dir: &Path) -> Result<String, ViewError> {
     let glb_path = dir.join(GLB_FILE);
-    let glb = match std::fs::read(&glb_path) {
-        Ok(b) => b,
+    let (glb, in_progress) = match std::fs::read(&glb_path) {
+        Ok(b) => {
+            check_glb(&glb_path, &b)?;
+            (b, false)
+        }
+        // A run in progress: the frames of its VTK series so far.
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && dir.join(PVD_FILE).exists() => {
+            let info = serde_json::json!({ "scene": dir.file_name().map(|n| n.to_string_lossy().into_owned()) });
+            (series::glb_from_series(dir, &info)?.0, true)
+        }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(ViewError::NoAnimation(glb_path)),
         Err(source) => return Err(ViewError::Io { path: glb_path, source }),
     };
-    check_glb(&glb_path, &glb)?;
     let summary_path = dir.join("summary.json");
     let summary: serde_json::Value = match std::fs::read_to_string(&summary_path) {
         Ok(text) => serde_json::from_str(&text)
@@ -86,7 +94,9 @@ pub fn view_html(dir: &Path) -> Result<String, ViewError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
         Err(source) => return Err(ViewError::Io { path: summary_path, source }),
     };
-    let data = serde_json::json!({ "summary": summary, "glb": base64_encode(&glb) });
+    // A summary beside a missing animation.glb is an earlier run's: a run removes it when it starts.
+    let summary = if in_progress { serde_json::Value::Null } else { summary };
+    let data = serde_json::json!({ "summary": summary, "in_progress": in_progress, "glb": base64_encode(&glb) });
     // Inside <script>, "</" could close the element: JSON allows "<\/" for it.
     let json = data.to_string().replace("</", "<\\/");
     Ok(TEMPLATE.replacen(SLOT, &json, 1))
