@@ -59,6 +59,21 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     (lo - pad * (hi - lo), hi + pad * (hi - lo))
 }
 
+/// Tick labels for an axis spanning `span`: as many decimals as its size needs (no "-0.0"), or an exponent
+/// form for very large or very small values.
+fn tick_format(span: f64) -> impl Fn(&f64) -> String {
+    let exp = !(1e-4..1e6).contains(&span.abs());
+    let decimals = if exp { 0 } else { (2.0 - span.abs().log10().floor()).clamp(0.0, 6.0) as usize };
+    move |v: &f64| {
+        let v = if v.abs() < span.abs() * 1e-9 { 0.0 } else { *v };
+        if exp {
+            format!("{v:.2e}")
+        } else {
+            format!("{v:.decimals$}")
+        }
+    }
+}
+
 /// Draws a line chart of `series` into an RGB buffer of `w × h` pixels.
 fn chart_pixels(
     w: u32,
@@ -82,8 +97,11 @@ fn chart_pixels(
             .y_label_area_size(74)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| e.to_string())?;
+        let (fx, fy) = (tick_format(x1 - x0), tick_format(y1 - y0));
         chart
             .configure_mesh()
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
             .x_desc(x_label)
             .y_desc(y_label)
             .label_style(("sans-serif", 13))
@@ -194,6 +212,9 @@ mod tests {
         assert!(text > 100, "{text} text pixels");
         // No points at all still gives a chart (empty axes), not an error.
         line_chart(&p, (300, 200), "empty", "x", "y", &[]).unwrap();
+        let f = tick_format(0.25);
+        assert_eq!((f(&-0.05), f(&1e-12), f(&0.1)), ("-0.050".to_string(), "0.000".to_string(), "0.100".to_string()));
+        assert_eq!(tick_format(2e-6)(&1e-6), "1.00e-6");
         assert_eq!(energy_rows("step,time,k,m,b,p\n0,0,1,2,3,4\nbad\n"), vec![[0.0, 1.0, 2.0, 3.0, 4.0]]);
         std::fs::remove_dir_all(&d).unwrap();
     }
