@@ -154,3 +154,50 @@ fn cantilever_sweep_charts_the_chord_angle() {
     assert!(dir.join("cantilever_sweep.png").metadata().unwrap().len() > 1000);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn view_serve_answers_on_the_loopback_interface() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-serve-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/ball_drop.toml");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("nodes = [21, 21]", "nodes = [7, 7]")
+        .replace("steps = 300", "steps = 10")
+        .replace("output_every = 100", "output_every = 5")
+        .replace("image_size = [480, 360]", "image_size = [80, 60]");
+    let small = dir.join("small.toml");
+    std::fs::write(&small, text).unwrap();
+    let run = dir.join("run");
+    assert_eq!(flexsurf(&["run", small.to_str().unwrap(), "--out", run.to_str().unwrap()]).0, 0);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_flexsurf"))
+        .args(["view", run.to_str().unwrap(), "--serve", "--port", "0"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let serving = lines.find_map(|l| l.ok().filter(|l| l.starts_with("serving "))).expect("the address");
+    let addr = serving.trim_start_matches("serving http://").split('/').next().unwrap().to_string();
+    assert!(addr.starts_with("127.0.0.1:"), "{serving}");
+    let get = |path: &str| {
+        let mut s = std::net::TcpStream::connect(&addr).unwrap();
+        write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+        let mut body = String::new();
+        s.read_to_string(&mut body).unwrap();
+        body
+    };
+    let page = get("/");
+    let state = get("/state");
+    let missing = get("/nope");
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(page.starts_with("HTTP/1.1 200 OK") && page.contains("window.flexsurfView"), "{}", &page[..200]);
+    assert!(page.contains("\"live\":\""), "the served page follows the run");
+    assert!(state.starts_with("HTTP/1.1 200 OK"));
+    let token = state.split("\r\n\r\n").nth(1).unwrap();
+    assert!(page.contains(&format!("\"live\":\"{token}\"")), "{token}");
+    assert!(missing.starts_with("HTTP/1.1 404"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

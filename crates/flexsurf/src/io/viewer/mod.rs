@@ -73,6 +73,31 @@ fn check_glb(path: &Path, bytes: &[u8]) -> Result<(), ViewError> {
 
 /// The page for the run folder `dir` (its `animation.glb` and, if present, `summary.json`).
 pub fn view_html(dir: &Path) -> Result<String, ViewError> {
+    page(dir, None)
+}
+
+/// What changes in `dir` when a run writes a frame or finishes: the sizes and modification times of
+/// `animation.pvd` and `animation.glb` (a page served by `flexsurf view --serve` reloads when it changes).
+pub fn run_state(dir: &Path) -> String {
+    let stamp = |name: &str| {
+        std::fs::metadata(dir.join(name)).map_or_else(
+            |_| "-".to_string(),
+            |m| {
+                let t = m.modified().ok().and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
+                format!("{}:{}", m.len(), t.map_or(0, |d| d.as_nanos()))
+            },
+        )
+    };
+    format!("{}/{}", stamp(PVD_FILE), stamp(GLB_FILE))
+}
+
+/// As [`view_html`], for a page served live: it polls `/state` and reloads when [`run_state`] differs from
+/// `state`.
+pub fn view_html_live(dir: &Path, state: &str) -> Result<String, ViewError> {
+    page(dir, Some(state))
+}
+
+fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
     let glb_path = dir.join(GLB_FILE);
     let (glb, in_progress) = match std::fs::read(&glb_path) {
         Ok(b) => {
@@ -96,7 +121,8 @@ pub fn view_html(dir: &Path) -> Result<String, ViewError> {
     };
     // A summary beside a missing animation.glb is an earlier run's: a run removes it when it starts.
     let summary = if in_progress { serde_json::Value::Null } else { summary };
-    let data = serde_json::json!({ "summary": summary, "in_progress": in_progress, "glb": base64_encode(&glb) });
+    let data = serde_json::json!({ "summary": summary, "in_progress": in_progress, "live": live,
+                                   "glb": base64_encode(&glb) });
     // Inside <script>, "</" could close the element: JSON allows "<\/" for it.
     let json = data.to_string().replace("</", "<\\/");
     Ok(TEMPLATE.replacen(SLOT, &json, 1))

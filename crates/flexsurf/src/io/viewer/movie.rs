@@ -40,10 +40,13 @@ pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
         bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
     };
     let json_len = u32_at(12).ok_or_else(|| invalid(&path, "truncated header"))?;
-    let doc: Value = serde_json::from_slice(bytes.get(20..20 + json_len).ok_or_else(|| invalid(&path, "truncated"))?)
-        .map_err(|e| invalid(&path, format!("its JSON chunk: {e}")))?;
+    let doc: Value = serde_json::from_slice(
+        bytes.get(20..20usize.saturating_add(json_len)).ok_or_else(|| invalid(&path, "truncated"))?,
+    )
+    .map_err(|e| invalid(&path, format!("its JSON chunk: {e}")))?;
     let bin_len = u32_at(20 + json_len).ok_or_else(|| invalid(&path, "no BIN chunk"))?;
-    let bin = bytes.get(28 + json_len..28 + json_len + bin_len).ok_or_else(|| invalid(&path, "truncated BIN chunk"))?;
+    let bin_at = 28 + json_len;
+    let bin = bytes.get(bin_at..bin_at.saturating_add(bin_len)).ok_or_else(|| invalid(&path, "truncated BIN chunk"))?;
     // The 4-byte words of an accessor (every accessor flexsurf writes is f32 or u32).
     let words = |acc: &Value| -> Result<Vec<[u8; 4]>, ViewError> {
         let i = acc.as_u64().ok_or_else(|| invalid(&path, "an accessor index is not a number"))? as usize;
