@@ -8,7 +8,7 @@ mod commands;
 mod progress;
 
 use clap::{Parser, Subcommand};
-use commands::{bench, check, demo, run, schema, test};
+use commands::{bench, check, demo, run, schema, test, view};
 use std::process::ExitCode;
 
 /// Simulator of thin flexible surfaces (the variational model of Wang, Wu, Sun & Yuen).
@@ -39,6 +39,9 @@ enum Command {
     /// `cusick`: the drape meter (18 cm disc); drape coefficient, nodes, a top-view picture and the mesh.
     #[command(subcommand)]
     Test(test::TestCommand),
+    /// Write OUT_DIR/view.html: an interactive viewer of a run folder (orbit, play/scrub over the frames,
+    /// obstacles, colour by strain, contact pressure, height or warp/weft lines), self-contained for offline use.
+    View(view::ViewArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Command::Schema => schema::execute(),
         Command::Bench(args) => bench::execute(args),
         Command::Test(which) => test::execute(which),
+        Command::View(args) => view::execute(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -102,3 +102,102 @@ fn test_options_belong_to_their_test() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("unrecognized subcommand 'drape'"), "{stderr}");
 }
+
+#[test]
+fn view_writes_a_self_contained_page_and_names_a_folder_without_a_run() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-view-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/ball_drop.toml");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("nodes = [21, 21]", "nodes = [7, 7]")
+        .replace("steps = 300", "steps = 20")
+        .replace("output_every = 100", "output_every = 10")
+        .replace("image_size = [480, 360]", "image_size = [80, 60]");
+    let small = dir.join("small.toml");
+    std::fs::write(&small, text).unwrap();
+    let run = dir.join("run");
+    let (code, _, stderr) = flexsurf(&["run", small.to_str().unwrap(), "--out", run.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let (code, stdout, stderr) = flexsurf(&["view", run.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("view.html"), "{stdout}");
+    let html = std::fs::read_to_string(run.join("view.html")).unwrap();
+    assert!(html.contains("window.flexsurfView") && html.contains("\"glb\":\"Z2xURg"), "the glb is inlined");
+    assert!(!html.contains("__FLEXSURF_DATA__"));
+
+    // A folder without a run: one line naming the missing file, no page, no panic.
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, _, stderr) = flexsurf(&["view", empty.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("animation.glb") && !stderr.contains("panicked"), "{stderr}");
+    assert!(!empty.join("view.html").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn cantilever_sweep_charts_the_chord_angle() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-cantilever-sweep-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, stdout, stderr) = flexsurf(&["test", "cantilever", "--overhang", "0.04,0.07", "--json", "--out", out]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let reports = v["reports"].as_array().unwrap();
+    assert_eq!(reports.len(), 2);
+    let chord = |k: usize| reports[k]["chord_angle_deg"].as_f64().unwrap();
+    // A longer overhang droops more.
+    assert!(chord(1) > chord(0), "{} then {}", chord(0), chord(1));
+    assert!(v["chart"].as_str().unwrap().ends_with("cantilever_sweep.png"));
+    assert!(dir.join("cantilever_sweep.png").metadata().unwrap().len() > 1000);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn view_serve_answers_on_the_loopback_interface() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-serve-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/ball_drop.toml");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("nodes = [21, 21]", "nodes = [7, 7]")
+        .replace("steps = 300", "steps = 10")
+        .replace("output_every = 100", "output_every = 5")
+        .replace("image_size = [480, 360]", "image_size = [80, 60]");
+    let small = dir.join("small.toml");
+    std::fs::write(&small, text).unwrap();
+    let run = dir.join("run");
+    assert_eq!(flexsurf(&["run", small.to_str().unwrap(), "--out", run.to_str().unwrap()]).0, 0);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_flexsurf"))
+        .args(["view", run.to_str().unwrap(), "--serve", "--port", "0"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let serving = lines.find_map(|l| l.ok().filter(|l| l.starts_with("serving "))).expect("the address");
+    let addr = serving.trim_start_matches("serving http://").split('/').next().unwrap().to_string();
+    assert!(addr.starts_with("127.0.0.1:"), "{serving}");
+    let get = |path: &str| {
+        let mut s = std::net::TcpStream::connect(&addr).unwrap();
+        write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+        let mut body = String::new();
+        s.read_to_string(&mut body).unwrap();
+        body
+    };
+    let page = get("/");
+    let state = get("/state");
+    let missing = get("/nope");
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(page.starts_with("HTTP/1.1 200 OK") && page.contains("window.flexsurfView"), "{}", &page[..200]);
+    assert!(page.contains("\"live\":\""), "the served page follows the run");
+    assert!(state.starts_with("HTTP/1.1 200 OK"));
+    let token = state.split("\r\n\r\n").nth(1).unwrap();
+    assert!(page.contains(&format!("\"live\":\"{token}\"")), "{token}");
+    assert!(missing.starts_with("HTTP/1.1 404"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

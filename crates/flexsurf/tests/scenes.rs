@@ -278,13 +278,21 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     assert_eq!(
         listing(&d),
         [
+            "animation.glb",
+            "animation.pvd",
             "energy.csv",
+            "energy.png",
             "frames/frame_00000.obj",
             "frames/frame_00008.obj",
             "frames/frame_00016.obj",
             "frames/frame_00020.obj",
             "snapshots.png",
-            "summary.json"
+            "summary.json",
+            "vtk/frame_00000.vtu",
+            "vtk/frame_00008.vtu",
+            "vtk/frame_00016.vtu",
+            "vtk/frame_00020.vtu",
+            "vtk/obstacles.vtu"
         ]
     );
     let json: serde_json::Value =

@@ -69,12 +69,15 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
     let mut labels = Vec::new();
     for (kind, scene, output) in &runs {
         let name = match kind {
-            ModelKind::Tfs => "this model (TFS)",
+            ModelKind::Tfs => "TFS (this model)",
             ModelKind::Terzopoulos => "Terzopoulos",
         };
         for s in &output.snapshots {
-            images.push(runner::render_frame(&scene.model, &s.mesh, &view, w, h));
-            labels.push(format!("{name}, step {}", s.step));
+            let mut img = runner::render_frame(&scene.model, &s.mesh, &view, w, h);
+            render::annotate::scale_bar(&mut img, &view);
+            render::annotate::axis_triad(&mut img, &view);
+            images.push(img);
+            labels.push(format!("{name}   step {}   t = {:.2} s", s.step, s.time));
         }
     }
     let columns = runs[0].2.snapshots.len().max(1);
@@ -82,10 +85,15 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
         bail!("the two runs recorded different numbers of snapshots");
     }
     let path = out.join("comparison.png");
-    render::save_png(&path, &render::panel(&images, &labels, columns))
+    let title = format!(
+        "{}: {} steps of {} s with both models  (rows: models; columns: simulated time)",
+        first.name, first.steps, first.dt
+    );
+    render::save_png(&path, &render::with_title(&render::panel(&images, &labels, columns), &title))
         .with_context(|| format!("writing {}", path.display()))?;
     let rows: Vec<(&str, &RunOutput)> = runs.iter().map(|(k, _, o)| (k.name(), o)).collect();
     print_table(&rows);
     println!("wrote {} (rows: models; columns: steps) and {}/{{tfs,terzopoulos}}", path.display(), out.display());
+    println!("to watch a run in a browser: flexsurf view {}", out.join(ModelKind::Tfs.name()).display());
     Ok(())
 }

@@ -10,3 +10,4 @@ pub mod run;
 pub mod schema;
 mod shared;
 pub mod test;
+pub mod view;

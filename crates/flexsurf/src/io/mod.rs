@@ -10,10 +10,13 @@
 //!   ground plane) to PNG, and tiles several views into a captioned panel.
 
 pub mod atomic;
+pub mod glb;
 pub mod gltf;
 pub mod obj;
 pub mod ply;
 pub mod render;
+pub mod viewer;
+pub mod vtk;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use gltf::write_gltf;

@@ -7,7 +7,10 @@
 //! - [`outputs`]: frames, the energy rows, the snapshot pictures and the camera shared by them.
 //! - [`summary`]: `summary.json` and the measures of the final configuration.
 
+pub mod animation;
+pub mod fields;
 pub mod outputs;
+pub mod plots;
 pub mod summary;
 
 pub use outputs::{
@@ -94,6 +97,7 @@ pub fn run_scene_observed(scene: &Scene, out: &Path, mut observe: impl FnMut(&St
         output_steps(scene.steps, scene.output_every)
     };
     let mut rec = Recorder::new(scene, frames_dir, outputs);
+    rec.anim = Some(animation::AnimationRecorder::new(scene, out, &scene.state.x)?);
     let mut state = scene.state.clone();
     let mut failure: Option<RunError> = None;
     let mut timings = Counters::default();
@@ -129,12 +133,23 @@ pub fn run_scene_observed(scene: &Scene, out: &Path, mut observe: impl FnMut(&St
     }
 
     let final_mesh = CoonsSurface::new(&model.grid, &state.x).tessellate(scene.output.coons_subdivisions);
-    let Recorder { frames, snapshots, .. } = rec;
+    let Recorder { frames, snapshots, anim, .. } = rec;
     let done = Finished { stats, timings, static_report, frames };
     let summary = summary::summarize(scene, &state, &final_mesh, done);
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| RunError::Io { path: out.join("summary.json"), source: std::io::Error::other(e) })?;
-    outputs::write_snapshots(out, model, &snapshots, scene.output.image_size)?;
+    let title = format!(
+        "{}  ·  {} model  ·  {} steps  ·  t = {:.2} s",
+        scene.name,
+        plots::model_label(model.kind.name()),
+        summary.steps,
+        summary.simulated_seconds
+    );
+    outputs::write_snapshots(out, model, &snapshots, scene.output.image_size, &title)?;
+    if let Some(anim) = &anim {
+        anim.finish(&plots::run_info(scene, &summary))?;
+    }
+    plots::write_energy_png(out, scene)?;
 
     // The summary last: its presence means the run completed.
     let path = out.join("summary.json");

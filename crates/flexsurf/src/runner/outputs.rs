@@ -78,14 +78,17 @@ pub(super) struct Recorder<'a> {
     pub frames: Vec<FrameRecord>,
     /// Meshes of the pictured steps.
     pub snapshots: Vec<Snapshot>,
+    /// The VTK series and the frames of `animation.glb` (see [`super::animation`]).
+    pub anim: Option<super::animation::AnimationRecorder>,
 }
 
 impl<'a> Recorder<'a> {
     /// A recorder writing frames of `scene` into `frames_dir` at the steps `outputs`.
     pub fn new(scene: &'a Scene, frames_dir: PathBuf, outputs: Vec<usize>) -> Self {
-        let pictured = spread(&outputs, MAX_SNAPSHOTS);
+        // As many pictures as fill whole rows of the panel (see `render::grid_layout`), evenly spread.
+        let pictured = spread(&outputs, render::grid_layout(outputs.len()).0.min(MAX_SNAPSHOTS));
         let csv = String::from("step,time,kinetic,membrane,bending,potential\n");
-        Self { scene, frames_dir, outputs, pictured, csv, frames: Vec::new(), snapshots: Vec::new() }
+        Self { scene, frames_dir, outputs, pictured, csv, frames: Vec::new(), snapshots: Vec::new(), anim: None }
     }
 
     /// Records `state`: its energy row, and its frame (and picture mesh) at an output step.
@@ -98,6 +101,9 @@ impl<'a> Recorder<'a> {
             let name = format!("frame_{:05}.{}", state.step, scene.output.format.extension());
             let path = self.frames_dir.join(&name);
             write_mesh(&path, &mesh, scene.output.format).map_err(io_err(&path))?;
+            if let Some(anim) = &mut self.anim {
+                anim.record(model, state, &mesh)?;
+            }
             self.frames.push(FrameRecord { step: state.step, time: state.time, file: format!("frames/{name}") });
             if self.pictured.contains(&state.step) {
                 self.snapshots.push(Snapshot { step: state.step, time: state.time, mesh });
@@ -121,19 +127,31 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh, format: FrameFormat) -> std::io::
     (format.writer().write)(path, mesh)
 }
 
-/// Writes `snapshots.png` into `out`: the pictures of `snapshots`, `image_size` pixels each, four a row.
+/// Writes `snapshots.png` into `out`: the pictures of `snapshots`, `image_size` pixels each, with a scale bar
+/// and axes, in whole rows ([`render::grid_layout`]), under the title `title`.
 pub(super) fn write_snapshots(
     out: &Path,
     model: &Model,
     snapshots: &[Snapshot],
     image_size: [u32; 2],
+    title: &str,
 ) -> Result<(), RunError> {
     let view = view_for(model, snapshots.iter().map(|s| &s.mesh));
     let [w, h] = image_size;
-    let images: Vec<_> = snapshots.iter().map(|s| render_frame(model, &s.mesh, &view, w, h)).collect();
-    let labels: Vec<String> = snapshots.iter().map(|s| format!("step {}  t = {:.2} s", s.step, s.time)).collect();
+    let images: Vec<_> = snapshots
+        .iter()
+        .map(|s| {
+            let mut img = render_frame(model, &s.mesh, &view, w, h);
+            render::annotate::scale_bar(&mut img, &view);
+            render::annotate::axis_triad(&mut img, &view);
+            img
+        })
+        .collect();
+    let labels: Vec<String> = snapshots.iter().map(|s| format!("step {}   t = {:.2} s", s.step, s.time)).collect();
     let png = out.join("snapshots.png");
-    render::save_png(&png, &render::panel(&images, &labels, images.len().min(4))).map_err(io_err(&png))
+    let columns = render::grid_layout(images.len()).1;
+    let panel = render::with_title(&render::panel(&images, &labels, columns), title);
+    render::save_png(&png, &panel).map_err(io_err(&png))
 }
 
 /// Drawables of a model's obstacles (those with a [`Look`]).
@@ -157,10 +175,20 @@ pub fn view_for<'a>(model: &Model, meshes: impl Iterator<Item = &'a TriMesh>) ->
     render::default_view_for(&bbox.unwrap_or(Aabb { min: Vec3::splat(-0.5), max: Vec3::splat(0.5) }))
 }
 
-/// A shaded picture of `mesh` with the model's obstacles.
+/// A shaded picture of `mesh` with the model's obstacles, standing on a floor: a scene without a ground plane
+/// gets one (for the picture only) under its lowest bounded obstacle, so the shadows show where things are.
 pub fn render_frame(model: &Model, mesh: &TriMesh, view: &View, width: u32, height: u32) -> image::RgbImage {
     let mut drawables = vec![Drawable::mesh(mesh, CLOTH_COLOR)];
-    drawables.extend(obstacle_drawables(model));
+    let obstacles = obstacle_drawables(model);
+    let has_plane = obstacles.iter().any(|d| matches!(d, Drawable::Plane { .. }));
+    if !has_plane {
+        let bounded = obstacles.iter().filter_map(Drawable::bbox).reduce(Aabb::union);
+        if let Some(b) = bounded {
+            let (c, z) = (b.center(), b.min.z - 1e-3 * b.radius().max(1e-6));
+            drawables.push(Drawable::plane(Vec3::new(c.x, c.y, z), Vec3::Z, PLANE_COLOR));
+        }
+    }
+    drawables.extend(obstacles);
     render::render(view, &drawables, width, height)
 }
 

@@ -19,9 +19,10 @@ pub struct CantileverArgs {
     /// The strip's direction (bias: 45° to warp and weft).
     #[arg(long, value_enum, default_value_t = DirectionArg::Warp)]
     direction: DirectionArg,
-    /// Overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input).
-    #[arg(long)]
-    overhang: Option<f64>,
+    /// Overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input). Several, comma-separated
+    /// (`--overhang 0.04,0.06,0.08`), run a sweep and chart the chord angle against the overhang.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    overhang: Vec<f64>,
     /// Strip width in metres (default 0.02).
     #[arg(long)]
     width: Option<f64>,
@@ -52,13 +53,17 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     let (fabric, name) = args.fabric.load()?;
     let calibration = args.fabric.calibration();
     let t = std::time::Instant::now();
-    let (direction, overhang, width) = (Direction::from(args.direction), args.overhang, args.width);
+    let (direction, width) = (Direction::from(args.direction), args.width);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cantilever"));
-    if let Some(l) = overhang {
+    for &l in &args.overhang {
         if !(l.is_finite() && l > 0.0) {
             bail!("--overhang: {l} m must be a positive length");
         }
     }
+    if args.overhang.len() > 1 {
+        return sweep(args, &fabric, &name, calibration, out);
+    }
+    let overhang = args.overhang.first().copied();
     if let Some(b) = width {
         if !(b.is_finite() && b > 0.0) {
             bail!("--width: {b} m must be a positive length");
@@ -138,7 +143,7 @@ fn picture(hang: &Hang, r: &CantileverReport, out: &Path) -> Result<(PathBuf, Pa
         "{:?}: dark simulated, red heavy elastica; chord {:.2} deg vs {:.2} deg",
         r.direction, r.chord_angle_deg, r.elastica_deg
     );
-    render::draw_text(&mut img, 10, 10, &caption, 1, [30, 30, 30]);
+    render::draw_text(&mut img, 10, 10, &caption, 15.0, [30, 30, 30]);
     let png = out.join("cantilever_side.png");
     render::save_png(&png, &img).with_context(|| format!("writing {}", png.display()))?;
     Ok((png, obj))
@@ -156,4 +161,71 @@ fn ledge(l: f64, w: f64) -> TriMesh {
         normals: Vec::new(),
         triangles: faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect(),
     }
+}
+
+/// `--overhang a,b,c`: the strip at each overhang, its table, and `cantilever_sweep.png` (chord angle against
+/// overhang: simulated, the heavy elastica of the input rigidity, and Peirce's 41.5° of the bending length).
+fn sweep(
+    args: &CantileverArgs,
+    fabric: &flexsurf::material::Fabric,
+    name: &str,
+    calibration: flexsurf::material::Calibration,
+    out: &Path,
+) -> Result<()> {
+    use flexsurf::runner::plots::{line_chart, Series};
+    let direction = Direction::from(args.direction);
+    let strip = Strip { direction, width: args.width.unwrap_or(Strip::WIDTH) };
+    let t = std::time::Instant::now();
+    let mut reports = Vec::new();
+    for &l in &args.overhang {
+        let (r, hang) = cantilever_with_hang(fabric, calibration, strip, Some(l))
+            .with_context(|| format!("cantilever test of {name} at an overhang of {l} m"))?;
+        reports.push((r, hang));
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    let (png, obj) = picture(&reports[0].1, &reports[0].0, out)?;
+    let chart = out.join("cantilever_sweep.png");
+    let cm = |r: &CantileverReport| 100.0 * r.overhang;
+    let series = [
+        Series {
+            name: "simulated".into(),
+            color: [31, 119, 180],
+            points: reports.iter().map(|(r, _)| (cm(r), r.chord_angle_deg)).collect(),
+            dots: true,
+        },
+        Series {
+            name: "heavy elastica (input rigidity)".into(),
+            color: [214, 39, 40],
+            points: reports.iter().map(|(r, _)| (cm(r), r.elastica_deg)).collect(),
+            dots: true,
+        },
+        Series {
+            name: "41.5 deg (Peirce: overhang = 2 c)".into(),
+            color: [120, 120, 120],
+            points: vec![(cm(&reports[0].0), 41.5), (cm(&reports[reports.len() - 1].0), 41.5)],
+            dots: false,
+        },
+    ];
+    let title = format!("Cantilever of {name} ({direction:?}): chord angle vs overhang");
+    line_chart(&chart, (760, 460), &title, "overhang (cm)", "chord angle (deg)", &series)
+        .with_context(|| format!("writing {}", chart.display()))?;
+    if args.fabric.json {
+        let list: Vec<_> = reports.iter().map(|(r, _)| r).collect();
+        let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,
+            "reports": list, "picture": png, "mesh": obj, "chart": chart, "wall_seconds": seconds });
+        return print_json(&v);
+    }
+    println!("cantilever sweep of {name} ({direction:?}, {calibration:?} calibration), {seconds:.3} s");
+    println!(
+        "{:>10} {:>12} {:>14} {:>10} {:>16}",
+        "overhang m", "chord deg", "elastica deg", "tip drop m", "bending length m"
+    );
+    for (r, _) in &reports {
+        println!(
+            "{:>10.4} {:>12.3} {:>14.3} {:>10.4} {:>16.4}",
+            r.overhang, r.chord_angle_deg, r.elastica_deg, r.tip_drop, r.bending_length
+        );
+    }
+    println!("wrote {} (the first overhang), {} and {}", png.display(), obj.display(), chart.display());
+    Ok(())
 }

@@ -50,7 +50,7 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let drapes = drape_specimens(&fabric, &name, calibration, args)?;
     let seconds = t.elapsed().as_secs_f64();
-    let files = write_specimens(&drapes, specimen, out)?;
+    let files = write_specimens(&drapes, &name, specimen, out)?;
     let dcs: Vec<f64> = drapes.iter().map(|d| d.report.drape_coefficient).collect();
     let mean = dcs.iter().sum::<f64>() / dcs.len() as f64;
     let sd = if dcs.len() > 1 {
@@ -59,13 +59,14 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
         0.0
     };
     let rep = drapes[0].report;
+    let chart = if specimens > 1 { Some(specimens_chart(&dcs, mean, &name, specimen, out)?) } else { None };
     if args.fabric.json {
         let reports: Vec<_> = drapes.iter().map(|d| d.report).collect();
         let v = serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
             "report": rep, "specimens": reports, "mean_drape_coefficient": mean, "sd_drape_coefficient": sd,
             "picture": files[0].0, "mesh": files[0].1,
             "pictures": files.iter().map(|f| &f.0).collect::<Vec<_>>(),
-            "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "wall_seconds": seconds });
+            "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "chart": chart, "wall_seconds": seconds });
         return print_json(&v);
     }
     println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
@@ -86,7 +87,33 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
         println!("mean drape coefficient {mean:.2} % (s.d. {sd:.2} over {specimens} specimens)");
     }
     println!("wrote {} and {} (and one pair per further specimen)", files[0].0.display(), files[0].1.display());
+    if let Some(c) = chart {
+        println!("wrote {} (drape coefficient of each specimen)", c.display());
+    }
     Ok(())
+}
+
+/// `cusick_specimens.png`: the drape coefficient of each specimen, with their mean.
+fn specimens_chart(dcs: &[f64], mean: f64, name: &str, specimen: f64, out: &Path) -> Result<PathBuf> {
+    use flexsurf::runner::plots::{line_chart, Series};
+    let path = out.join("cusick_specimens.png");
+    let each = Series {
+        name: "specimen".into(),
+        color: [31, 119, 180],
+        points: dcs.iter().enumerate().map(|(k, &d)| ((k + 1) as f64, d)).collect(),
+        dots: true,
+    };
+    let avg = Series {
+        name: format!("mean {mean:.1} %"),
+        color: [214, 39, 40],
+        points: vec![(1.0, mean), (dcs.len() as f64, mean)],
+        dots: false,
+    };
+    let title =
+        format!("Cusick drape of {name}: {:.0} cm specimens on the {:.0} cm disc", 100.0 * specimen, 100.0 * DISC);
+    line_chart(&path, (720, 420), &title, "specimen", "drape coefficient (%)", &[each, avg])
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
 }
 
 /// Drapes `args.specimens` specimens. They are independent: one thread each (results in specimen order, so the
@@ -111,7 +138,7 @@ fn drape_specimens(fabric: &Fabric, name: &str, calibration: Calibration, args: 
 
 /// Writes each specimen's mesh and top view into `out` (`cusick.obj`, `cusick_top.png`, then `_2`, `_3`, … for
 /// the further specimens). Returns the (picture, mesh) paths in specimen order.
-fn write_specimens(drapes: &[Drape], specimen: f64, out: &Path) -> Result<Vec<(PathBuf, PathBuf)>> {
+fn write_specimens(drapes: &[Drape], name: &str, specimen: f64, out: &Path) -> Result<Vec<(PathBuf, PathBuf)>> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut files = Vec::new();
     for (k, drape) in drapes.iter().enumerate() {
@@ -120,14 +147,18 @@ fn write_specimens(drapes: &[Drape], specimen: f64, out: &Path) -> Result<Vec<(P
         let obj = out.join(format!("cusick{suffix}.obj"));
         flexsurf::io::obj::write_obj(&obj, &mesh).with_context(|| format!("writing {}", obj.display()))?;
         let png = out.join(format!("cusick_top{suffix}.png"));
-        render::save_png(&png, &picture(&mesh, specimen)).with_context(|| format!("writing {}", png.display()))?;
+        let title = format!("{name}: specimen {}", k + 1);
+        render::save_png(&png, &picture(&mesh, drape, specimen, &title))
+            .with_context(|| format!("writing {}", png.display()))?;
         files.push((png, obj));
     }
     Ok(files)
 }
 
-/// Top view, looking down the z axis, as a drape meter's shadow: the specimen dark, the support disc light.
-fn picture(mesh: &TriMesh, specimen: f64) -> render::Picture {
+/// Top view, looking down the z axis, as a drape meter's shadow: the specimen dark, the support disc light, with
+/// the outlines of the disc (blue) and of the flat specimen (dashed grey), a scale bar, and the drape
+/// coefficient, node count and sizes written on it.
+fn picture(mesh: &TriMesh, drape: &Drape, specimen: f64, title: &str) -> render::Picture {
     let r = 0.5 * specimen;
     let base = render::View::look_at(Vec3::new(0.0, 0.0, 4.4 * r), Vec3::ZERO);
     let view = render::View { up: Vec3::Y, ..base };
@@ -146,5 +177,47 @@ fn picture(mesh: &TriMesh, specimen: f64) -> render::Picture {
         triangles: (0..64u32).map(|k| [64, k, (k + 1) % 64]).collect(),
     };
     let items = [render::Drawable::mesh(mesh, [55, 55, 65]), render::Drawable::mesh(&disc, [215, 215, 205])];
-    render::render(&view, &items, 600, 600)
+    let mut img = render::render(&view, &items, 600, 600);
+    let circle = |radius: f64, z: f64, k0: usize, k1: usize| -> Vec<Vec3> {
+        (k0..=k1)
+            .map(|k| {
+                let t = k as f64 / 128.0 * std::f64::consts::TAU;
+                Vec3::new(radius * t.cos(), radius * t.sin(), z)
+            })
+            .collect()
+    };
+    // The flat specimen's outline, dashed (what the shadow would be without drape).
+    for k in (0..128).step_by(4) {
+        render::annotate::draw_world_polyline(&mut img, &view, &circle(r, 0.0, k, k + 2), 1.5, [120, 120, 120]);
+    }
+    render::annotate::draw_world_polyline(&mut img, &view, &circle(0.5 * DISC, 0.002, 0, 128), 2.0, [40, 90, 200]);
+    render::annotate::scale_bar(&mut img, &view);
+    // The numbers in a strip above the picture.
+    let rep = &drape.report;
+    let dark = [25, 25, 25];
+    let mut img = render::pad_top(&img, 84);
+    render::draw_text(&mut img, 12, 8, &format!("Cusick drape · {title}"), 18.0, dark);
+    render::draw_text(
+        &mut img,
+        12,
+        32,
+        &format!("DC = {:.1} %   ·   {} nodes", rep.drape_coefficient, rep.nodes),
+        18.0,
+        dark,
+    );
+    render::draw_text(
+        &mut img,
+        12,
+        58,
+        &format!(
+            "specimen {:.0} cm (dashed) on a {:.0} cm disc (blue) · grid {} × {}",
+            100.0 * specimen,
+            100.0 * DISC,
+            rep.grid[0],
+            rep.grid[1]
+        ),
+        14.0,
+        [60, 60, 60],
+    );
+    img
 }

@@ -1,7 +1,7 @@
 //! A small deterministic software renderer for figures: a z-buffered triangle rasteriser with Lambert + ambient
 //! shading (two-sided, for cloth), optional shadow mapping, supersampled anti-aliasing and a perspective camera.
 //! It draws cloth meshes and the analytic obstacles (a UV-tessellated sphere, a checkered ground plane), tiles
-//! several views into a captioned panel with a built-in 5×7 bitmap font, and writes PNG through
+//! several views into a captioned panel with a real font (DejaVu Sans), and writes PNG through
 //! [`super::atomic`]. Everything is single-threaded, so the same input gives the same bytes.
 //!
 //! The pipeline of [`render`], one file a stage:
@@ -15,9 +15,12 @@
 //! * `shadow`: the shadow map seen from the light.
 //! * `shade`: Lambert + ambient shading, sRGB conversion and the resolve of the supersamples into pixels.
 //! * `frame`: [`render`] itself, with the per-thread buffers it reuses.
-//! * `text`, `panel`, `png`: the 5×7 font ([`draw_text`]), the captioned [`panel()`] of several pictures and
-//!   PNG output ([`save_png`]).
+//! * `text`, `panel`, `png`: text in DejaVu Sans through `ab_glyph` ([`draw_text`]), the captioned
+//!   [`panel()`] of several pictures (with [`with_title`] and the [`grid_layout`] without empty cells) and PNG
+//!   output ([`save_png`]).
+//! * [`annotate`]: scale bar, axis triad and world-space lines over a rendered picture.
 
+pub mod annotate;
 mod camera;
 mod frame;
 mod panel;
@@ -32,9 +35,9 @@ pub use camera::{default_view_for, View};
 pub use frame::render;
 /// The picture type the renderer returns (re-exported so callers need not depend on `image`).
 pub use image::RgbImage as Picture;
-pub use panel::{panel, CAPTION_HEIGHT, CAPTION_SCALE};
+pub use panel::{grid_layout, pad_top, panel, with_title, CAPTION_HEIGHT, CAPTION_SIZE, TITLE_HEIGHT};
 pub use png::{encode_png, save_png};
 pub use scene::{
     bbox_of, checkered_square, uv_sphere, Drawable, BACKGROUND_COLOR, CLOTH_COLOR, GROUND_COLOR, SPHERE_COLOR,
 };
-pub use text::{draw_text, text_width};
+pub use text::{draw_text, draw_text_centered, line_height, register_plot_font, text_width, FONT_BYTES};

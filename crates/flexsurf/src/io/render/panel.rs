@@ -1,12 +1,27 @@
-//! Panels: several pictures tiled row by row into one image, each with a caption strip under it.
+//! Panels: several pictures tiled row by row into one image, each with a caption strip under it, an optional
+//! title strip over the whole, and the layout rule that never leaves an empty cell.
 
-use super::text::{draw_text, text_width};
+use super::text::{draw_text, line_height, text_width, title_strip};
 use image::{Rgb, RgbImage};
 
 /// Height in pixels of the caption strip under each tile of [`panel`].
-pub const CAPTION_HEIGHT: u32 = 24;
-/// Scale factor of caption text (glyphs are 5×7 font pixels, so captions are 10×14 image pixels).
-pub const CAPTION_SCALE: u32 = 2;
+pub const CAPTION_HEIGHT: u32 = 26;
+/// Caption text size (pixels).
+pub const CAPTION_SIZE: f32 = 16.0;
+/// Height in pixels of the title strip of [`with_title`].
+pub const TITLE_HEIGHT: u32 = 34;
+/// Title text size (pixels).
+pub const TITLE_SIZE: f32 = 20.0;
+
+/// How many of `n` pictures to show and in how many columns, so that every row is full: up to 5 in one row,
+/// 6 or 7 as 3 × 2 (six of them), 8 or more as 4 × 2 (eight of them).
+pub fn grid_layout(n: usize) -> (usize, usize) {
+    match n {
+        0..=5 => (n, n.max(1)),
+        6 | 7 => (6, 3),
+        _ => (8, 4),
+    }
+}
 
 /// Tiles `images` row by row into `columns` columns (clamped to 1 ..= number of images), each tile as large as
 /// the largest image plus a [`CAPTION_HEIGHT`] caption strip underneath holding `labels[k]` (missing labels
@@ -33,23 +48,40 @@ pub fn panel(images: &[RgbImage], labels: &[String], columns: usize) -> RgbImage
             out.put_pixel(ox + x, oy + th, Rgb([200, 200, 200]));
         }
         if let Some(label) = labels.get(k) {
-            let tx = i64::from(ox) + (i64::from(tw) - i64::from(text_width(label, CAPTION_SCALE))).max(12) / 2;
-            let ty = i64::from(oy + th) + i64::from((CAPTION_HEIGHT - 7 * CAPTION_SCALE) / 2) + 1;
-            let mut strip = RgbImage::from_pixel(tw, CAPTION_HEIGHT, Rgb([255, 255, 255]));
-            draw_text(&mut strip, tx - i64::from(ox), ty - i64::from(oy + th), label, CAPTION_SCALE, [30, 30, 30]);
+            let mut strip = RgbImage::from_pixel(tw, CAPTION_HEIGHT - 1, Rgb([255, 255, 255]));
+            let tx = (i64::from(tw) - i64::from(text_width(label, CAPTION_SIZE))).max(12) / 2;
+            let ty = (i64::from(CAPTION_HEIGHT - 1) - i64::from(line_height(CAPTION_SIZE))) / 2;
+            draw_text(&mut strip, tx, ty, label, CAPTION_SIZE, [30, 30, 30]);
             for (x, y, p) in strip.enumerate_pixels() {
-                if y > 0 {
-                    out.put_pixel(ox + x, oy + th + y, *p);
-                }
+                out.put_pixel(ox + x, oy + th + 1 + y, *p);
             }
         }
     }
     out
 }
 
+/// `img` with a [`TITLE_HEIGHT`] strip above it holding `title`, centred.
+pub fn with_title(img: &RgbImage, title: &str) -> RgbImage {
+    let strip = title_strip(img.width(), TITLE_HEIGHT, title, TITLE_SIZE);
+    let mut out = RgbImage::from_pixel(img.width(), img.height() + TITLE_HEIGHT, Rgb([255, 255, 255]));
+    for (x, y, p) in strip.enumerate_pixels() {
+        out.put_pixel(x, y, *p);
+    }
+    for (x, y, p) in img.enumerate_pixels() {
+        out.put_pixel(x, y + TITLE_HEIGHT, *p);
+    }
+    out
+}
+
+/// `img` below a white strip `height` pixels high (for text drawn over it afterwards).
+pub fn pad_top(img: &RgbImage, height: u32) -> RgbImage {
+    let mut out = RgbImage::from_pixel(img.width(), img.height() + height, Rgb([255, 255, 255]));
+    image::imageops::replace(&mut out, img, 0, i64::from(height));
+    out
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::text::glyph;
     use super::*;
 
     #[test]
@@ -74,17 +106,20 @@ mod tests {
         };
         assert!(dark(&p, 0, 31, 50, CAPTION_HEIGHT - 1) > 20);
         assert_eq!(dark(&p, 0, 30 + CAPTION_HEIGHT + 30 + 1, 50, CAPTION_HEIGHT - 1), 0);
+        let t = with_title(&p, "ball_drop");
+        assert_eq!((t.width(), t.height()), (p.width(), p.height() + TITLE_HEIGHT));
+        assert!(dark(&t, 0, 0, t.width(), TITLE_HEIGHT) > 20);
+    }
 
-        let mut img = RgbImage::from_pixel(80, 20, Rgb([255, 255, 255]));
-        draw_text(&mut img, 1, 1, "Ab9=.:-/", 1, [0, 0, 0]);
-        let ink = img.pixels().filter(|p| p.0 == [0, 0, 0]).count();
-        assert!(ink > 40, "{ink}");
-        assert_eq!(text_width("abc", 2), 34);
-        // Every required character has a glyph with ink (except space).
-        for c in "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz=.:-/".chars() {
-            assert!(glyph(c).unwrap().iter().any(|&r| r != 0), "{c}");
+    #[test]
+    fn layouts_have_no_empty_cells() {
+        for n in 1..=40 {
+            let (count, cols) = grid_layout(n);
+            assert!(count >= 1 && count <= n, "{n}");
+            assert_eq!(count % cols, 0, "{n} pictures: {count} in {cols} columns leave an empty cell");
+            assert!(cols <= 5);
         }
-        // Clipped drawing off the image does not panic.
-        draw_text(&mut img, -7, 15, "xyz", 3, [0, 0, 0]);
+        assert_eq!(grid_layout(5), (5, 5));
+        assert_eq!(grid_layout(4), (4, 4));
     }
 }

@@ -1,132 +1,133 @@
-//! Text: a built-in 5×7 bitmap font (digits, Latin letters and common punctuation) drawn at an integer scale
-//! into an image, clipped to it, for captions and labels.
+//! Text: DejaVu Sans (a free font, its licence in `assets/fonts/LICENSE-DejaVu.txt`, carried in the binary)
+//! rasterised by `ab_glyph` with anti-aliasing and kerning, blended into an image and clipped to it, for titles,
+//! captions and labels. The same font is registered for the `plotters` charts ([`register_plot_font`]).
 
+use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
 use image::{Rgb, RgbImage};
+use std::sync::OnceLock;
 
-/// The 5×7 font: each glyph's rows, top first (bit 4 = leftmost column).
-const FONT: [(char, [u8; 7]); 84] = [
-    (' ', [0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
-    ('0', [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E]),
-    ('1', [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E]),
-    ('2', [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F]),
-    ('3', [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E]),
-    ('4', [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02]),
-    ('5', [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E]),
-    ('6', [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E]),
-    ('7', [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08]),
-    ('8', [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E]),
-    ('9', [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C]),
-    ('A', [0x0E, 0x11, 0x11, 0x11, 0x1F, 0x11, 0x11]),
-    ('B', [0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E]),
-    ('C', [0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E]),
-    ('D', [0x1C, 0x12, 0x11, 0x11, 0x11, 0x12, 0x1C]),
-    ('E', [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F]),
-    ('F', [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10]),
-    ('G', [0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F]),
-    ('H', [0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11]),
-    ('I', [0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E]),
-    ('J', [0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C]),
-    ('K', [0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11]),
-    ('L', [0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F]),
-    ('M', [0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11]),
-    ('N', [0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11]),
-    ('O', [0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E]),
-    ('P', [0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10]),
-    ('Q', [0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D]),
-    ('R', [0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11]),
-    ('S', [0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E]),
-    ('T', [0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04]),
-    ('U', [0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E]),
-    ('V', [0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04]),
-    ('W', [0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A]),
-    ('X', [0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11]),
-    ('Y', [0x11, 0x11, 0x11, 0x0A, 0x04, 0x04, 0x04]),
-    ('Z', [0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F]),
-    ('a', [0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F]),
-    ('b', [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E]),
-    ('c', [0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E]),
-    ('d', [0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F]),
-    ('e', [0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E]),
-    ('f', [0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08]),
-    ('g', [0x00, 0x0F, 0x11, 0x11, 0x0F, 0x01, 0x0E]),
-    ('h', [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11]),
-    ('i', [0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E]),
-    ('j', [0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C]),
-    ('k', [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12]),
-    ('l', [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E]),
-    ('m', [0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11]),
-    ('n', [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11]),
-    ('o', [0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E]),
-    ('p', [0x00, 0x00, 0x1E, 0x11, 0x1E, 0x10, 0x10]),
-    ('q', [0x00, 0x00, 0x0D, 0x13, 0x0F, 0x01, 0x01]),
-    ('r', [0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10]),
-    ('s', [0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E]),
-    ('t', [0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06]),
-    ('u', [0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D]),
-    ('v', [0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04]),
-    ('w', [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A]),
-    ('x', [0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11]),
-    ('y', [0x00, 0x00, 0x11, 0x11, 0x0F, 0x01, 0x0E]),
-    ('z', [0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F]),
-    ('=', [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00]),
-    ('.', [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C]),
-    (',', [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08]),
-    (':', [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00]),
-    (';', [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x04, 0x08]),
-    ('-', [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00]),
-    ('+', [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00]),
-    ('*', [0x00, 0x04, 0x15, 0x0E, 0x15, 0x04, 0x00]),
-    ('/', [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00]),
-    ('_', [0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F]),
-    ('(', [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02]),
-    (')', [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08]),
-    ('[', [0x0E, 0x08, 0x08, 0x08, 0x08, 0x08, 0x0E]),
-    (']', [0x0E, 0x02, 0x02, 0x02, 0x02, 0x02, 0x0E]),
-    ('<', [0x02, 0x04, 0x08, 0x10, 0x08, 0x04, 0x02]),
-    ('>', [0x08, 0x04, 0x02, 0x01, 0x02, 0x04, 0x08]),
-    ('%', [0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03]),
-    ('#', [0x0A, 0x0A, 0x1F, 0x0A, 0x1F, 0x0A, 0x0A]),
-    ('\'', [0x04, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00]),
-    ('?', [0x0E, 0x11, 0x01, 0x02, 0x04, 0x00, 0x04]),
-    ('|', [0x04, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04]),
-];
+/// The font file (DejaVu Sans).
+pub static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
-/// 5×7 glyph rows (bit 4 = leftmost column), or `None` for a character without a glyph.
-pub(super) fn glyph(c: char) -> Option<[u8; 7]> {
-    FONT.iter().find(|(g, _)| *g == c).map(|(_, rows)| *rows)
+/// The parsed font (`None` only if the embedded file were corrupt, which the tests rule out).
+fn font() -> Option<&'static FontRef<'static>> {
+    static FONT: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
+    FONT.get_or_init(|| FontRef::try_from_slice(FONT_BYTES).ok()).as_ref()
 }
 
-/// Width in pixels of `text` drawn at `scale` (6 font columns per character, less the trailing gap).
-pub fn text_width(text: &str, scale: u32) -> u32 {
-    let n = text.chars().count() as u32;
-    (6 * n).saturating_sub(1) * scale
+/// Registers the font as `sans-serif` for `plotters` (once; later calls do nothing).
+pub fn register_plot_font() -> bool {
+    static DONE: OnceLock<bool> = OnceLock::new();
+    *DONE.get_or_init(|| {
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT_BYTES).is_ok()
+    })
 }
 
-/// Draws `text` with its top-left corner at `(x, y)`, each font pixel a `scale × scale` block, clipped to the
-/// image. Characters without a glyph are drawn as `?`.
-pub fn draw_text(img: &mut RgbImage, x: i64, y: i64, text: &str, scale: u32, color: [u8; 3]) {
-    let s = i64::from(scale.max(1));
-    let (w, h) = (i64::from(img.width()), i64::from(img.height()));
-    for (ci, c) in text.chars().enumerate() {
-        let rows = glyph(c).or_else(|| glyph('?')).unwrap_or([0; 7]);
-        let gx = x + 6 * s * ci as i64;
-        if gx >= w {
-            break;
+/// Width in pixels of `text` set at `size` pixels (the em height).
+pub fn text_width(text: &str, size: f32) -> u32 {
+    let Some(f) = font() else { return 0 };
+    let sf = f.as_scaled(PxScale::from(size));
+    let mut w = 0.0;
+    let mut prev = None;
+    for c in text.chars() {
+        let id = sf.glyph_id(c);
+        if let Some(p) = prev {
+            w += sf.kern(p, id);
         }
-        for (ry, row) in rows.iter().enumerate() {
-            for col in 0..5 {
-                if row & (0x10 >> col) == 0 {
-                    continue;
-                }
-                for dy in 0..s {
-                    for dx in 0..s {
-                        let (px, py) = (gx + col * s + dx, y + ry as i64 * s + dy);
-                        if (0..w).contains(&px) && (0..h).contains(&py) {
-                            img.put_pixel(px as u32, py as u32, Rgb(color));
-                        }
-                    }
+        w += sf.h_advance(id);
+        prev = Some(id);
+    }
+    w.ceil().max(0.0) as u32
+}
+
+/// Height in pixels of a line of text at `size` (ascent + descent).
+pub fn line_height(size: f32) -> u32 {
+    font().map_or(0, |f| {
+        let sf = f.as_scaled(PxScale::from(size));
+        (sf.ascent() - sf.descent()).ceil() as u32
+    })
+}
+
+/// Draws `text` at `size` pixels with its top-left corner (top of the ascent) at `(x, y)`, blended over the
+/// image in `color`, clipped to the image.
+pub fn draw_text(img: &mut RgbImage, x: i64, y: i64, text: &str, size: f32, color: [u8; 3]) {
+    let Some(f) = font() else { return };
+    let scale = PxScale::from(size);
+    let sf = f.as_scaled(scale);
+    let (w, h) = (i64::from(img.width()), i64::from(img.height()));
+    let mut caret = x as f32;
+    let baseline = y as f32 + sf.ascent();
+    let mut prev = None;
+    for c in text.chars() {
+        let id = sf.glyph_id(c);
+        if let Some(p) = prev {
+            caret += sf.kern(p, id);
+        }
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += sf.h_advance(id);
+        prev = Some(id);
+        let Some(outline) = f.outline_glyph(glyph) else { continue };
+        let b = outline.px_bounds();
+        outline.draw(|gx, gy, cov| {
+            let (px, py) = (b.min.x as i64 + i64::from(gx), b.min.y as i64 + i64::from(gy));
+            if (0..w).contains(&px) && (0..h).contains(&py) && cov > 0.0 {
+                let p = img.get_pixel_mut(px as u32, py as u32);
+                let a = cov.clamp(0.0, 1.0);
+                for q in 0..3 {
+                    p.0[q] = (f32::from(p.0[q]) * (1.0 - a) + f32::from(color[q]) * a).round() as u8;
                 }
             }
-        }
+        });
+    }
+}
+
+/// Draws `text` centred horizontally on `cx`, top at `y`.
+pub fn draw_text_centered(img: &mut RgbImage, cx: i64, y: i64, text: &str, size: f32, color: [u8; 3]) {
+    let w = i64::from(text_width(text, size));
+    draw_text(img, cx - w / 2, y, text, size, color);
+}
+
+/// A white strip `width × height` with `text` centred in it.
+pub fn title_strip(width: u32, height: u32, text: &str, size: f32) -> RgbImage {
+    let mut strip = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
+    let top = (i64::from(height) - i64::from(line_height(size))) / 2;
+    draw_text_centered(&mut strip, i64::from(width) / 2, top, text, size, [25, 25, 25]);
+    strip
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ink(img: &RgbImage) -> usize {
+        img.pixels().filter(|p| p.0[0] < 128).count()
+    }
+
+    #[test]
+    fn the_font_draws_distinct_glyphs_with_descenders() {
+        assert!(font().is_some());
+        assert!(register_plot_font());
+        let draw = |s: &str| {
+            let mut img = RgbImage::from_pixel(60, 40, Rgb([255, 255, 255]));
+            draw_text(&mut img, 2, 2, s, 24.0, [0, 0, 0]);
+            img
+        };
+        // "p" and "P" differ (the old bitmap font drew them alike), and "g" reaches below the baseline.
+        let (p, cap_p, g) = (draw("p"), draw("P"), draw("g"));
+        assert_ne!(p, cap_p);
+        let baseline = 2 + font().unwrap().as_scaled(PxScale::from(24.0)).ascent().round() as u32;
+        let below = |img: &RgbImage| {
+            (baseline + 1..40)
+                .flat_map(|y| (0..60).map(move |x| (x, y)))
+                .filter(|&(x, y)| img.get_pixel(x, y).0[0] < 128)
+                .count()
+        };
+        assert!(below(&g) > 5 && below(&p) > 5 && below(&cap_p) == 0);
+        assert!(ink(&draw("m")) > ink(&draw(".")));
+        assert!(text_width("mmmm", 20.0) > text_width("iiii", 20.0));
+        assert_eq!(text_width("", 20.0), 0);
+        // Clipped drawing off the image does not panic.
+        let mut img = RgbImage::new(10, 10);
+        draw_text(&mut img, -30, -5, "xyz", 40.0, [255, 0, 0]);
     }
 }

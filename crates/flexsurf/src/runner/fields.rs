@@ -1,0 +1,185 @@
+//! Per-vertex fields of the display surface at an output step, for the animated glTF, the VTK series and the
+//! viewer: the Coons-tessellated positions and normals, the pattern coordinates (UVs in metres), and the node
+//! fields interpolated onto the display vertices: velocity, engineering strain and contact pressure.
+//!
+//! Node fields (on the simulation grid):
+//! - strain: the largest `|ℓ/ℓ₀ − 1|` over the grid edges at the node (the per-node form of
+//!   [`Model::max_strain`]);
+//! - contact pressure: `c · max(δ − d, 0)` (Pa), the penalty contact's force per area at the node's signed
+//!   distance `d` from the nearest obstacle, with the model's contact stiffness `c` and offset `δ`;
+//! - velocity: the central-difference estimate `(x_t − x_{t−Δt})/Δt` of [`State::velocity`].
+//!
+//! Display vertex `(a, b)` of [`CoonsSurface::tessellate`] lies at `(t1, t2)` in cell `(ci, cj)`; its field
+//! values are the bilinear blend of the cell's four corner nodes, and its UV is `((ci + t1)·h1, (cj + t2)·h2)`,
+//! the pattern coordinates along warp (u1) and weft (u2).
+
+use crate::contact;
+use crate::grid::Grid;
+use crate::math::Vec3;
+use crate::model::Model;
+use crate::state::State;
+use crate::surface::{CoonsSurface, TriMesh};
+
+/// The display surface of one output step with its fields (single precision, as the files store them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameFields {
+    /// Step.
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Display vertex positions (m).
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals of the display surface.
+    pub normals: Vec<[f32; 3]>,
+    /// Velocity (m/s).
+    pub velocity: Vec<[f32; 3]>,
+    /// Engineering strain (dimensionless).
+    pub strain: Vec<f32>,
+    /// Contact pressure (Pa).
+    pub pressure: Vec<f32>,
+}
+
+/// What every frame of a run shares: the display triangles and the UVs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DisplayTopology {
+    /// Triangles of the display surface.
+    pub triangles: Vec<[u32; 3]>,
+    /// Pattern coordinates of the display vertices (m along warp, m along weft).
+    pub uv: Vec<[f32; 2]>,
+}
+
+/// Where display vertex index `v` along direction `d` lies: (cell, parameter in the cell).
+fn locate(v: usize, k: usize, cells: usize) -> (usize, f64) {
+    let c = (v / k).min(cells - 1);
+    (c, (v - c * k) as f64 / k as f64)
+}
+
+/// Display vertices per direction of [`CoonsSurface::tessellate`] with `k` subdivisions.
+fn display_counts(grid: &Grid, k: usize) -> (usize, usize) {
+    let count = |d: usize| grid.spans(d) * k + usize::from(!grid.periodic(d));
+    (count(0), count(1))
+}
+
+/// The cell, corner weights and UV of every display vertex (in the tessellation's order).
+fn display_stencil(grid: &Grid, k: usize) -> Vec<([usize; 4], [f64; 4], [f64; 2])> {
+    let k = k.max(1);
+    let (na, nb) = display_counts(grid, k);
+    let (s1, s2) = (grid.spans(0), grid.spans(1));
+    let mut out = Vec::with_capacity(na * nb);
+    for vb in 0..nb {
+        let (cj, t2) = locate(vb, k, s2);
+        for va in 0..na {
+            let (ci, t1) = locate(va, k, s1);
+            let w = [(1.0 - t1) * (1.0 - t2), t1 * (1.0 - t2), (1.0 - t1) * t2, t1 * t2];
+            let uv = [(ci as f64 + t1) * grid.h1, (cj as f64 + t2) * grid.h2];
+            out.push((grid.cell(ci, cj), w, uv));
+        }
+    }
+    out
+}
+
+/// Largest `|ℓ/ℓ₀ − 1|` over the grid edges at each node.
+pub fn node_strain(model: &Model, x: &[Vec3]) -> Vec<f64> {
+    let g = &model.grid;
+    let mut s = vec![0.0_f64; x.len()];
+    for (i, j) in g.cells() {
+        let c = g.cell(i, j);
+        for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
+            let l0 = (model.rest[b] - model.rest[a]).length();
+            if l0 <= 0.0 {
+                continue;
+            }
+            let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
+            s[a] = s[a].max(e);
+            s[b] = s[b].max(e);
+        }
+    }
+    s
+}
+
+/// Contact pressure `c · max(δ − d, 0)` (Pa) at each node; zero without obstacles or a contact term.
+pub fn node_pressure(model: &Model, x: &[Vec3]) -> Vec<f64> {
+    let obstacles = model.obstacles();
+    match model.contact_params() {
+        Some(p) if !obstacles.is_empty() => x
+            .iter()
+            .map(|&q| contact::closest(&obstacles, q).map_or(0.0, |(d, _)| p.stiffness * (p.offset - d).max(0.0)))
+            .collect(),
+        _ => vec![0.0; x.len()],
+    }
+}
+
+/// Node values blended onto the display vertices of a `k`-subdivided tessellation of `grid`.
+pub fn to_display<T>(grid: &Grid, k: usize, values: &[T]) -> Vec<T>
+where
+    T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+{
+    display_stencil(grid, k)
+        .into_iter()
+        .map(|(c, w, _)| values[c[0]] * w[0] + values[c[1]] * w[1] + values[c[2]] * w[2] + values[c[3]] * w[3])
+        .collect()
+}
+
+/// The triangles and UVs shared by every frame of `grid` tessellated with `k` subdivisions.
+pub fn display_topology(grid: &Grid, k: usize) -> DisplayTopology {
+    let uv = display_stencil(grid, k).into_iter().map(|(_, _, uv)| [uv[0] as f32, uv[1] as f32]).collect();
+    // The triangles are those of any tessellation; take them from the flat pattern.
+    let triangles = CoonsSurface::new(grid, &grid.flat_positions(0.0)).tessellate(k).triangles;
+    DisplayTopology { triangles, uv }
+}
+
+fn f32x3(v: Vec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The fields of `state` on `mesh`, its display surface with `k` subdivisions; `dt` is the time step.
+pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize, dt: f64) -> FrameFields {
+    let g = &model.grid;
+    let velocity: Vec<Vec3> = (0..state.x.len()).map(|n| state.velocity(n, dt)).collect();
+    FrameFields {
+        step: state.step,
+        time: state.time,
+        positions: mesh.positions.iter().map(|&p| f32x3(p)).collect(),
+        normals: mesh.normals.iter().map(|&n| f32x3(n.try_normalize().unwrap_or(Vec3::Z))).collect(),
+        velocity: to_display(g, k, &velocity).into_iter().map(f32x3).collect(),
+        strain: to_display(g, k, &node_strain(model, &state.x)).into_iter().map(|s| s as f32).collect(),
+        pressure: to_display(g, k, &node_pressure(model, &state.x)).into_iter().map(|s| s as f32).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::Topology;
+
+    #[test]
+    fn display_stencil_matches_the_tessellation() {
+        for topology in [[Topology::Free, Topology::Free], [Topology::Periodic, Topology::Free]] {
+            let g = Grid::new(5, 4, 0.1, 0.2, topology).unwrap();
+            let x: Vec<Vec3> = (0..g.len())
+                .map(|n| {
+                    let (i, j) = g.coords(n);
+                    Vec3::new(i as f64 * 0.1, j as f64 * 0.2, 0.05 * (i * j) as f64)
+                })
+                .collect();
+            let k = 3;
+            let mesh = CoonsSurface::new(&g, &x).tessellate(k);
+            let topo = display_topology(&g, k);
+            assert_eq!(topo.uv.len(), mesh.vertex_count());
+            assert_eq!(topo.triangles, mesh.triangles);
+            // Blending the node positions gives the display vertex at the grid nodes exactly.
+            let blended = to_display(&g, k, &x);
+            for n in 0..g.len() {
+                let (i, j) = g.coords(n);
+                let v = (i * k) + display_counts(&g, k).0 * (j * k);
+                assert!((blended[v] - x[n]).length() < 1e-12);
+                assert!((mesh.positions[v] - x[n]).length() < 1e-12);
+                assert!((f64::from(topo.uv[v][0]) - i as f64 * 0.1).abs() < 1e-6);
+                assert!((f64::from(topo.uv[v][1]) - j as f64 * 0.2).abs() < 1e-6);
+            }
+            // A third of the way along the first cell edge.
+            assert!((f64::from(topo.uv[1][0]) - 0.1 / 3.0).abs() < 1e-6);
+            assert!((blended[1] - (x[0] * (2.0 / 3.0) + x[1] * (1.0 / 3.0))).length() < 1e-12);
+        }
+    }
+}
