@@ -66,7 +66,6 @@ pub fn obstacle_meshes(model: &Model, around: &Aabb) -> Vec<(String, TriMesh, bo
 pub(super) struct AnimationRecorder {
     out: PathBuf,
     k: usize,
-    dt: f64,
     topology: DisplayTopology,
     frames: Vec<FrameFields>,
     pvd: Vec<(f64, String)>,
@@ -92,7 +91,7 @@ impl AnimationRecorder {
         let rec = Self {
             out: out.to_path_buf(),
             k,
-            dt: scene.dt,
+
             topology: display_topology(&model.grid, k),
             frames: Vec::new(),
             pvd: Vec::new(),
@@ -118,7 +117,7 @@ impl AnimationRecorder {
 
     /// Records the output step `state` with its display mesh `mesh`: its `.vtu` and the updated `.pvd`.
     pub fn record(&mut self, model: &Model, state: &State, mesh: &TriMesh) -> Result<(), RunError> {
-        let f = frame_fields(model, state, mesh, self.k, self.dt);
+        let f = frame_fields(model, state, mesh, self.k);
         let name = format!("{VTK_DIR}/frame_{:05}.vtu", state.step);
         let data = [
             PointData::Vector("velocity", &f.velocity),

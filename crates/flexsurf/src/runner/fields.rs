@@ -132,16 +132,16 @@ fn f32x3(v: Vec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// The fields of `state` on `mesh`, its display surface with `k` subdivisions; `dt` is the time step.
-pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize, dt: f64) -> FrameFields {
+/// The fields of `state` on `mesh`, its display surface with `k` subdivisions.
+pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> FrameFields {
     let g = &model.grid;
-    let velocity: Vec<Vec3> = (0..state.x.len()).map(|n| state.velocity(n, dt)).collect();
+    let velocity = &state.v;
     FrameFields {
         step: state.step,
         time: state.time,
         positions: mesh.positions.iter().map(|&p| f32x3(p)).collect(),
         normals: mesh.normals.iter().map(|&n| f32x3(n.try_normalize().unwrap_or(Vec3::Z))).collect(),
-        velocity: to_display(g, k, &velocity).into_iter().map(f32x3).collect(),
+        velocity: to_display(g, k, velocity).into_iter().map(f32x3).collect(),
         strain: to_display(g, k, &node_strain(model, &state.x)).into_iter().map(|s| s as f32).collect(),
         pressure: to_display(g, k, &node_pressure(model, &state.x)).into_iter().map(|s| s as f32).collect(),
     }
