@@ -340,7 +340,7 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     let obj = std::fs::read_to_string(d.join("frames/frame_00020.obj")).unwrap();
     assert!(obj.lines().any(|l| l.starts_with("vn ")));
 
-    // The paper's lagged step at Δt = 0.01 s diverges (docs/model.md §8.4): the error names the step, the directory
+    // The paper's lagged step at Δt = 0.01 s diverges (docs/model.md §8.6): the error names the step, the directory
     // holds no summary (not even the earlier run's) and no temporary file.
     spec.integrator.kind = IntegratorKind::Lagged;
     spec.time.steps = 200;

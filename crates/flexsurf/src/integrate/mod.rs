@@ -488,7 +488,7 @@ impl Stepper {
 /// The consistent start of a dynamic run at positions `x` with velocities `v` (zero on fixed nodes) for the
 /// step `dt`: the accelerations at t = 0 from every force of the model (elastic, gravity and loads, springs,
 /// contact, damping `−c v`, Coulomb friction: kinetic for a sliding node, static up to `μλ` for one at rest) give the history of [`State::start`], so the first step makes no O(Δt) error
-/// (docs/model.md §8.3). Non-finite forces are an error naming the node.
+/// (docs/model.md §8.4). Non-finite forces are an error naming the node.
 pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
     let n = x.len();
     let fixed = model.pinned();
