@@ -63,7 +63,7 @@ pub struct StepParams {
     pub solver: SolverKind,
     /// Most Newton iterations per step. The first is the linearised step of the paper's form; the default 4
     /// allows corrections towards the fully implicit solution when the residual is large (impacts) or when
-    /// friction changes between sticking and sliding (at most three corrections are needed then).
+    /// a node's friction turns out to reverse or stop within the step.
     pub newton_iterations: usize,
     /// Residual (N) above which a Newton correction is made, relative to the largest nodal weight (or load).
     /// The default 100 triggers corrections only at violent events such as the impact on the ball, where the

@@ -178,7 +178,7 @@ fn entry(
 }
 
 /// Most friction re-linearisations per assembly.
-const FRICTION_ROUNDS: usize = 3;
+const FRICTION_ROUNDS: usize = 1;
 
 /// Penalty contact of the sheet's nodes (rest areas `area`) with `obstacles`.
 #[derive(Debug, Clone)]
