@@ -11,6 +11,7 @@
 
 pub mod atomic;
 pub mod gltf;
+pub mod input;
 pub mod obj;
 pub mod ply;
 pub mod render;

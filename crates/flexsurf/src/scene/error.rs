@@ -1,8 +1,8 @@
 //! Scene errors: [`SceneError`] names the file, the dotted key (`time.dt`, `obstacle[0].sphere.radius`) and what
 //! is wrong; [`parse_toml`] reads TOML into a serde type and turns a parse error's byte span into a line, a
-//! column and a key (through [`super::keys`]).
+//! column and a key (through [`super::spans`], from the parser's own spans).
 
-use super::keys;
+use super::spans;
 use std::path::Path;
 use thiserror::Error;
 
@@ -64,13 +64,7 @@ impl SceneError {
 /// Parses TOML text read from `file` into `T`, turning the error span into a line, a column and a key path.
 pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
     toml::from_str(text).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        let (line, column) = keys::line_col(text, span.start);
-        let message = e.message().trim().to_string();
-        let mut key = keys::key_at(text, span.start);
-        if let Some(field) = message.strip_prefix("missing field `").and_then(|s| s.split('`').next()) {
-            key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
-        }
+        let (line, column, mut key, message) = spans::locate(text, &e);
         if key.is_empty() {
             key = "(top level)".to_string();
         }

@@ -178,7 +178,9 @@ impl MaterialSpec {
                     SceneError::Io { source, .. } => {
                         v.bad("file", format!("cannot read material file {}: {source}", path.display()))
                     }
-                    other => other,
+                    // An error inside the material file names it (and its key); this names the referencing
+                    // file and key around it.
+                    other => v.bad("file", format!("in the material file it names: {other}")),
                 })?;
                 (Some(m.fabric), Some(path), Some(m.name))
             }
@@ -220,11 +222,16 @@ impl MaterialSpec {
                 f
             }
         };
-        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) = fabric.validate() {
+        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) =
+            fabric.validate().and_then(|()| fabric.check_ranges())
+        {
             // Blame the table that set the value: this one if it gave the key, else the file it extends.
             let here = given.iter().any(|(k, _, _)| *k == bad);
             return Err(match (&base_file, here) {
-                (Some(bf), false) => Validator::new(bf).bad(bad, format!("{value}: {what}")),
+                (Some(bf), false) => {
+                    let inner = Validator::new(bf).bad(bad, format!("{value}: {what}"));
+                    v.bad("file", format!("in the material file it names: {inner}"))
+                }
                 _ => v.bad(bad, format!("{value}: {what}")),
             });
         }
@@ -235,7 +242,7 @@ impl MaterialSpec {
 
 /// Reads and resolves a material file (`materials/*.toml`).
 pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
+    let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
     let spec: MaterialSpec = parse_toml(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
