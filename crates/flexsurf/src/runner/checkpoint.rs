@@ -105,7 +105,7 @@ impl From<StatsSaved> for RunStats {
 }
 
 fn bad(path: &Path, message: String) -> RunError {
-    RunError::Io { path: path.to_path_buf(), source: io::Error::new(io::ErrorKind::InvalidData, message) }
+    RunError::Resume(format!("{}: {message}", path.display()))
 }
 
 /// The checkpoint path in `out`.
@@ -115,7 +115,8 @@ pub fn path_in(out: &Path) -> PathBuf {
 
 /// The warm state of `stepper`, as a checkpoint needs it.
 pub fn stepper_state(stepper: &Stepper, path: &Path) -> Result<(WarmState, CountersSaved), RunError> {
-    let warm = stepper.warm_state().map_err(|e| bad(path, e))?;
+    let warm =
+        stepper.warm_state().map_err(|e| RunError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     Ok((warm, stepper.counters.into()))
 }
 
@@ -151,17 +152,15 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
 /// Writes `ck` into `out` atomically.
 pub fn write(out: &Path, ck: &Checkpoint) -> Result<(), RunError> {
     let path = path_in(out);
-    let bytes = encode(ck).map_err(|e| bad(&path, e))?;
+    let bytes = encode(ck).map_err(|e| RunError::Io { path: path.clone(), source: io::Error::other(e) })?;
     atomic::write_atomic(&path, &bytes).map_err(|source| RunError::Io { path, source })
 }
 
 /// Reads the checkpoint in `out` and checks it belongs to the run `fingerprint`.
 pub fn read(out: &Path, fingerprint: &str) -> Result<Checkpoint, RunError> {
     let path = path_in(out);
-    let bytes = crate::io::input::read_bytes_limited(&path, MAX_BYTES).map_err(|source| RunError::Io {
-        path: path.clone(),
-        source: io::Error::new(source.kind(), format!("cannot read the checkpoint to resume from: {source}")),
-    })?;
+    let bytes = crate::io::input::read_bytes_limited(&path, MAX_BYTES)
+        .map_err(|e| bad(&path, format!("cannot read the checkpoint to resume from: {e}")))?;
     let ck = decode(&bytes).map_err(|e| bad(&path, format!("cannot resume from this checkpoint: {e}")))?;
     if ck.fingerprint != fingerprint {
         return Err(bad(

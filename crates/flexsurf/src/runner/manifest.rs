@@ -83,7 +83,9 @@ fn stale_temp(name: &str, owned: &dyn Fn(&str) -> bool) -> bool {
     let (Some(n), Some(pid), Some(base)) = (parts.next(), parts.next(), parts.next()) else { return false };
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
     let Some(base) = base.strip_suffix(".tmp") else { return false };
-    digits(n) && digits(pid) && owned(base)
+    // Not a temporary of a live process (another run writing here now; Linux's /proc tells).
+    let live = pid != std::process::id().to_string() && Path::new("/proc").join(pid).exists();
+    digits(n) && digits(pid) && owned(base) && !live
 }
 
 /// A frame file name of a run (`frame_00042.obj`, or another extension).

@@ -61,6 +61,23 @@ impl SceneError {
     }
 }
 
+/// As [`parse_toml`] for a file other than a scene (a material file): the message loses the values it would
+/// quote from the file, and the key of an unknown field stops at its table ([`spans::sanitize`]).
+pub(crate) fn parse_toml_foreign<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
+    parse_toml(text, file).map_err(|e| match e {
+        SceneError::Parse { file, line, column, key, message } => {
+            let unknown = message.starts_with("unknown field") || message.starts_with("unknown variant");
+            let key = if unknown {
+                key.rsplit_once('.').map_or("(top level)".to_string(), |(t, _)| t.to_string())
+            } else {
+                key
+            };
+            SceneError::Parse { file, line, column, key, message: spans::sanitize(&message) }
+        }
+        other => other,
+    })
+}
+
 /// Parses TOML text read from `file` into `T`, turning the error span into a line, a column and a key path.
 pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
     toml::from_str(text).map_err(|e| {

@@ -2,7 +2,7 @@
 //! preset, a file, or gives the constants inline, in SI or in native KES-F units. Inline constants override the
 //! preset's or the file's. Everything is converted to an SI [`Fabric`] here; the model never sees units.
 
-use super::error::{parse_toml, SceneError};
+use super::error::{parse_toml, parse_toml_foreign, SceneError};
 use super::validate::Validator;
 use crate::material::{units, Fabric};
 use schemars::JsonSchema;
@@ -243,7 +243,7 @@ impl MaterialSpec {
 /// Reads and resolves a material file (`materials/*.toml`).
 pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
     let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
-    let spec: MaterialSpec = parse_toml(&text, path)?;
+    let spec: MaterialSpec = parse_toml_foreign(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
         return Err(Validator::new(path).bad(k, "a material file gives constants; it cannot extend another".into()));

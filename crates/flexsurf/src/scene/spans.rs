@@ -98,21 +98,52 @@ pub fn locate(text: &str, error: &toml::de::Error) -> (usize, usize, String, Str
     (line, column, key, message)
 }
 
-/// A one-line description of a TOML error in `text` for files other than scenes: line, column, key and the
-/// parser's message, without the quoted source line the error's `Display` would add (a file's contents are
-/// never echoed).
+/// A one-line description of a TOML error in `text` for files other than scenes (NURBS bodies): line, column
+/// and the parser's message with the values it quotes removed ([`sanitize`]), without the quoted source line
+/// the error's `Display` would add and without key paths (an unknown key is the file's text): nothing of the
+/// file's contents is echoed.
 pub fn describe(text: &str, error: &toml::de::Error) -> String {
-    let (line, column, key, message) = locate(text, error);
-    if key.is_empty() {
-        format!("line {line}, column {column}: {message}")
-    } else {
-        format!("line {line}, column {column}: `{key}`: {message}")
+    let (line, column, _key, message) = locate(text, error);
+    format!("line {line}, column {column}: {}", sanitize(&message))
+}
+
+/// `message` of the TOML parser or of serde without the values it quotes from the file: `unknown field
+/// `secret`` becomes `unknown field`, `invalid type: string "abc", expected f64` becomes `invalid type: string,
+/// expected f64` (the lists of expected keys and kinds, which come from the format, are kept).
+pub fn sanitize(message: &str) -> String {
+    let message = message.trim();
+    for prefix in ["unknown field `", "unknown variant `", "duplicate key `", "duplicate field `"] {
+        if let Some(rest) = message.strip_prefix(prefix) {
+            let after = rest.split_once('`').map_or("", |(_, a)| a);
+            return format!("{}{after}", prefix.trim_end_matches(" `"));
+        }
     }
+    for prefix in ["invalid type: ", "invalid value: ", "invalid length "] {
+        if let Some(rest) = message.strip_prefix(prefix) {
+            let (what, expected) = rest.split_once(", expected").unwrap_or((rest, ""));
+            // The kind of value (`string`, `integer`, `floating point`, `map`) without the value itself.
+            let kind: String = what.split(['"', '`']).next().unwrap_or("").trim().to_string();
+            let expected = if expected.is_empty() { String::new() } else { format!(", expected{expected}") };
+            return format!("{prefix}{kind}{expected}");
+        }
+    }
+    message.lines().next().unwrap_or("").to_string()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quoted_values_are_removed_from_foreign_messages() {
+        assert_eq!(
+            sanitize("unknown field `secret`, expected one of `a`, `b`"),
+            "unknown field, expected one of `a`, `b`"
+        );
+        assert_eq!(sanitize("invalid type: string \"hunter2\", expected f64"), "invalid type: string, expected f64");
+        assert_eq!(sanitize("invalid value: integer `-3`, expected usize"), "invalid value: integer, expected usize");
+        assert_eq!(sanitize("invalid string\nexpected `\"`"), "invalid string");
+    }
 
     #[test]
     fn paths_of_values_and_headers() {
