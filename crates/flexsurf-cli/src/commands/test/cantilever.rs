@@ -71,7 +71,7 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
         .with_context(|| format!("cantilever test of {name}"))?;
     let seconds = t.elapsed().as_secs_f64();
     // Every number of the report must be finite (serde_json writes a non-finite one as null).
-    if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(&r) {
+    if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(r) {
         if let Some((key, _)) = fields.iter().find(|(_, v)| v.is_null()) {
             bail!("cantilever test of {name}: the solve gave a non-finite `{key}`");
         }
