@@ -31,6 +31,17 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
+    /// An error inside a file the scene references (a material file): names the referencing file and key, then
+    /// the error in the referenced file (whose key [`SceneError::key`] reports).
+    #[error("{file}: `{key}`: in the file it names: {inner}")]
+    Referenced {
+        /// The referencing file.
+        file: String,
+        /// The referencing key (`material.file`).
+        key: String,
+        /// The error inside the referenced file.
+        inner: Box<SceneError>,
+    },
     /// A value that parses but cannot be used (non-finite, non-positive, out of range, inconsistent).
     #[error("{file}: `{key}`: {message}")]
     Invalid {
@@ -48,6 +59,10 @@ impl SceneError {
         SceneError::Io { file: file.display().to_string(), source }
     }
 
+    pub(crate) fn referenced(file: &Path, key: String, inner: SceneError) -> Self {
+        SceneError::Referenced { file: file.display().to_string(), key, inner: Box::new(inner) }
+    }
+
     pub(crate) fn invalid(file: &Path, key: String, message: String) -> Self {
         SceneError::Invalid { file: file.display().to_string(), key, message }
     }
@@ -57,21 +72,16 @@ impl SceneError {
         match self {
             SceneError::Io { .. } => "",
             SceneError::Parse { key, .. } | SceneError::Invalid { key, .. } => key,
+            SceneError::Referenced { inner, .. } => inner.key(),
         }
     }
 }
 
 /// As [`parse_toml`] for a file other than a scene (a material file): the message loses the values it would
-/// quote from the file, and the key of an unknown field stops at its table ([`spans::sanitize`]).
+/// quote from the file ([`spans::sanitize`]).
 pub(crate) fn parse_toml_foreign<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
     parse_toml(text, file).map_err(|e| match e {
         SceneError::Parse { file, line, column, key, message } => {
-            let unknown = message.starts_with("unknown field") || message.starts_with("unknown variant");
-            let key = if unknown {
-                key.rsplit_once('.').map_or("(top level)".to_string(), |(t, _)| t.to_string())
-            } else {
-                key
-            };
             SceneError::Parse { file, line, column, key, message: spans::sanitize(&message) }
         }
         other => other,

@@ -180,7 +180,7 @@ impl MaterialSpec {
                     }
                     // An error inside the material file names it (and its key); this names the referencing
                     // file and key around it.
-                    other => v.bad("file", format!("in the material file it names: {other}")),
+                    other => SceneError::referenced(file, v.key("file"), other),
                 })?;
                 (Some(m.fabric), Some(path), Some(m.name))
             }
@@ -230,7 +230,7 @@ impl MaterialSpec {
             return Err(match (&base_file, here) {
                 (Some(bf), false) => {
                     let inner = Validator::new(bf).bad(bad, format!("{value}: {what}"));
-                    v.bad("file", format!("in the material file it names: {inner}"))
+                    SceneError::referenced(file, v.key("file"), inner)
                 }
                 _ => v.bad(bad, format!("{value}: {what}")),
             });

@@ -107,12 +107,13 @@ pub fn describe(text: &str, error: &toml::de::Error) -> String {
     format!("line {line}, column {column}: {}", sanitize(&message))
 }
 
-/// `message` of the TOML parser or of serde without the values it quotes from the file: `unknown field
-/// `secret`` becomes `unknown field`, `invalid type: string "abc", expected f64` becomes `invalid type: string,
-/// expected f64` (the lists of expected keys and kinds, which come from the format, are kept).
+/// `message` of the TOML parser or of serde without the values it quotes from the file: `unknown variant
+/// `secret`` becomes `unknown variant`, `invalid type: string "abc", expected f64` becomes `invalid type: string,
+/// expected f64` (key names, and the lists of expected keys and kinds, which come from the format, are kept).
 pub fn sanitize(message: &str) -> String {
     let message = message.trim();
-    for prefix in ["unknown field `", "unknown variant `", "duplicate key `", "duplicate field `"] {
+    // Key names are the format's (or a typo of one) and are kept; values are not.
+    for prefix in ["unknown variant `"] {
         if let Some(rest) = message.strip_prefix(prefix) {
             let after = rest.split_once('`').map_or("", |(_, a)| a);
             return format!("{}{after}", prefix.trim_end_matches(" `"));
@@ -137,9 +138,10 @@ mod tests {
     #[test]
     fn quoted_values_are_removed_from_foreign_messages() {
         assert_eq!(
-            sanitize("unknown field `secret`, expected one of `a`, `b`"),
-            "unknown field, expected one of `a`, `b`"
+            sanitize("unknown variant `secret`, expected one of `a`, `b`"),
+            "unknown variant, expected one of `a`, `b`"
         );
+        assert_eq!(sanitize("unknown field `bendng`, expected `a`"), "unknown field `bendng`, expected `a`");
         assert_eq!(sanitize("invalid type: string \"hunter2\", expected f64"), "invalid type: string, expected f64");
         assert_eq!(sanitize("invalid value: integer `-3`, expected usize"), "invalid value: integer, expected usize");
         assert_eq!(sanitize("invalid string\nexpected `\"`"), "invalid string");
