@@ -221,6 +221,7 @@ fn regression_checked_values_no_physical_scene_has() {
     for (from, to, key) in [
         ("[time]", "gravity = [0.0, 0.0, -1e300]\n[time]", "gravity"),
         ("steps = 6", "steps = 100000000000", "time.steps"),
+        ("steps = 6", "steps = 100000000\noutput_every = 1", "time.output_every"),
     ] {
         let e = err_text(&d, &SMALL.replace(from, to));
         assert!(e.contains(&format!("`{key}`")), "{key}: {e}");

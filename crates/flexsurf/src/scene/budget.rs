@@ -51,6 +51,8 @@ pub mod ranges {
     pub const SPRING: (f64, f64) = (1e-9, 1e12);
     /// Most nodes of a sheet or garment.
     pub const NODES: usize = 100_000_000;
+    /// Most frames a run writes (`steps / output_every`).
+    pub const FRAMES: usize = 1_000_000;
 }
 
 /// Checks `value` (only when finite and positive: other values are left to the checks that say "must be
@@ -76,6 +78,16 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
     range(v, "time.dt", spec.time.dt, ranges::DT, "s")?;
     v.require("time.steps", spec.time.steps <= ranges::STEPS, || {
         format!("{} steps is more than the {} a run may take", spec.time.steps, ranges::STEPS)
+    })?;
+    // The run lists its frames (in memory and in its manifest) before it starts.
+    let frames = spec.time.steps / spec.time.output_every.unwrap_or(spec.time.steps).max(1);
+    v.require("time.output_every", frames <= ranges::FRAMES, || {
+        format!(
+            "{frames} frames ({} steps, a frame every {} steps) is more than the {} a run may write",
+            spec.time.steps,
+            spec.time.output_every.unwrap_or(spec.time.steps).max(1),
+            ranges::FRAMES
+        )
     })?;
     bounded(v, "gravity", &spec.gravity, ranges::GRAVITY, "m/s²")?;
     for (i, o) in spec.obstacles.iter().enumerate() {
