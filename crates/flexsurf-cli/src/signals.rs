@@ -37,6 +37,16 @@ pub fn install() -> std::io::Result<Arc<AtomicBool>> {
     Ok(stop)
 }
 
+/// Forgets a signal that came too late to stop anything (the run had finished, or a static solve does not
+/// stop): the program then exits as the run did.
+pub fn forget() {
+    if let Some(f) = FLAGS.get() {
+        for flag in [&f.stop, &f.int, &f.term] {
+            flag.store(false, Ordering::SeqCst);
+        }
+    }
+}
+
 /// The exit status for a signal received, if one was.
 pub fn received() -> Option<u8> {
     let f = FLAGS.get()?;

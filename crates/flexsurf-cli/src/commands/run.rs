@@ -164,7 +164,9 @@ pub fn execute(args: &RunArgs) -> Result<()> {
     let label = scene.model.kind.name();
     let output = run_built(&scene, out, label, &options)?;
     print_table(&[(label, &output)]);
-    if output.summary.interrupted {
+    if !output.summary.interrupted {
+        crate::signals::forget();
+    } else {
         eprintln!(
             "interrupted after step {}: checkpoint and summary written; continue with `flexsurf run {} --resume {}`",
             output.summary.steps,
