@@ -9,8 +9,9 @@ import numpy as np
 
 import flexsurf
 
-# Wall-clock measurements differ from run to run; everything else in summary.json must agree exactly.
-TIMED = ("wall_seconds", "steps_per_second", "timings")
+# Wall-clock measurements (and the provenance: the command line) differ from run to run; everything else in
+# summary.json must agree exactly.
+TIMED = ("wall_seconds", "steps_per_second", "timings", "provenance")
 
 
 def files_of(out):

@@ -4,8 +4,22 @@
 //! the top level of the command line and the dispatch; each command's arguments and implementation are in
 //! `commands/`.
 
+// Output that ends quietly on a closed pipe (issue 11): these shadow the standard macros for every module
+// declared below them (macro_rules scoping), so the commands keep writing `println!`.
+macro_rules! println {
+    () => { $crate::stdout::line(format_args!("")) };
+    ($($arg:tt)*) => { $crate::stdout::line(format_args!($($arg)*)) };
+}
+
+macro_rules! eprintln {
+    () => { $crate::stdout::error_line(format_args!("")) };
+    ($($arg:tt)*) => { $crate::stdout::error_line(format_args!($($arg)*)) };
+}
+
 mod commands;
 mod progress;
+mod signals;
+mod stdout;
 
 use clap::{Parser, Subcommand};
 use commands::{bench, check, demo, run, schema, test, view};
@@ -56,7 +70,12 @@ fn main() -> ExitCode {
         Command::View(args) => view::execute(args),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        // A run stopped by SIGINT or SIGTERM: its checkpoint and summary are written; exit as the shell would
+        // for the signal (130, 143).
+        Ok(()) => match signals::received() {
+            Some(code) => ExitCode::from(code),
+            None => ExitCode::SUCCESS,
+        },
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

@@ -4,8 +4,9 @@
 
 use crate::math::Vec3;
 
-/// Positions and velocities at `t` and `t − Δt`, time and step.
-#[derive(Debug, Clone, PartialEq)]
+/// Positions and velocities at `t` and `t − Δt`, time and step. Serialisable as a whole, so a checkpoint
+/// ([`crate::runner::checkpoint`]) holds every field, including those added later.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct State {
     /// Current positions.
     pub x: Vec<Vec3>,

@@ -286,6 +286,7 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
             "frames/frame_00008.obj",
             "frames/frame_00016.obj",
             "frames/frame_00020.obj",
+            "manifest.json",
             "snapshots.png",
             "summary.json",
             "vtk/frame_00000.vtu",
@@ -341,11 +342,15 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     assert!(obj.lines().any(|l| l.starts_with("vn ")));
 
     // The paper's lagged step at Δt = 0.01 s diverges (docs/model.md §8.6): the error names the step, the directory
-    // holds no summary (not even the earlier run's) and no temporary file.
+    // holds no summary (not even the earlier run's) and no temporary file. The folder holds the first run's
+    // outputs, so the second run is refused unless told to overwrite them.
     spec.integrator.kind = IntegratorKind::Lagged;
     spec.time.steps = 200;
     let s = spec.build(&path).unwrap();
-    let err = run_scene(&s, &d, |_| {}).unwrap_err().to_string();
+    let refused = run_scene(&s, &d, |_| {}).unwrap_err().to_string();
+    assert!(refused.contains("holds the outputs of another run"), "{refused}");
+    let overwrite = flexsurf::runner::RunOptions { overwrite: true, ..Default::default() };
+    let err = flexsurf::runner::run_scene_with(&s, &d, &overwrite, |_| {}).unwrap_err().to_string();
     assert!(err.contains("diverged at step"), "{err}");
     let files = listing(&d);
     assert!(!files.iter().any(|f| f.ends_with("summary.json")), "{files:?}");

@@ -8,12 +8,14 @@ use std::path::PathBuf;
 pub struct CheckArgs {
     /// The scene file.
     scene: PathBuf,
+    #[command(flatten)]
+    limits: super::run::LimitArgs,
 }
 
 /// `flexsurf check`.
 pub fn execute(args: &CheckArgs) -> Result<()> {
     let scene_path = &args.scene;
-    let scene = flexsurf::scene::load(scene_path)?;
+    let scene = flexsurf::scene::load_with(scene_path, &args.limits.limits())?;
     let g = &scene.model.grid;
     println!(
         "{}: ok — {} × {} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \

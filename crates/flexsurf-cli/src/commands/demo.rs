@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use flexsurf::io::render;
 use flexsurf::model::ModelKind;
-use flexsurf::runner::{self, RunOutput};
+use flexsurf::runner::{self, RunOptions, RunOutput};
 use flexsurf::scene::SceneSpec;
 use std::path::{Path, PathBuf};
 
@@ -58,7 +58,10 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
         let scene = spec.build(file)?;
         let dir = out.join(kind.name());
         eprintln!("running {what} with the {} model into {}", kind.name(), dir.display());
-        let output = run_built(&scene, &dir, kind.name())?;
+        // The demo's folders are its own: a new demo replaces the files an earlier one wrote there (exactly
+        // those its manifest lists; anything else is refused as for `run`).
+        let options = RunOptions { overwrite: true, ..RunOptions::default() };
+        let output = run_built(&scene, &dir, kind.name(), &options)?;
         runs.push((kind, scene, output));
     }
     // One camera for every picture, so the two rows compare directly.

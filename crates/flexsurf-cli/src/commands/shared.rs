@@ -3,7 +3,7 @@
 
 use crate::progress;
 use anyhow::{Context, Result};
-use flexsurf::runner::{self, RunOutput};
+use flexsurf::runner::{self, RunOptions, RunOutput};
 use flexsurf::scene::Scene;
 use std::path::Path;
 
@@ -13,10 +13,10 @@ pub fn print_json(value: &serde_json::Value) -> Result<()> {
     Ok(())
 }
 
-/// Runs one built scene into `out` with a progress bar.
-pub fn run_built(scene: &Scene, out: &Path, label: &str) -> Result<RunOutput> {
+/// Runs one built scene into `out` with `options` and a progress bar.
+pub fn run_built(scene: &Scene, out: &Path, label: &str, options: &RunOptions) -> Result<RunOutput> {
     let bar = progress::bar(scene.steps, label);
-    let result = runner::run_scene(scene, out, |step| bar.set_position(step as u64));
+    let result = runner::run_scene_with(scene, out, options, |state| bar.set_position(state.step as u64));
     bar.finish_and_clear();
     result.with_context(|| format!("running {} ({} model) into {}", scene.file.display(), label, out.display()))
 }

@@ -111,7 +111,7 @@ impl Obstacle {
 /// Warm-start state of the closest-point queries: the last (patch, u, v) per obstacle and node, and per node
 /// the distance found at the last detection with the position it was found at. Signed distance is 1-Lipschitz,
 /// so `d(q) ≥ d(p) − |q − p|` lets later queries of a node that cannot have reached the contact layer be skipped.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct ContactCache {
     hints: Vec<Option<Hint>>,
     nodes: usize,

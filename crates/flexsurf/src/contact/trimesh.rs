@@ -110,13 +110,13 @@ fn from_parry(p: Vector) -> Vec3 {
 /// Parses one OBJ face index (`7`, `7/1`, `7//3`, `7/1/3`; negative = relative to the end) to 0-based.
 fn face_index(token: &str, vertices: usize) -> Result<u32, String> {
     let first = token.split('/').next().unwrap_or("");
-    let i: i64 = first.parse().map_err(|_| format!("bad vertex index {token:?}"))?;
+    let i: i64 = first.parse().map_err(|_| "a vertex index is not an integer".to_string())?;
     let zero_based = match i {
         0 => return Err("vertex index 0 (OBJ indices start at 1)".to_string()),
         i if i > 0 => i - 1,
         i => vertices as i64 + i,
     };
-    u32::try_from(zero_based).map_err(|_| format!("vertex index {token:?} is out of range"))
+    u32::try_from(zero_based).map_err(|_| format!("vertex index {i} is out of range"))
 }
 
 /// Vertices and fan-triangulated faces of OBJ text (`v` and `f` lines; everything else is ignored).
@@ -130,9 +130,10 @@ pub(crate) fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 
         match tokens.next() {
             Some("v") => {
                 let mut c = [0.0; 3];
-                for x in &mut c {
+                for (axis, x) in c.iter_mut().enumerate() {
                     let t = tokens.next().ok_or_else(|| syntax("a vertex needs x y z".to_string()))?;
-                    *x = t.parse().map_err(|_| syntax(format!("bad coordinate {t:?}")))?;
+                    // The message names the field, not its text: a file's contents are never echoed.
+                    *x = t.parse().map_err(|_| syntax(format!("coordinate {} is not a number", axis + 1)))?;
                 }
                 vertices.push(Vec3::from_array(c));
             }
@@ -232,7 +233,7 @@ impl TriMeshBody {
     pub fn from_obj(path: impl AsRef<Path>) -> Result<Self, TriMeshError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
+        let text = crate::io::input::read_text(path)
             .map_err(|e| TriMeshError::Io { file: file.clone(), message: e.to_string() })?;
         Self::from_obj_str(&text, &file)
     }

@@ -18,6 +18,8 @@
 pub mod linsolve;
 pub mod params;
 pub mod statics;
+// The stepper's warm state for checkpoints (issue 11).
+mod resume;
 
 use crate::energy::Operator;
 use crate::math::{finite, Vec3};

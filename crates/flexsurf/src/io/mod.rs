@@ -12,6 +12,7 @@
 pub mod atomic;
 pub mod glb;
 pub mod gltf;
+pub mod input;
 pub mod obj;
 pub mod ply;
 pub mod render;

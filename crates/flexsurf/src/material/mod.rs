@@ -80,6 +80,41 @@ impl Fabric {
         }
     }
 
+    /// The ranges a fabric read from a scene or material file must be in (docs/scenes.md, "Validation
+    /// ranges"), checked after [`Fabric::validate`]: beyond them no fabric or physical sheet lies, and the
+    /// calibration and the model's arithmetic over- or underflow (issue 11: density 1e-308 was accepted). Not part
+    /// of `validate`: models in scaled units (tests, the lab) may leave them.
+    pub fn check_ranges(&self) -> Result<(), MaterialError> {
+        let ranges: [(&'static str, f64, (f64, f64), &'static str); 6] = [
+            ("density", self.density, (1e-6, 1e3), "is outside the accepted range 1e-6 to 1e3 kg/m²"),
+            ("tensile_warp", self.tensile_warp, (1e-6, 1e12), "is outside the accepted range 1e-6 to 1e12 N/m"),
+            ("tensile_weft", self.tensile_weft, (1e-6, 1e12), "is outside the accepted range 1e-6 to 1e12 N/m"),
+            ("shear", self.shear, (1e-9, 1e12), "is outside the accepted range 1e-9 to 1e12 N/m"),
+            ("bending_warp", self.bending_warp, (1e-15, 1e6), "is outside the accepted range 1e-15 to 1e6 N·m"),
+            ("bending_weft", self.bending_weft, (1e-15, 1e6), "is outside the accepted range 1e-15 to 1e6 N·m"),
+        ];
+        for (key, value, (lo, hi), what) in ranges {
+            if !(lo..=hi).contains(&value) {
+                return Err(MaterialError::Invalid { key, value, what });
+            }
+        }
+        if self.damping > 1e6 {
+            return Err(MaterialError::Invalid {
+                key: "damping",
+                value: self.damping,
+                what: "is outside the accepted range 0 to 1e6 kg/(m²·s)",
+            });
+        }
+        if let Some(t) = self.twist.filter(|t| !(1e-15..=1e6).contains(t)) {
+            return Err(MaterialError::Invalid {
+                key: "twist",
+                value: t,
+                what: "is outside the accepted range 1e-15 to 1e6 N·m",
+            });
+        }
+        Ok(())
+    }
+
     /// Checks every constant (`key` names follow the material file).
     pub fn validate(&self) -> Result<(), MaterialError> {
         let positive = [

@@ -47,7 +47,7 @@ impl ContactParams {
 
 /// One node's contact, with the signed distance linearised about a reference point:
 /// `d(x) ≈ distance + normal·(x − reference)`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     /// Node index.
     pub node: usize,
@@ -189,7 +189,8 @@ pub struct PenaltyContact {
 }
 
 /// The contact term's scratch: the warm-start cache of the closest-point queries and the active set.
-#[derive(Debug, Clone, Default)]
+/// Serialisable: it carries over between steps, so a checkpoint holds it (`potential/warm.rs`).
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct ContactScratch {
     cache: ContactCache,
     contacts: Vec<Contact>,

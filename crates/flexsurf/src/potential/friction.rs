@@ -30,7 +30,8 @@
 use crate::math::{outer, Mat3, Vec3};
 
 /// Largest error of a node's friction force model, relative to the largest Coulomb limit `μλ` of the step's
-/// contacts, that a step's solve accepts without re-linearising and re-solving (docs/model.md §10.2; at most two re-solves per Newton iteration).
+/// contacts, that a step's solve accepts without re-linearising and re-solving (docs/model.md §10.2; one friction
+/// re-solve per Newton iteration).
 pub const MODEL_TOLERANCE: f64 = 0.01;
 
 /// Friction model error (relative to the largest `μλ`) above which a step makes a Newton correction: a slip reversed or
@@ -97,7 +98,7 @@ impl FrictionLaw {
 
 /// The lagged friction data of one node for one step: its contact's normal force and normal at the start, and
 /// the linear model the last assembly solved with.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Lagged {
     /// Node index.
     pub node: usize,

@@ -143,6 +143,10 @@ pub struct StaticFriction<'a> {
 #[derive(Default)]
 pub struct Scratch(Option<Box<dyn Any + Send>>);
 
+// Saving and restoring the scratch that carries over between steps, for checkpoints (issue 11).
+mod warm;
+pub use warm::WarmState;
+
 impl Scratch {
     /// The scratch as a `T`, created by `make` when absent (or of another type).
     pub fn get_or<T: Any + Send>(&mut self, make: impl FnOnce() -> T) -> &mut T {

@@ -137,6 +137,17 @@ impl AnimationRecorder {
         Ok(())
     }
 
+    /// The frames recorded so far (for a checkpoint).
+    pub fn frames(&self) -> &[FrameFields] {
+        &self.frames
+    }
+
+    /// Continues a resumed run: the frames recorded before its checkpoint (their `.vtu` files are on disk).
+    pub fn restore(&mut self, frames: Vec<FrameFields>) {
+        self.pvd = frames.iter().map(|f| (f.time, format!("{VTK_DIR}/frame_{:05}.vtu", f.step))).collect();
+        self.frames = frames;
+    }
+
     /// Writes `animation.glb` of the recorded frames; `info` goes into its `extras`.
     pub fn finish(&self, info: &serde_json::Value) -> Result<(), RunError> {
         if self.frames.is_empty() {

@@ -21,7 +21,7 @@ use crate::state::State;
 use crate::surface::{CoonsSurface, TriMesh};
 
 /// The display surface of one output step with its fields (single precision, as the files store them).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameFields {
     /// Step.
     pub step: usize,

@@ -3,6 +3,7 @@
 //! scenes, the drift of the spring-held waist.
 
 use super::outputs::FrameRecord;
+use super::provenance::Provenance;
 use crate::integrate::statics::StaticReport;
 use crate::integrate::Counters;
 use crate::math::Vec3;
@@ -101,6 +102,10 @@ pub struct Summary {
     /// The final configuration.
     #[serde(rename = "final")]
     pub final_state: FinalState,
+    /// The run was stopped (SIGINT or SIGTERM) after `steps` steps; a checkpoint to resume from is in the folder.
+    pub interrupted: bool,
+    /// Version, command line, input hashes, material constants and solver settings.
+    pub provenance: Provenance,
 }
 
 /// What the run loop hands to [`summarize`] besides the scene and the final state.
@@ -113,12 +118,35 @@ pub(super) struct Finished {
     pub static_report: Option<StaticReport>,
     /// Frames written.
     pub frames: Vec<FrameRecord>,
+    /// Whether the run was stopped before its last step.
+    pub interrupted: bool,
+    /// The run's provenance.
+    pub provenance: Provenance,
+}
+
+/// The first number of `summary` that is not finite, by its key (`final.min_z`); `None` when all are (the
+/// provenance is not searched).
+pub(super) fn non_finite(summary: &Summary) -> Option<String> {
+    fn walk(v: &serde_json::Value, path: &str) -> Option<String> {
+        match v {
+            // serde_json writes a non-finite number as `null`: the only nulls in a summary are such numbers.
+            serde_json::Value::Null => Some(path.to_string()),
+            serde_json::Value::Array(a) => a.iter().enumerate().find_map(|(i, x)| walk(x, &format!("{path}[{i}]"))),
+            // The provenance holds settings (options as `null`), not results.
+            serde_json::Value::Object(o) => o
+                .iter()
+                .filter(|(k, _)| !(path.is_empty() && *k == "provenance"))
+                .find_map(|(k, x)| walk(x, &if path.is_empty() { k.clone() } else { format!("{path}.{k}") })),
+            _ => None,
+        }
+    }
+    walk(&serde_json::to_value(summary).ok()?, "")
 }
 
 /// The summary of `scene` run to `state`; `final_mesh` is the Coons mesh of `state`.
 pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
     let model = &scene.model;
-    let Finished { stats, timings, static_report, frames } = done;
+    let Finished { stats, timings, static_report, frames, interrupted, provenance } = done;
     let d = sim::diagnose(model, state, 0);
     Summary {
         scene: scene.name.clone(),
@@ -144,6 +172,8 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         static_solve: static_report,
         frames,
         final_state: final_state(model, &state.x, final_mesh, &d),
+        interrupted,
+        provenance,
     }
 }
 

@@ -3,6 +3,7 @@
 //! garment, pins, springs, output) and only then builds the [`Model`] and the initial [`State`] of a [`Scene`],
 //! all in one place (`assemble`).
 
+use super::budget::Limits;
 use super::garment::{GarmentInfo, GarmentSpec};
 use super::initial;
 use super::material::relative_to;
@@ -150,8 +151,15 @@ impl SceneSpec {
     /// Validates every value and builds the model and initial state. `scene_path` is the file the spec came
     /// from: material files are found relative to it, and it names errors.
     pub fn build(&self, scene_path: &Path) -> Result<Scene, SceneError> {
+        self.build_with(scene_path, &Limits::default())
+    }
+
+    /// As [`SceneSpec::build`], with the resource `limits` (`--max-memory`) checked before anything is built.
+    pub fn build_with(&self, scene_path: &Path, limits: &Limits) -> Result<Scene, SceneError> {
         let file = scene_path;
         let v = Validator::new(file);
+        // Ranges and size first (issue 11): nothing below allocates for a scene that fails them.
+        super::budget::check(self, &v, limits)?;
 
         // Time.
         let dt = v.positive("time.dt", self.time.dt, "s")?;

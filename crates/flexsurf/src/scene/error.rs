@@ -1,8 +1,8 @@
 //! Scene errors: [`SceneError`] names the file, the dotted key (`time.dt`, `obstacle[0].sphere.radius`) and what
 //! is wrong; [`parse_toml`] reads TOML into a serde type and turns a parse error's byte span into a line, a
-//! column and a key (through [`super::keys`]).
+//! column and a key (through [`super::spans`], from the parser's own spans).
 
-use super::keys;
+use super::spans;
 use std::path::Path;
 use thiserror::Error;
 
@@ -31,6 +31,17 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
+    /// An error inside a file the scene references (a material file): names the referencing file and key, then
+    /// the error in the referenced file (whose key [`SceneError::key`] reports).
+    #[error("{file}: `{key}`: in the file it names: {inner}")]
+    Referenced {
+        /// The referencing file.
+        file: String,
+        /// The referencing key (`material.file`).
+        key: String,
+        /// The error inside the referenced file.
+        inner: Box<SceneError>,
+    },
     /// A value that parses but cannot be used (non-finite, non-positive, out of range, inconsistent).
     #[error("{file}: `{key}`: {message}")]
     Invalid {
@@ -48,6 +59,10 @@ impl SceneError {
         SceneError::Io { file: file.display().to_string(), source }
     }
 
+    pub(crate) fn referenced(file: &Path, key: String, inner: SceneError) -> Self {
+        SceneError::Referenced { file: file.display().to_string(), key, inner: Box::new(inner) }
+    }
+
     pub(crate) fn invalid(file: &Path, key: String, message: String) -> Self {
         SceneError::Invalid { file: file.display().to_string(), key, message }
     }
@@ -57,20 +72,26 @@ impl SceneError {
         match self {
             SceneError::Io { .. } => "",
             SceneError::Parse { key, .. } | SceneError::Invalid { key, .. } => key,
+            SceneError::Referenced { inner, .. } => inner.key(),
         }
     }
+}
+
+/// As [`parse_toml`] for a file other than a scene (a material file): the message loses the values it would
+/// quote from the file ([`spans::sanitize`]).
+pub(crate) fn parse_toml_foreign<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
+    parse_toml(text, file).map_err(|e| match e {
+        SceneError::Parse { file, line, column, key, message } => {
+            SceneError::Parse { file, line, column, key, message: spans::sanitize(&message) }
+        }
+        other => other,
+    })
 }
 
 /// Parses TOML text read from `file` into `T`, turning the error span into a line, a column and a key path.
 pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T, SceneError> {
     toml::from_str(text).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        let (line, column) = keys::line_col(text, span.start);
-        let message = e.message().trim().to_string();
-        let mut key = keys::key_at(text, span.start);
-        if let Some(field) = message.strip_prefix("missing field `").and_then(|s| s.split('`').next()) {
-            key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
-        }
+        let (line, column, mut key, message) = spans::locate(text, &e);
         if key.is_empty() {
             key = "(top level)".to_string();
         }

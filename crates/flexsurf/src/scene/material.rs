@@ -2,7 +2,7 @@
 //! preset, a file, or gives the constants inline, in SI or in native KES-F units. Inline constants override the
 //! preset's or the file's. Everything is converted to an SI [`Fabric`] here; the model never sees units.
 
-use super::error::{parse_toml, SceneError};
+use super::error::{parse_toml, parse_toml_foreign, SceneError};
 use super::validate::Validator;
 use crate::material::{units, Fabric};
 use schemars::JsonSchema;
@@ -178,7 +178,9 @@ impl MaterialSpec {
                     SceneError::Io { source, .. } => {
                         v.bad("file", format!("cannot read material file {}: {source}", path.display()))
                     }
-                    other => other,
+                    // An error inside the material file names it (and its key); this names the referencing
+                    // file and key around it.
+                    other => SceneError::referenced(file, v.key("file"), other),
                 })?;
                 (Some(m.fabric), Some(path), Some(m.name))
             }
@@ -220,11 +222,16 @@ impl MaterialSpec {
                 f
             }
         };
-        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) = fabric.validate() {
+        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) =
+            fabric.validate().and_then(|()| fabric.check_ranges())
+        {
             // Blame the table that set the value: this one if it gave the key, else the file it extends.
             let here = given.iter().any(|(k, _, _)| *k == bad);
             return Err(match (&base_file, here) {
-                (Some(bf), false) => Validator::new(bf).bad(bad, format!("{value}: {what}")),
+                (Some(bf), false) => {
+                    let inner = Validator::new(bf).bad(bad, format!("{value}: {what}"));
+                    SceneError::referenced(file, v.key("file"), inner)
+                }
                 _ => v.bad(bad, format!("{value}: {what}")),
             });
         }
@@ -235,8 +242,8 @@ impl MaterialSpec {
 
 /// Reads and resolves a material file (`materials/*.toml`).
 pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
-    let spec: MaterialSpec = parse_toml(&text, path)?;
+    let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
+    let spec: MaterialSpec = parse_toml_foreign(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
         return Err(Validator::new(path).bad(k, "a material file gives constants; it cannot extend another".into()));

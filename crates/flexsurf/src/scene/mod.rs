@@ -15,17 +15,20 @@
 //!   run settings).
 //! - `validate.rs`: the one value checker the other files share, so a check reads the same wherever it is made.
 //! - `error.rs`: [`SceneError`] and the TOML reader that locates parse errors.
-//! - [`keys`]: the dotted key at a byte offset of TOML text, for those errors.
+//! - [`spans`]: the dotted key at a byte offset of TOML text, from the parser's spans, for those errors.
+//! - [`budget`]: the size and memory estimate checked before anything large is allocated.
 
+pub mod budget;
 mod build;
 mod error;
 pub mod garment;
 pub mod initial;
-pub mod keys;
 pub mod material;
+pub mod spans;
 mod spec;
 mod validate;
 
+pub use budget::Limits;
 pub use build::Scene;
 pub use error::SceneError;
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
@@ -41,5 +44,10 @@ use std::path::Path;
 
 /// Reads, parses and builds the scene file at `path`.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    SceneSpec::load(path)?.build(path)
+    load_with(path, &Limits::default())
+}
+
+/// As [`load`] with the resource `limits`.
+pub fn load_with(path: &Path, limits: &Limits) -> Result<Scene, SceneError> {
+    SceneSpec::load(path)?.build_with(path, limits)
 }

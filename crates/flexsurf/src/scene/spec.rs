@@ -423,7 +423,7 @@ impl Default for OutputSpec {
 impl SceneSpec {
     /// Reads and parses a scene file (no validation beyond types: see [`SceneSpec::build`]).
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::io(path, source))?;
+        let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
         Self::from_toml(&text, path)
     }
 

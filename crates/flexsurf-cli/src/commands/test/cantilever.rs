@@ -56,8 +56,10 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     let (direction, width) = (Direction::from(args.direction), args.width);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cantilever"));
     for &l in &args.overhang {
-        if !(l.is_finite() && l > 0.0) {
-            bail!("--overhang: {l} m must be a positive length");
+        // A bench strip is centimetres long; beyond 10 m the elastica's arithmetic overflows (issue 11:
+        // `--overhang 1e308` printed "chord angle NaN deg").
+        if !(l.is_finite() && l > 0.0 && l <= 10.0) {
+            bail!("--overhang: {l} m must be a positive length of at most 10 m");
         }
     }
     if args.overhang.len() > 1 {
@@ -65,14 +67,20 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     }
     let overhang = args.overhang.first().copied();
     if let Some(b) = width {
-        if !(b.is_finite() && b > 0.0) {
-            bail!("--width: {b} m must be a positive length");
+        if !(b.is_finite() && b > 0.0 && b <= 10.0) {
+            bail!("--width: {b} m must be a positive length of at most 10 m");
         }
     }
     let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };
     let (r, hang) = cantilever_with_hang(&fabric, calibration, strip, overhang)
         .with_context(|| format!("cantilever test of {name}"))?;
     let seconds = t.elapsed().as_secs_f64();
+    // Every number of the report must be finite (serde_json writes a non-finite one as null).
+    if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(r) {
+        if let Some((key, _)) = fields.iter().find(|(_, v)| v.is_null()) {
+            bail!("cantilever test of {name}: the solve gave a non-finite `{key}`");
+        }
+    }
     let (png, obj) = picture(&hang, &r, out)?;
     if args.fabric.json {
         let v = serde_json::json!({ "test": "cantilever", "material": name, "calibration": calibration,

@@ -32,8 +32,11 @@ struct PatchFile {
 impl NurbsBody {
     /// Parses a body from TOML text (format in the module documentation); `file` names it in errors.
     pub fn from_toml_str(text: &str, file: &str) -> Result<Self, NurbsError> {
-        let raw: BodyFile =
-            toml::from_str(text).map_err(|e| NurbsError::Parse { file: file.to_string(), message: e.to_string() })?;
+        // The parser's own message and position only: its `Display` quotes the offending line of the file.
+        let raw: BodyFile = toml::from_str(text).map_err(|e| NurbsError::Parse {
+            file: file.to_string(),
+            message: crate::scene::spans::describe(text, &e),
+        })?;
         if let Some(units) = raw.units {
             if units != "m" {
                 return Err(NurbsError::File { file: file.into(), source: Box::new(NurbsError::Units(units)) });
@@ -58,8 +61,8 @@ impl NurbsBody {
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, NurbsError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text =
-            std::fs::read_to_string(path).map_err(|e| NurbsError::Io { file: file.clone(), message: e.to_string() })?;
+        let text = crate::io::input::read_text(path)
+            .map_err(|e| NurbsError::Io { file: file.clone(), message: e.to_string() })?;
         Self::from_toml_str(&text, &file)
     }
 

@@ -14,7 +14,7 @@ const HALVINGS: usize = 30;
 const STEP_TOLERANCE: f64 = 1e-13;
 
 /// Warm start of a projection: the patch and parameters of the previous closest point.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Hint {
     /// Patch index in the body.
     pub patch: usize,

@@ -27,7 +27,11 @@ pub enum LinearError {
     #[error("symbolic factorisation failed: {0}")]
     Symbolic(String),
     /// The matrix was not numerically positive definite.
-    #[error("the step matrix is not positive definite (pivot {index})")]
+    #[error(
+        "the step matrix is not positive definite (pivot {index} of its factorisation): in a static solve part of \
+         the sheet is free to move (pin it or hold it by springs); in a time step a position or coefficient is not \
+         finite"
+    )]
     NotPositiveDefinite {
         /// Failing column.
         index: usize,

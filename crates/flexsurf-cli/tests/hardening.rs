@@ -1,0 +1,221 @@
+//! Issue 11 through the binary: broken pipes end quietly with the usual status, SIGINT/SIGTERM stop a run with
+//! a checkpoint and exit 130/143, a run killed (SIGTERM or SIGKILL) at a random moment resumes to outputs
+//! byte-identical to an uninterrupted run, output folders are refused or overwritten safely, and extreme
+//! command-line values are errors.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_flexsurf");
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("flexsurf-cli-hardening-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn flexsurf(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(BIN).args(args).output().expect("run flexsurf");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (out.status.code().unwrap_or(-1), text(&out.stdout), text(&out.stderr))
+}
+
+/// Runs `args` with standard output a pipe whose reader has already gone; returns the exit code and stderr.
+fn with_closed_stdout(args: &[&str]) -> (i32, String) {
+    let mut child = Command::new(BIN).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (child.wait().unwrap().code().unwrap_or(-1), err)
+}
+
+#[test]
+fn regression_broken_pipe_panicked() {
+    let d = scratch("pipe");
+    let scene = repo().join("scenes/ball_drop.toml");
+    let scene = scene.to_str().unwrap();
+    let out = d.join("out");
+    for args in [
+        vec!["check", scene],
+        vec!["schema"],
+        vec!["run", scene, "--out", out.to_str().unwrap(), "--steps", "3"],
+        vec!["test", "kes", "--json"],
+    ] {
+        let (code, err) = with_closed_stdout(&args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
+    }
+    assert!(out.join("summary.json").exists(), "the run's outputs are written all the same");
+}
+
+#[test]
+fn regression_cantilever_overhang_1e308_printed_nan() {
+    let (code, _, err) = flexsurf(&["test", "cantilever", "--overhang", "1e308"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--overhang") && err.contains("at most 10 m"), "{err}");
+}
+
+#[test]
+fn max_memory_refuses_and_admits() {
+    let scene = repo().join("scenes/ball_drop.toml");
+    let scene = scene.to_str().unwrap();
+    let (code, _, err) = flexsurf(&["check", scene, "--max-memory", "1M"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("`sheet.nodes`") && err.contains("--max-memory"), "{err}");
+    let (code, out, err) = flexsurf(&["check", scene, "--max-memory", "2G"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("ok"));
+    let (code, _, err) = flexsurf(&["check", scene, "--max-memory", "lots"]);
+    assert_eq!(code, 2, "{err}");
+}
+
+/// Files of `dir`, recursively, sorted.
+fn files(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if e.file_type().unwrap().is_dir() {
+            out.extend(files(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
+        } else {
+            out.push(name);
+        }
+    }
+    out.sort();
+    out
+}
+
+fn comparable_summary(dir: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for key in ["wall_seconds", "steps_per_second", "timings", "provenance"] {
+        v.as_object_mut().unwrap().remove(key);
+    }
+    v
+}
+
+fn assert_same_outputs(a: &Path, b: &Path, what: &str) {
+    assert_eq!(files(a), files(b), "{what}");
+    for f in files(a) {
+        if f == "summary.json" {
+            assert_eq!(comparable_summary(a), comparable_summary(b), "{what}: summary.json");
+        } else {
+            assert!(std::fs::read(a.join(&f)).unwrap() == std::fs::read(b.join(&f)).unwrap(), "{what}: {f} differs");
+        }
+    }
+}
+
+/// A small, fast copy of the ball drop (13 × 13 nodes, 150 steps).
+fn small_drop(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenes/ball_drop.toml")).unwrap();
+    let text = text
+        .replace("nodes = [21, 21]", "nodes = [13, 13]")
+        .replace("steps = 300", "steps = 150")
+        .replace("output_every = 100", "output_every = 25")
+        .replace("image_size = [480, 360]", "image_size = [96, 72]");
+    let path = dir.join("drop.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Sends `signal` (a `kill` name) to `pid` with the system's `kill` (no `unsafe` here).
+fn kill(signal: &str, pid: u32) {
+    let _ = Command::new("kill").args([&format!("-{signal}"), &pid.to_string()]).status();
+}
+
+#[cfg(unix)]
+#[test]
+fn killed_at_random_moments_the_run_resumes_byte_identically() {
+    let d = scratch("kill");
+    let scene = small_drop(&d);
+    let scene = scene.to_str().unwrap();
+    let reference = d.join("reference");
+    let t = Instant::now();
+    let (code, _, err) = flexsurf(&["run", scene, "--out", reference.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let full = t.elapsed();
+    // Deterministic "random" moments spread over the run (a small LCG; no clock in the choice).
+    let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+    let mut next = || {
+        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (x >> 33) as f64 / (1u64 << 31) as f64
+    };
+    let mut interrupted = 0;
+    for (round, signal) in ["TERM", "INT", "KILL", "TERM", "KILL", "INT"].iter().enumerate() {
+        let out = d.join(format!("run-{round}"));
+        let mut child = Command::new(BIN)
+            .args(["run", scene, "--out", out.to_str().unwrap(), "--checkpoint-every", "10"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait for the run to start stepping (the manifest appears), then a random part of its duration.
+        let started = Instant::now();
+        while !out.join("energy.csv").exists() && started.elapsed() < Duration::from_secs(30) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        std::thread::sleep(full.mul_f64(0.1 + 0.6 * next()));
+        kill(signal, child.id());
+        let status = child.wait().unwrap();
+        let mut err = String::new();
+        child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        let finished_first = status.code() == Some(0);
+        match (*signal, finished_first) {
+            (_, true) => {} // the run ended before the signal; nothing to resume
+            ("TERM", false) => {
+                assert_eq!(status.code(), Some(143), "{err}");
+                let s: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+                assert_eq!(s["interrupted"], true);
+                assert!(err.contains("--resume"), "{err}");
+            }
+            ("INT", false) => assert_eq!(status.code(), Some(130), "{err}"),
+            _ => assert!(status.code().is_none(), "SIGKILL: {status:?}"),
+        }
+        if !finished_first {
+            interrupted += 1;
+            let (code, _, err) =
+                flexsurf(&["run", scene, "--resume", out.to_str().unwrap(), "--checkpoint-every", "10"]);
+            if code != 0 && err.contains("checkpoint.bin") && *signal == "KILL" {
+                // Killed before its first checkpoint: nothing to resume; a new run needs --overwrite.
+                let (code, _, err) = flexsurf(&["run", scene, "--out", out.to_str().unwrap(), "--overwrite"]);
+                assert_eq!(code, 0, "{err}");
+            } else {
+                assert_eq!(code, 0, "{signal} round {round}: {err}");
+            }
+        }
+        assert_same_outputs(&reference, &out, &format!("round {round} ({signal})"));
+    }
+    assert!(interrupted >= 3, "only {interrupted} of 6 runs were stopped before they ended: the test proves nothing");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn output_folders_are_refused_or_overwritten_safely() {
+    let d = scratch("folders");
+    let scene = small_drop(&d);
+    let scene = scene.to_str().unwrap();
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    assert_eq!(flexsurf(&["run", scene, "--out", o, "--steps", "7"]).0, 0);
+    let (code, _, err) = flexsurf(&["run", scene, "--out", o, "--steps", "3"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("holds the outputs of another run") && err.contains("--overwrite"), "{err}");
+    std::fs::write(out.join("keep.txt"), "mine").unwrap();
+    let (code, _, err) = flexsurf(&["run", scene, "--out", o, "--steps", "3", "--overwrite"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(files(&out).contains(&"keep.txt".to_string()));
+    assert!(!out.join("frames/frame_00007.obj").exists());
+    // --resume with nothing to resume, and --out with --resume, are errors.
+    let (code, _, err) = flexsurf(&["run", scene, "--resume", o]);
+    assert_eq!(code, 1, "{err}");
+    let (code, _, _) = flexsurf(&["run", scene, "--resume", o, "--out", o]);
+    assert_eq!(code, 2);
+    std::fs::remove_dir_all(&d).ok();
+}
