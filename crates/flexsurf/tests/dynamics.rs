@@ -378,3 +378,52 @@ fn bad_starts_and_bodies_are_clear_errors() {
     let e = TriMeshBody::from_obj_str(&inside_out, "rev.obj").unwrap_err().to_string();
     assert!(e.contains("rev.obj") && e.contains("inside out") && e.contains("-1.000e0"), "{e}");
 }
+
+#[test]
+fn initial_velocities_and_positions_from_a_frame() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let path = root.join("ball_drop.toml");
+    let base = std::fs::read_to_string(&path).unwrap();
+    let build =
+        |text: &str, at: &std::path::Path| flexsurf::scene::SceneSpec::from_toml(text, at).unwrap().build(at).unwrap();
+    // A uniform velocity and a spin about the centre of mass.
+    let spun =
+        build(&format!("{base}\n[initial]\nvelocity = [0.5, 0.0, -1.0]\nangular_velocity = [0.0, 0.0, 2.0]\n"), &path);
+    let x = &spun.state.x;
+    let c = x.iter().copied().sum::<Vec3>() / x.len() as f64; // uniform masses on this sheet's symmetric grid
+    for (k, v) in spun.state.v.iter().enumerate() {
+        let expect = Vec3::new(0.5, 0.0, -1.0) + Vec3::new(0.0, 0.0, 2.0).cross(x[k] - c);
+        assert!((*v - expect).length() < 1e-12, "node {k}: {v} vs {expect}");
+    }
+    // Positions from a frame written by a run: the grid nodes come back exactly.
+    let dir = std::env::temp_dir().join(format!("flexsurf-initial-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let short = base.replace("steps = 300", "steps = 40").replace("output_every = 100", "output_every = 40");
+    let scene = build(&short, &path);
+    flexsurf::runner::run_scene(&scene, &dir, |_| {}).unwrap();
+    let mut state = scene.state.clone();
+    run(&scene.model, &mut state, &scene.step_params(), 40);
+    let frame = dir.join("frames/frame_00040.obj");
+    let scene_file = dir.join("from_frame.toml");
+    let text = format!("{short}\n[initial]\npositions = \"{}\"\n", frame.display());
+    let restarted = build(&text, &scene_file);
+    for (k, (a, b)) in restarted.state.x.iter().zip(&state.x).enumerate() {
+        assert!((*a - *b).length() <= 1e-12, "node {k}: {a} vs {b}");
+    }
+    // A frame of another grid is refused, naming the key.
+    let other = short.replace("nodes = [21, 21]", "nodes = [11, 11]");
+    let e = flexsurf::scene::SceneSpec::from_toml(
+        &format!("{other}\n[initial]\npositions = \"{}\"\n", frame.display()),
+        &scene_file,
+    )
+    .unwrap()
+    .build(&scene_file)
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("initial.positions")
+            && e.contains("not a frame of this 11×11 grid with output.coons_subdivisions = 4"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -201,7 +201,7 @@ impl SceneSpec {
         // Sheet or garment, then pins and springs on its grid, then output.
         let mut body = self.body(&v, &obstacles, contact.offset)?;
         let condition = self.initial.condition(&v)?;
-        if let Some(x) = self.initial.positions(&v, body.grid())? {
+        if let Some(x) = self.initial.positions(&v, body.grid(), self.output.coons_subdivisions)? {
             body.set_initial(x);
         }
         let (pins, springs) = self.constraints(&v, body.grid())?;

@@ -47,8 +47,10 @@ impl InitialSpec {
         })
     }
 
-    /// The node positions of `initial.positions` on `grid`, if given.
-    pub(crate) fn positions(&self, v: &Validator<'_>, grid: &Grid) -> Result<Option<Vec<Vec3>>, SceneError> {
+    /// The node positions of `initial.positions` on `grid`, if given, from a frame tessellated with `k`
+    /// subdivisions (the scene's `output.coons_subdivisions`: a frame of another subdivision could be read as a
+    /// frame of another grid).
+    pub(crate) fn positions(&self, v: &Validator<'_>, grid: &Grid, k: usize) -> Result<Option<Vec<Vec3>>, SceneError> {
         let Some(rel) = &self.positions else { return Ok(None) };
         let dir = v.file().parent().unwrap_or(Path::new("."));
         let path = dir.join(rel);
@@ -56,12 +58,12 @@ impl InitialSpec {
         let text =
             std::fs::read_to_string(&path).map_err(|e| v.bad(key, format!("cannot read `{}`: {e}", path.display())))?;
         let (vertices, _) = parse_obj(&text, &path.display().to_string()).map_err(|e| v.bad(key, e.to_string()))?;
-        let nodes = grid_nodes(grid, &vertices).ok_or_else(|| {
+        let nodes = grid_nodes(grid, k, &vertices).ok_or_else(|| {
             v.bad(
                 key,
                 format!(
-                    "`{}` has {} vertices, which is not a frame of this {}×{} grid (a frame of Coons subdivision k has \
-                     (spans·k + 1) vertices per free direction and spans·k per periodic one)",
+                    "`{}` has {} vertices, which is not a frame of this {}×{} grid with output.coons_subdivisions = \
+                     {k} (such a frame has spans·{k} + 1 vertices per free direction and spans·{k} per periodic one)",
                     path.display(),
                     vertices.len(),
                     grid.m,
@@ -76,23 +78,23 @@ impl InitialSpec {
     }
 }
 
-/// The grid nodes among the vertices of a frame of `grid` tessellated with some subdivision `k`: vertex
-/// `(a, b)` has index `a + na·b` and node `(i, j)` is vertex `(i·k, j·k)`.
-fn grid_nodes(grid: &Grid, vertices: &[Vec3]) -> Option<Vec<Vec3>> {
-    let count = |d: usize, k: usize| grid.spans(d).checked_mul(k)?.checked_add(usize::from(!grid.periodic(d)));
-    for k in 1..=64 {
-        let (na, nb) = (count(0, k)?, count(1, k)?);
-        if na.checked_mul(nb) != Some(vertices.len()) {
-            continue;
-        }
-        let mut x = Vec::with_capacity(grid.len());
-        for idx in 0..grid.len() {
-            let (i, j) = grid.coords(idx);
-            x.push(vertices[i * k + na * (j * k)]);
-        }
-        return Some(x);
+/// The grid nodes among the vertices of a frame of `grid` tessellated with subdivision `k`: vertex `(a, b)` has
+/// index `a + na·b` and node `(i, j)` is vertex `(i·k, j·k)`.
+fn grid_nodes(grid: &Grid, k: usize, vertices: &[Vec3]) -> Option<Vec<Vec3>> {
+    let k = k.max(1);
+    let count = |d: usize| grid.spans(d).checked_mul(k)?.checked_add(usize::from(!grid.periodic(d)));
+    let (na, nb) = (count(0)?, count(1)?);
+    if na.checked_mul(nb) != Some(vertices.len()) {
+        return None;
     }
-    None
+    Some(
+        (0..grid.len())
+            .map(|idx| {
+                let (i, j) = grid.coords(idx);
+                vertices[i * k + na * (j * k)]
+            })
+            .collect(),
+    )
 }
 
 /// Velocities `v + ω × (x − c)` about the mass centre `c`, zero on fixed nodes.
