@@ -427,3 +427,24 @@ fn initial_velocities_and_positions_from_a_frame() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_sheet_that_misses_every_obstacle_stops_with_the_cause() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let path = root.join("ball_drop.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("center = [0.0, 0.0, 0.35]", "center = [5.0, 0.0, 0.35]")
+        .replace("nodes = [21, 21]", "nodes = [5, 5]");
+    let scene = flexsurf::scene::SceneSpec::from_toml(&text, &path).unwrap().build(&path).unwrap();
+    let mut stepper = Stepper::new(&scene.model, &scene.step_params()).unwrap();
+    let mut state = scene.state.clone();
+    let err = (0..2000).find_map(|_| stepper.step(&scene.model, &mut state).err()).expect("it should stop");
+    // 100 sheet lengths (the diagonal, 1.41 m) from the ball: 5.4 s of free fall, 6.1 s with the air damping.
+    match err {
+        flexsurf::integrate::StepError::LeftBehind { step, distance } => {
+            assert!((500..700).contains(&step) && distance > 141.0, "step {step}, {distance} m");
+        }
+        other => panic!("{other}"),
+    }
+}

@@ -58,6 +58,18 @@ pub enum StepError {
         /// Node.
         node: usize,
     },
+    /// The sheet fell or flew away from every obstacle (a sheet that missed them, or one dropped through a
+    /// mistake of the scene): nothing more will happen to it.
+    #[error(
+        "the sheet left every obstacle behind at step {step}: its centre is {distance:.3e} m from the nearest one, \
+         more than 100 sheet lengths; check the obstacles' positions and the sheet's placement"
+    )]
+    LeftBehind {
+        /// Step.
+        step: usize,
+        /// Distance of the sheet's centre from the nearest obstacle (m).
+        distance: f64,
+    },
     /// The linear solve failed.
     #[error("linear solve failed at step {step}: {cause}")]
     Linear {
@@ -318,7 +330,10 @@ impl Stepper {
             Ok(info) => return Ok(info),
             Err(e) => e,
         };
-        if depth >= MAX_HALVINGS || self.params.scheme == Scheme::Lagged {
+        if depth >= MAX_HALVINGS
+            || self.params.scheme == Scheme::Lagged
+            || matches!(error, StepError::LeftBehind { .. })
+        {
             return Err(error);
         }
         let saved = state.clone();
@@ -359,9 +374,7 @@ impl Stepper {
         let mut t_assembly = t0.elapsed().as_secs_f64();
         let (tf, t_solve) = self.iterate(model, state, force_scale, &mut t_assembly)?;
         let tv = Instant::now();
-        self.advance(model, state, step)?;
-        let cx = model.potential.context(None);
-        let max_penetration = model.potential.violation(&state.x, &cx, &mut self.ws);
+        let max_penetration = self.advance(model, state, step)?;
         let contact_time = self.ws.contact_seconds - contact_before;
         let refine = self.refine_seconds - refine_before;
         let timings = Counters {
@@ -435,7 +448,7 @@ impl Stepper {
 
     /// Checks the speed bound, the paths through obstacles and the strain bound, then moves `state` to the new
     /// positions.
-    fn advance(&mut self, model: &Model, state: &mut State, step: usize) -> Result<(), StepError> {
+    fn advance(&mut self, model: &Model, state: &mut State, step: usize) -> Result<f64, StepError> {
         let idt = 1.0 / self.h;
         let mut worst_speed: f64 = 0.0;
         for k in 0..model.grid.len() {
@@ -454,6 +467,14 @@ impl Stepper {
                 format!("edge strain {:.1}% exceeds the bound {:.0}%", 100.0 * strain, 100.0 * self.bounds.max_strain);
             return Err(self.diverged(step, what));
         }
+        // Deep inside an obstacle is not a contact any more (a soft penalty overrun): non-physical.
+        let cx = model.potential.context(None);
+        let penetration = model.potential.violation(&self.y, &cx, &mut self.ws);
+        let deepest = self.bounds.max_penetration(model);
+        if penetration > deepest {
+            let what = format!("a node is {penetration:.3e} m inside an obstacle (bound {deepest:.3e} m)");
+            return Err(self.diverged(step, what));
+        }
         // Every check passed: only now is the state changed (a failed step leaves it as it was).
         // v⁺ = (3x⁺ − 4x_t + x⁻)/(2Δt): BDF2's own velocity, and the second-order estimate for central
         // differences (exact for a constant acceleration).
@@ -465,7 +486,10 @@ impl Stepper {
         state.x.copy_from_slice(&self.y);
         state.step = step;
         state.time += self.h;
-        Ok(())
+        if let Some(distance) = left_behind(model, &state.x) {
+            return Err(StepError::LeftBehind { step, distance });
+        }
+        Ok(penetration)
     }
 
     fn diverged(&self, step: usize, what: String) -> StepError {
@@ -527,6 +551,17 @@ pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State
         }
     }
     Ok(State::start(x, v, &a, dt))
+}
+
+/// With obstacles, the distance of the sheet's centre from the nearest one when it exceeds 100 sheet lengths.
+fn left_behind(model: &Model, x: &[Vec3]) -> Option<f64> {
+    let obstacles = model.obstacles();
+    if obstacles.is_empty() || x.is_empty() {
+        return None;
+    }
+    let centre = x.iter().copied().sum::<Vec3>() / x.len() as f64;
+    let d = crate::contact::closest(&obstacles, centre)?.0.abs();
+    (d > 100.0 * model.length_scale()).then_some(d)
 }
 
 /// Deepest penetration below any obstacle's surface (0 when none), in metres.

@@ -43,6 +43,13 @@ pub struct Bounds {
 }
 
 impl Bounds {
+    /// The deepest penetration below an obstacle's surface still taken as contact: 10 offsets, or a tenth of
+    /// the sheet's size where that is more (m).
+    pub fn max_penetration(&self, model: &Model) -> f64 {
+        let offset = model.contact_params().map_or(0.0, |c| c.offset);
+        (10.0 * offset).max(0.1 * model.length_scale())
+    }
+
     /// Default bounds for a model: speed `100 √(|g| L)` (or `100 L` per second without gravity) and strain 1.
     pub fn for_model(model: &Model) -> Self {
         let l = model.length_scale();
