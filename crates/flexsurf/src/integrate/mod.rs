@@ -475,6 +475,9 @@ impl Stepper {
             let what = format!("a node is {penetration:.3e} m inside an obstacle (bound {deepest:.3e} m)");
             return Err(self.diverged(step, what));
         }
+        if let Some(distance) = left_behind(model, &self.y) {
+            return Err(StepError::LeftBehind { step, distance });
+        }
         // Every check passed: only now is the state changed (a failed step leaves it as it was).
         // v⁺ = (3x⁺ − 4x_t + x⁻)/(2Δt): BDF2's own velocity, and the second-order estimate for central
         // differences (exact for a constant acceleration).
@@ -486,9 +489,6 @@ impl Stepper {
         state.x.copy_from_slice(&self.y);
         state.step = step;
         state.time += self.h;
-        if let Some(distance) = left_behind(model, &state.x) {
-            return Err(StepError::LeftBehind { step, distance });
-        }
         Ok(penetration)
     }
 
