@@ -3,6 +3,7 @@
 //! byte-identical to an uninterrupted run, output folders are refused or overwritten safely, and extreme
 //! command-line values are errors.
 
+use flexsurf::testing::{assert_same_outputs, comparable_summary, files};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -74,41 +75,6 @@ fn max_memory_refuses_and_admits() {
     assert!(out.contains("ok"));
     let (code, _, err) = flexsurf(&["check", scene, "--max-memory", "lots"]);
     assert_eq!(code, 2, "{err}");
-}
-
-/// Files of `dir`, recursively, sorted.
-fn files(dir: &Path) -> Vec<String> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if e.file_type().unwrap().is_dir() {
-            out.extend(files(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
-        } else {
-            out.push(name);
-        }
-    }
-    out.sort();
-    out
-}
-
-fn comparable_summary(dir: &Path) -> serde_json::Value {
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    for key in ["wall_seconds", "steps_per_second", "timings", "provenance"] {
-        v.as_object_mut().unwrap().remove(key);
-    }
-    v
-}
-
-fn assert_same_outputs(a: &Path, b: &Path, what: &str) {
-    assert_eq!(files(a), files(b), "{what}");
-    for f in files(a) {
-        if f == "summary.json" {
-            assert_eq!(comparable_summary(a), comparable_summary(b), "{what}: summary.json");
-        } else {
-            assert!(std::fs::read(a.join(&f)).unwrap() == std::fs::read(b.join(&f)).unwrap(), "{what}: {f} differs");
-        }
-    }
 }
 
 /// A small, fast copy of the ball drop (13 × 13 nodes, 150 steps).

@@ -215,3 +215,44 @@ pub fn cylinder(m: usize, n: usize, r: f64, l2: f64) -> (crate::grid::Grid, Vec<
         .collect();
     (g, x)
 }
+
+/// Files under `dir`, recursively, as sorted relative paths with `/`.
+pub fn files(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if e.file_type().is_ok_and(|t| t.is_dir()) {
+            out.extend(files(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
+        } else {
+            out.push(name);
+        }
+    }
+    out.sort();
+    out
+}
+
+/// A run folder's `summary.json` without what differs between any two runs of the same scene (wall-clock
+/// times, the provenance).
+pub fn comparable_summary(dir: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap_or_default();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
+    if let Some(o) = v.as_object_mut() {
+        for key in ["wall_seconds", "steps_per_second", "timings", "provenance"] {
+            o.remove(key);
+        }
+    }
+    v
+}
+
+/// Panics unless the two run folders are the same run: the same files with the same bytes, and the same
+/// summaries up to [`comparable_summary`].
+pub fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    assert_eq!(files(a), files(b), "{what}: different files");
+    for f in files(a) {
+        if f == "summary.json" {
+            assert_eq!(comparable_summary(a), comparable_summary(b), "{what}: summary.json differs");
+        } else {
+            assert!(std::fs::read(a.join(&f)).ok() == std::fs::read(b.join(&f)).ok(), "{what}: {f} differs");
+        }
+    }
+}

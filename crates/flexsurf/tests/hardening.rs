@@ -4,6 +4,7 @@
 
 use flexsurf::runner::{run_scene_with, RunOptions};
 use flexsurf::scene::{self, Limits, SceneError};
+use flexsurf::testing::files;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -365,20 +366,6 @@ fn stopping_writes_a_checkpoint_and_an_interrupted_summary() {
 }
 
 // --- output folders -----------------------------------------------------------------------------------------
-
-fn files(dir: &Path) -> Vec<String> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if e.file_type().unwrap().is_dir() {
-            out.extend(files(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
-        } else {
-            out.push(name);
-        }
-    }
-    out.sort();
-    out
-}
 
 #[test]
 fn regression_rerun_mixed_its_frames_with_an_earlier_runs() {

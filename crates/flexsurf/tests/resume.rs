@@ -7,6 +7,7 @@
 
 use flexsurf::runner::{run_scene_with, RunOptions};
 use flexsurf::scene::{Scene, SceneSpec};
+use flexsurf::testing::{assert_same_outputs, comparable_summary, files};
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -21,43 +22,6 @@ fn scratch(tag: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn files(dir: &Path) -> Vec<String> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if e.file_type().unwrap().is_dir() {
-            out.extend(files(&e.path()).into_iter().map(|n| format!("{name}/{n}")));
-        } else {
-            out.push(name);
-        }
-    }
-    out.sort();
-    out
-}
-
-/// `summary.json` without what differs between any two runs (wall-clock times, the provenance).
-fn comparable_summary(dir: &Path) -> serde_json::Value {
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    for key in ["wall_seconds", "steps_per_second", "timings", "provenance"] {
-        v.as_object_mut().unwrap().remove(key);
-    }
-    v
-}
-
-/// Asserts the two output folders are the same run: identical files, identical bytes, identical summaries.
-fn assert_same_outputs(a: &Path, b: &Path, what: &str) {
-    assert_eq!(files(a), files(b), "{what}: different files");
-    for f in files(a) {
-        if f == "summary.json" {
-            assert_eq!(comparable_summary(a), comparable_summary(b), "{what}: summary.json differs");
-        } else {
-            let (x, y) = (std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap());
-            assert!(x == y, "{what}: {f} differs");
-        }
-    }
 }
 
 fn scene(file: &str, steps: usize, every: usize, nodes: Option<[usize; 2]>) -> Scene {
