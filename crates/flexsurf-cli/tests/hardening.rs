@@ -3,7 +3,7 @@
 //! byte-identical to an uninterrupted run, output folders are refused or overwritten safely, and extreme
 //! command-line values are errors.
 
-use flexsurf::testing::{assert_same_outputs, comparable_summary, files};
+use flexsurf::testing::{assert_same_outputs, files};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -7,7 +7,7 @@
 
 use flexsurf::runner::{run_scene_with, RunOptions};
 use flexsurf::scene::{Scene, SceneSpec};
-use flexsurf::testing::{assert_same_outputs, comparable_summary, files};
+use flexsurf::testing::assert_same_outputs;
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
