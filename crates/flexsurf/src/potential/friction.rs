@@ -32,7 +32,7 @@ use crate::math::{outer, Mat3, Vec3};
 /// Largest error of a node's friction force model, relative to the largest Coulomb limit `μλ` of the step's
 /// contacts, that a step's solve accepts without re-linearising and re-solving (docs/model.md §10.2; one friction
 /// re-solve per Newton iteration).
-pub const MODEL_TOLERANCE: f64 = 0.01;
+pub const MODEL_TOLERANCE: f64 = 0.05;
 
 /// Friction model error (relative to the largest `μλ`) above which a step makes a Newton correction: a slip reversed or
 /// stopped within the step that the re-solves did not settle.
