@@ -555,13 +555,19 @@ pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State
 
 /// With obstacles, the distance of the sheet's centre from the nearest one when it exceeds 100 sheet lengths.
 fn left_behind(model: &Model, x: &[Vec3]) -> Option<f64> {
-    let obstacles = model.obstacles();
-    if obstacles.is_empty() || x.is_empty() {
+    if x.is_empty() {
         return None;
     }
     let centre = x.iter().copied().sum::<Vec3>() / x.len() as f64;
-    let d = crate::contact::closest(&obstacles, centre)?.0.abs();
-    (d > 100.0 * model.length_scale()).then_some(d)
+    // The nearest obstacle of any term, without collecting them (this runs every step).
+    let d = model
+        .potential
+        .terms()
+        .iter()
+        .flat_map(|t| t.obstacles())
+        .map(|o| o.distance(centre).0.abs())
+        .fold(f64::INFINITY, f64::min);
+    (d.is_finite() && d > 100.0 * model.length_scale()).then_some(d)
 }
 
 /// Deepest penetration below any obstacle's surface (0 when none), in metres.

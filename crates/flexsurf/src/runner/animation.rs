@@ -153,19 +153,7 @@ impl AnimationRecorder {
         if self.frames.is_empty() {
             return Ok(());
         }
-        let frames: Vec<GlbFrame<'_>> = self
-            .frames
-            .iter()
-            .map(|f| GlbFrame {
-                step: f.step,
-                time: f.time,
-                positions: &f.positions,
-                normals: &f.normals,
-                velocity: &f.velocity,
-                strain: &f.strain,
-                pressure: &f.pressure,
-            })
-            .collect();
+        let frames: Vec<GlbFrame<'_>> = self.frames.iter().map(FrameFields::glb).collect();
         let obstacles: Vec<GlbMesh> = self
             .obstacles
             .iter()

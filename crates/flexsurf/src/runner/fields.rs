@@ -39,6 +39,21 @@ pub struct FrameFields {
     pub pressure: Vec<f32>,
 }
 
+impl FrameFields {
+    /// The frame as the glTF writer takes it.
+    pub fn glb(&self) -> crate::io::glb::GlbFrame<'_> {
+        crate::io::glb::GlbFrame {
+            step: self.step,
+            time: self.time,
+            positions: &self.positions,
+            normals: &self.normals,
+            velocity: &self.velocity,
+            strain: &self.strain,
+            pressure: &self.pressure,
+        }
+    }
+}
+
 /// What every frame of a run shares: the display triangles and the UVs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisplayTopology {

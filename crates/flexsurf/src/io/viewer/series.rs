@@ -7,6 +7,7 @@ use super::ViewError;
 use crate::io::glb::{self, Animation, GlbFrame, GlbMesh};
 use crate::math::Vec3;
 use crate::runner::animation::{GLB_CLOTH_COLOR, GLB_OBSTACLE_COLOR, GLB_PLANE_COLOR, OBSTACLES_VTU, PVD_FILE};
+use crate::runner::fields::FrameFields;
 use crate::surface::TriMesh;
 use std::path::Path;
 use vtkio::model::{Attribute, DataSet, IOBuffer, UnstructuredGridPiece, VertexNumbers};
@@ -76,17 +77,6 @@ fn triples(v: &[f32]) -> Vec<[f32; 3]> {
     v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
-/// One frame's display surface and fields, read from its `.vtu`.
-struct Frame {
-    step: usize,
-    time: f64,
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
-    velocity: Vec<[f32; 3]>,
-    strain: Vec<f32>,
-    pressure: Vec<f32>,
-}
-
 /// The `.glb` bytes of the frames the VTK series of `dir` holds so far, and how many frames that is.
 pub fn glb_from_series(dir: &Path, info: &serde_json::Value) -> Result<(Vec<u8>, usize), ViewError> {
     let pvd = dir.join(PVD_FILE);
@@ -122,7 +112,7 @@ pub fn glb_from_series(dir: &Path, info: &serde_json::Value) -> Result<(Vec<u8>,
         };
         let normals = mesh.face_averaged_normals().iter().map(|n| [n.x as f32, n.y as f32, n.z as f32]).collect();
         let step = file.rsplit('_').next().and_then(|s| s.trim_end_matches(".vtu").parse().ok()).unwrap_or(k);
-        frames.push(Frame {
+        frames.push(FrameFields {
             step,
             time: *time,
             positions,
@@ -133,18 +123,7 @@ pub fn glb_from_series(dir: &Path, info: &serde_json::Value) -> Result<(Vec<u8>,
         });
     }
     let obstacles = read_obstacles(&dir.join(OBSTACLES_VTU))?;
-    let glb_frames: Vec<GlbFrame<'_>> = frames
-        .iter()
-        .map(|f| GlbFrame {
-            step: f.step,
-            time: f.time,
-            positions: &f.positions,
-            normals: &f.normals,
-            velocity: &f.velocity,
-            strain: &f.strain,
-            pressure: &f.pressure,
-        })
-        .collect();
+    let glb_frames: Vec<GlbFrame<'_>> = frames.iter().map(FrameFields::glb).collect();
     let anim = Animation {
         triangles: &tris,
         uv: &uv,
