@@ -60,8 +60,7 @@ pub fn run(n: usize, steps: usize) -> Result<BenchRow, BenchError> {
         contact: c.contact / s,
         factorization: c.factorization / s,
         solve: c.solve / s,
-        steps: c.steps,
-        solves: c.solves,
+        ..c
     };
     Ok(BenchRow { n, nodes: n * n, steps, wall_seconds, step_median, per_step, factor_nnz: stepper.factor_nnz() })
 }

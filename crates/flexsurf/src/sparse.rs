@@ -71,6 +71,12 @@ impl BlockPattern {
         (col_ptr, row_idx, src)
     }
 
+    /// The block ids of column `j` (rows `i ≤ j` ascending, the diagonal last): `start..end`.
+    #[inline]
+    pub fn column(&self, j: usize) -> (usize, usize) {
+        (self.col_start[j], self.col_start[j + 1])
+    }
+
     /// Row node of each block (same order as block ids).
     pub fn block_rows(&self) -> &[usize] {
         &self.rows

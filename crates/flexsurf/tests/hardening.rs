@@ -301,7 +301,9 @@ fn regression_summary_had_no_version_hashes_or_resolved_constants() {
     assert_eq!(c["shear"], 2.0);
     assert_eq!(p["material"]["calibration"], "kes");
     assert_eq!(p["solver"]["Dynamic"]["dt"], 0.01);
-    assert_eq!(p["solver"]["Dynamic"]["solver"], "cholesky");
+    assert_eq!(p["solver"]["Dynamic"]["solver"], "auto");
+    assert_eq!(json["solver"], "cholesky");
+    assert_eq!(json["solver_requested"], "auto");
     assert_eq!(json["interrupted"], false);
 }
 

@@ -96,7 +96,9 @@ enum IntegratorArg {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum SolverArg {
+    Auto,
     Cholesky,
+    Multigrid,
     Pcg,
 }
 
@@ -128,7 +130,9 @@ impl Overrides {
         }
         if let Some(s) = self.solver {
             spec.integrator.solver = match s {
+                SolverArg::Auto => SolverKind::Auto,
                 SolverArg::Cholesky => SolverKind::Cholesky,
+                SolverArg::Multigrid => SolverKind::Multigrid,
                 SolverArg::Pcg => SolverKind::Pcg,
             };
         }

@@ -27,7 +27,7 @@ use crate::model::{Energies, Model};
 use crate::potential::inertia::Inertia;
 use crate::potential::{Motion, Stage, Values, Want, Workspace};
 use crate::state::State;
-use linsolve::{LinearError, LinearSolver};
+use linsolve::{LinearError, LinearSolver, Reuse};
 pub use params::{Bounds, Method, Scheme, StepParams};
 use serde::Serialize;
 use std::time::Instant;
@@ -95,6 +95,14 @@ pub struct Counters {
     pub steps: usize,
     /// Linear solves made (Newton iterations and contact active-set re-solves included).
     pub solves: usize,
+    /// Conjugate-gradient iterations of the iterative solves.
+    pub iterations: usize,
+    /// Numeric factorisations (or multigrid hierarchy refills).
+    pub factorizations: usize,
+    /// Re-solves of a Newton iteration because an active set (contact, friction) changed.
+    pub resolves: usize,
+    /// Newton corrections after the linearised step.
+    pub corrections: usize,
 }
 
 impl Counters {
@@ -106,6 +114,10 @@ impl Counters {
         self.solve += other.solve;
         self.steps += other.steps;
         self.solves += other.solves;
+        self.iterations += other.iterations;
+        self.factorizations += other.factorizations;
+        self.resolves += other.resolves;
+        self.corrections += other.corrections;
     }
 }
 
@@ -136,6 +148,8 @@ pub struct Stepper {
     ws: Workspace,
     rhs: Vec<Vec3>,
     delta: Vec<Vec3>,
+    /// The first increment of the last step: the iterative solvers' starting guess for the next.
+    guess: Vec<Vec3>,
     y: Vec<Vec3>,
     history: History,
     /// The length of the (sub-)step being taken.
@@ -214,10 +228,12 @@ impl Stepper {
             params: *params,
             bounds: params.bounds.unwrap_or_else(|| Bounds::for_model(model)),
             counters: Counters::default(),
-            solver: LinearSolver::new(params.solver, pattern).map_err(|cause| StepError::Linear { step: 0, cause })?,
+            solver: LinearSolver::new(params.solver, pattern, &model.grid)
+                .map_err(|cause| StepError::Linear { step: 0, cause })?,
             ws: Workspace::new(&model.potential),
             rhs: vec![Vec3::ZERO; n],
             delta: vec![Vec3::ZERO; n],
+            guess: vec![Vec3::ZERO; n],
             y: vec![Vec3::ZERO; n],
             history: History::default(),
             h: params.dt,
@@ -264,17 +280,30 @@ impl Stepper {
     }
 
     /// Solves the assembled system for `self.delta`, correcting the active sets (contact) by re-solving.
-    fn solve_with_active_sets(&mut self, model: &Model, state: &State) -> Result<f64, StepError> {
+    /// `newton`: the iteration of the step (0: the linearised step, started from the last step's increment;
+    /// a correction starts from zero); a re-solve starts from the solution before it. Returns the set-up
+    /// (factorisation) seconds.
+    fn solve_with_active_sets(&mut self, model: &Model, state: &State, newton: usize) -> Result<f64, StepError> {
         let mut tf = 0.0;
         let want = Want { grad: true, hess: Some(self.operator()) };
+        if newton == 0 {
+            self.delta.copy_from_slice(&self.guess);
+        } else {
+            self.delta.iter_mut().for_each(|d| *d = Vec3::ZERO);
+            self.counters.corrections += 1;
+        }
         for round in 0..=self.params.active_set_rounds {
-            self.delta.copy_from_slice(&self.rhs);
-            let (f, _) = self
+            let stats = self
                 .solver
-                .solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), &mut self.delta, round > 0)
+                .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, Reuse::Allowed)
                 .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
-            tf += f;
+            tf += stats.setup_seconds;
             self.counters.solves += 1;
+            self.counters.iterations += stats.iterations;
+            self.counters.factorizations += usize::from(stats.factorized);
+            if newton == 0 && round == 0 {
+                self.guess.copy_from_slice(&self.delta);
+            }
             if round == self.params.active_set_rounds {
                 break;
             }
@@ -285,9 +314,15 @@ impl Stepper {
             if !changed {
                 break;
             }
+            self.counters.resolves += 1;
             self.residual_from_gradient(model);
         }
         Ok(tf)
+    }
+
+    /// The linear solver in use (the automatic choice resolved).
+    pub fn solver_kind(&self) -> linsolve::SolverKind {
+        self.solver.kind()
     }
 
     /// Non-zeros of the Cholesky factor (0 for PCG).
@@ -367,7 +402,7 @@ impl Stepper {
         let t0 = Instant::now();
         let contact_before = self.ws.contact_seconds;
         let refine_before = self.refine_seconds;
-        let solves_before = self.counters.solves;
+        let before = self.counters;
         let step = state.step + 1;
         let first = self.assemble(model, state);
         let force_scale = model.potential.load_scale(Some(Stage::Field), model.length_scale());
@@ -383,10 +418,14 @@ impl Stepper {
             factorization: tf,
             solve: (t_solve - tf - refine).max(0.0) + tv.elapsed().as_secs_f64(),
             steps: 1,
-            solves: self.counters.solves - solves_before,
+            solves: self.counters.solves - before.solves,
+            iterations: self.counters.iterations - before.iterations,
+            factorizations: self.counters.factorizations - before.factorizations,
+            resolves: self.counters.resolves - before.resolves,
+            corrections: self.counters.corrections - before.corrections,
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
-        self.counters.solves = solves_before;
+        self.counters = before;
         self.counters.add(&timings);
         Ok(StepInfo {
             energies: Energies { membrane: first.membrane, bending: first.bending },
@@ -425,7 +464,7 @@ impl Stepper {
                 *t_assembly += ta.elapsed().as_secs_f64();
             }
             let ts = Instant::now();
-            tf += self.solve_with_active_sets(model, state)?;
+            tf += self.solve_with_active_sets(model, state, iter)?;
             for k in 0..n {
                 let d = self.delta[k];
                 if !finite(d) {

@@ -89,7 +89,7 @@ impl Default for StepParams {
         Self {
             dt: 0.01,
             scheme: Scheme::Linearized,
-            solver: SolverKind::Cholesky,
+            solver: SolverKind::Auto,
             newton_iterations: 2,
             newton_tolerance: 100.0,
             active_set_rounds: 4,

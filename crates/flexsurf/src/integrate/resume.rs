@@ -5,6 +5,7 @@
 //!
 //! [`State`]: crate::state::State
 
+use super::linsolve::SolverWarm;
 use super::{Counters, Stepper};
 use crate::potential::WarmState;
 
@@ -19,5 +20,26 @@ impl Stepper {
         self.ws.restore_warm_state(warm)?;
         self.counters = counters;
         Ok(())
+    }
+
+    /// What the linear solver carries between steps (the iterative solvers' starting guess, a factor kept as
+    /// a preconditioner), so a resumed run makes the same solves.
+    pub fn solver_warm(&self) -> SolverWarm {
+        let mut warm = self.solver.warm();
+        warm.guess = self.guess.clone();
+        warm
+    }
+
+    /// Restores a [`Stepper::solver_warm`].
+    pub fn restore_solver(&mut self, warm: &SolverWarm) -> Result<(), String> {
+        if warm.guess.len() != self.guess.len() {
+            return Err(format!(
+                "the saved solver guess has {} nodes, the model {}",
+                warm.guess.len(),
+                self.guess.len()
+            ));
+        }
+        self.guess.copy_from_slice(&warm.guess);
+        self.solver.restore(warm).map_err(|e| e.to_string())
     }
 }

@@ -27,7 +27,7 @@
 //! force relative to the largest load. A potential with a non-conservative term (the Terzopoulos force) has no
 //! `Π` to minimise and is refused.
 
-use super::linsolve::{LinearSolver, SolverKind};
+use super::linsolve::{LinearSolver, Reuse, SolverKind};
 use crate::energy::Operator;
 use crate::math::{diag, Vec3};
 use crate::model::Model;
@@ -169,6 +169,8 @@ pub struct StaticSolver {
     /// Quasi-static friction: the start of the solve and the lagged Coulomb limits.
     anchor: Vec<Vec3>,
     lagged: Vec<(usize, Vec3, f64)>,
+    /// The right-hand side of a solve (the solution is written over the caller's vector).
+    b: Vec<Vec3>,
 }
 
 /// Most outer iterations of a static solve with friction (re-lagging the normal forces at the equilibrium).
@@ -182,8 +184,9 @@ impl StaticSolver {
     pub fn new(model: &Model) -> Result<Self, StaticError> {
         let n = model.potential.fixed().len();
         Ok(Self {
-            solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern())?,
+            solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern(), &model.grid)?,
             ws: Workspace::new(&model.potential),
+            b: vec![Vec3::ZERO; n],
             load_grad: vec![Vec3::ZERO; n],
             anchor: Vec::new(),
             lagged: Vec::new(),
@@ -457,7 +460,8 @@ impl StaticSolver {
     /// Factorises the assembled matrix plus `s I` (added in place, then removed); true on success.
     fn factor_with(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
         self.shift(model, s);
-        let ok = self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, false).is_ok();
+        self.b.copy_from_slice(rhs);
+        let ok = self.solver.solve(&self.ws.matrix, model.pinned(), &self.b, rhs, Reuse::Fresh).is_ok();
         self.shift(model, -s);
         ok
     }
@@ -465,7 +469,8 @@ impl StaticSolver {
     /// Back-substitution with the current factor (`rhs` in place); the matrix must be the factorised one.
     fn resolve(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
         self.shift(model, s);
-        let ok = self.solver.solve(model.potential.pattern(), &self.ws.matrix, model.pinned(), rhs, true).is_ok();
+        self.b.copy_from_slice(rhs);
+        let ok = self.solver.solve(&self.ws.matrix, model.pinned(), &self.b, rhs, Reuse::Allowed).is_ok();
         self.shift(model, -s);
         ok
     }

@@ -169,7 +169,7 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>,
     let dt = 0.04;
     // At most one Newton correction per step, as this relaxation was calibrated with: a drape has several
     // equilibria, and the relaxation path (not the physics) picks one.
-    let params = StepParams { dt, solver: SolverKind::Cholesky, newton_iterations: 2, ..StepParams::default() };
+    let params = StepParams { dt, solver: SolverKind::Auto, newton_iterations: 2, ..StepParams::default() };
     let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", source: e })?;
     // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
     let mut steps = 0;

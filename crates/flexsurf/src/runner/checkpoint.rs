@@ -1,6 +1,7 @@
 //! Checkpoints: `checkpoint.bin` in the output folder holds everything a run needs to go on exactly as if it
 //! had not stopped: the whole [`State`] (serialised generically, so fields added to it are included), the
-//! stepper's warm state (the contact term's closest-point cache and active set, [`WarmState`]) and counters, the
+//! stepper's warm state (the contact term's closest-point cache and active set, [`WarmState`], the linear
+//! solver's starting guess and kept factor, [`SolverWarm`]) and counters, the
 //! run's statistics so far, the frames written, the node positions of the steps pictured so far, and the length
 //! of `energy.csv` at that step. A resumed run truncates `energy.csv` to that length, restores all this and
 //! continues; its outputs are byte-identical to an uninterrupted run's (tests/resume.rs).
@@ -12,6 +13,7 @@
 //! version, with a wrong checksum, or of another run (its fingerprint) is refused with a message saying which.
 
 use super::RunError;
+use crate::integrate::linsolve::SolverWarm;
 use crate::integrate::{Counters, Stepper};
 use crate::io::atomic;
 use crate::math::Vec3;
@@ -27,7 +29,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -42,6 +44,8 @@ pub struct Checkpoint {
     pub warm: WarmState,
     /// The stepper's per-stage counters.
     pub counters: CountersSaved,
+    /// The linear solver's warm state (starting guess, kept factor).
+    pub solver: SolverWarm,
     /// The run's statistics so far.
     pub stats: StatsSaved,
     /// Frames written so far: (step, time, file).
@@ -58,20 +62,35 @@ pub struct Checkpoint {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CountersSaved {
     seconds: [f64; 4],
-    steps: usize,
-    solves: usize,
+    /// Steps, solves, iterations, factorisations, re-solves, Newton corrections.
+    counts: [usize; 6],
 }
 
 impl From<Counters> for CountersSaved {
     fn from(c: Counters) -> Self {
-        Self { seconds: [c.assembly, c.contact, c.factorization, c.solve], steps: c.steps, solves: c.solves }
+        Self {
+            seconds: [c.assembly, c.contact, c.factorization, c.solve],
+            counts: [c.steps, c.solves, c.iterations, c.factorizations, c.resolves, c.corrections],
+        }
     }
 }
 
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
         let [assembly, contact, factorization, solve] = c.seconds;
-        Counters { assembly, contact, factorization, solve, steps: c.steps, solves: c.solves }
+        let [steps, solves, iterations, factorizations, resolves, corrections] = c.counts;
+        Counters {
+            assembly,
+            contact,
+            factorization,
+            solve,
+            steps,
+            solves,
+            iterations,
+            factorizations,
+            resolves,
+            corrections,
+        }
     }
 }
 
@@ -185,6 +204,7 @@ mod tests {
             state: State::at_rest(vec![Vec3::new(1.0, f64::NEG_INFINITY, 0.1 + 0.2); 3]),
             warm: WarmState::empty(),
             counters: Counters::default().into(),
+            solver: SolverWarm::default(),
             stats: StatsSaved { steps: 3, wall_seconds: 0.5, max_penetration_seen: 1e-3, max_contacts: 2 },
             frames: vec![(0, 0.0, "frames/frame_00000.obj".into())],
             pictured: vec![(0, 0.0, vec![Vec3::X])],

@@ -291,6 +291,7 @@ pub fn run_scene_with(
             if let Some(ck) = &resume {
                 stepper
                     .restore(&ck.warm, ck.counters.into())
+                    .and_then(|()| stepper.restore_solver(&ck.solver))
                     .map_err(|e| RunError::Resume(format!("cannot restore the checkpoint: {e}")))?;
                 total = ck.stats.into();
             }
@@ -336,6 +337,7 @@ pub fn run_scene_with(
                         state: state.clone(),
                         warm,
                         counters,
+                        solver: stepper.solver_warm(),
                         stats: total.into(),
                         frames: rec.frames.iter().map(|f| (f.step, f.time, f.file.clone())).collect(),
                         pictured: pictured.clone(),

@@ -55,8 +55,11 @@ pub struct Summary {
     pub model: String,
     /// `linearized` or `lagged`.
     pub integrator: String,
-    /// `cholesky` or `pcg`.
+    /// The linear solver used: `cholesky`, `multigrid` or `pcg` (`auto` resolved by the grid's size); its
+    /// iterations and factorisations are in `timings`.
     pub solver: String,
+    /// The solver the scene asked for (`auto` unless forced).
+    pub solver_requested: String,
     /// `kes` or `paper`.
     pub calibration: String,
     /// Material name.
@@ -152,7 +155,8 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method.name().to_string(),
-        solver: format!("{:?}", scene.solver()).to_lowercase(),
+        solver: scene.solver().resolve(model.grid.len()).name().to_string(),
+        solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),
         grid: [model.grid.m, model.grid.n],

@@ -1,8 +1,12 @@
-//! The default [`BlockSolver`]: `faer` sparse Cholesky of the scalar upper triangle with the symbolic analysis
-//! (AMD ordering, elimination tree) done once per run and a numeric refactorisation per step. A `nearby` solve
-//! (a contact active-set change) first tries conjugate gradients preconditioned by the existing factor.
+//! Sparse Cholesky from `faer` ([`BlockSolver`]) with the symbolic analysis (AMD ordering, elimination tree)
+//! done once per run, and a factor kept across solves and steps: the step matrix `M/Δt² + C/(2Δt) + K` changes
+//! little from one solve to the next (a contact, a friction model, a few steps of motion), so the last factor
+//! preconditions conjugate gradients on the new matrix and a numeric refactorisation happens only when they
+//! need more than [`Cholesky::REFACTOR_AFTER`] iterations (next solve) or do not converge within
+//! [`Cholesky::MAX_REUSE_ITERATIONS`] (this solve). The policy counts iterations, never seconds, so a run is
+//! the same whatever the machine's load.
 
-use super::{BlockSolver, LinearError};
+use super::{apply_fixed, cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
 use crate::sparse::{BlockMatrix, BlockPattern};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -12,9 +16,11 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
+use std::time::Instant;
 
-/// `faer` sparse Cholesky with a fixed symbolic structure.
+/// `faer` sparse Cholesky with a fixed symbolic structure and a reused factor.
 pub struct Cholesky {
+    pattern: BlockPattern,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     src: Vec<(u32, u8)>,
@@ -22,12 +28,30 @@ pub struct Cholesky {
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     mem: MemBuffer,
-    rhs: Vec<f64>,
+    /// Scalar right-hand side / solution of the triangular solves.
+    flat: Vec<f64>,
+    rhs: Vec<Vec3>,
+    scratch: Vec<Vec3>,
+    work: cg::Work,
+    /// A factor of a recent matrix exists (of the current fixed set).
     factored: bool,
-    work: [Vec<f64>; 4],
+    /// The last reuse needed many iterations: refactorise at the next solve.
+    stale: bool,
+    /// The fixed set the factor was made with.
+    factored_fixed: Vec<bool>,
+    /// Consecutive failed re-solves, and solves left to factorise without trying one.
+    failures: u32,
+    skip: usize,
+    /// No node fixed (the coarsest level of a hierarchy).
+    no_fixed: Vec<bool>,
 }
 
 impl Cholesky {
+    /// Iterations of a preconditioned re-solve after which the factor is renewed at the next solve.
+    pub const REFACTOR_AFTER: usize = 4;
+    /// Iterations a preconditioned re-solve may take before this solve refactorises.
+    pub const MAX_REUSE_ITERATIONS: usize = 8;
+
     /// Symbolic analysis of the scalar upper triangle of `pattern`.
     pub fn new(pattern: &BlockPattern) -> Result<Self, LinearError> {
         let (col_ptr, row_idx, src) = pattern.csc_upper();
@@ -42,7 +66,9 @@ impl Cholesky {
         ]);
         let l_values = vec![0.0; symbolic.len_val()];
         let values = vec![0.0; row_idx.len()];
+        let nodes = pattern.nodes();
         Ok(Self {
+            pattern: pattern.clone(),
             col_ptr,
             row_idx,
             src,
@@ -50,84 +76,41 @@ impl Cholesky {
             symbolic,
             l_values,
             mem: MemBuffer::new(req),
-            rhs: vec![0.0; n],
+            flat: vec![0.0; n],
+            rhs: vec![Vec3::ZERO; nodes],
+            scratch: vec![Vec3::ZERO; nodes],
+            work: cg::Work::new(nodes),
             factored: false,
-            work: std::array::from_fn(|_| vec![0.0; n]),
+            stale: false,
+            factored_fixed: Vec::new(),
+            no_fixed: Vec::new(),
+            failures: 0,
+            skip: 0,
         })
     }
-}
 
-impl BlockSolver for Cholesky {
-    fn solve(
-        &mut self,
-        _pattern: &BlockPattern,
-        a: &BlockMatrix,
-        fixed: &[bool],
-        b: &mut [Vec3],
-        nearby: bool,
-    ) -> Result<(f64, f64), LinearError> {
-        let t0 = std::time::Instant::now();
-        let n = self.rhs.len();
-        for (k, v) in b.iter().enumerate() {
-            self.rhs[3 * k] = v.x;
-            self.rhs[3 * k + 1] = v.y;
-            self.rhs[3 * k + 2] = v.z;
-        }
-        let node_fixed = |dof: usize| fixed[dof / 3];
+    /// Copies `a` into the scalar upper triangle with the fixed rows and columns replaced by the identity.
+    fn fill(&mut self, a: &BlockMatrix, fixed: &[bool]) {
+        let n = self.flat.len();
         for c in 0..n {
             for p in self.col_ptr[c]..self.col_ptr[c + 1] {
                 let r = self.row_idx[p];
                 let (blk, e) = self.src[p];
-                let v = a.blocks[blk as usize].to_cols_array()[e as usize];
-                let (fr, fc) = (node_fixed(r), node_fixed(c));
-                self.values[p] = if fr || fc {
+                self.values[p] = if fixed[r / 3] || fixed[c / 3] {
                     if r == c {
                         1.0
                     } else {
-                        // Move the known column to the right-hand side (symmetric elimination).
-                        if fc && !fr {
-                            self.rhs[r] -= v * self.rhs[c];
-                        } else if fr && !fc {
-                            self.rhs[c] -= v * self.rhs[r];
-                        }
                         0.0
                     }
                 } else {
-                    v
+                    a.blocks[blk as usize].to_cols_array()[e as usize]
                 };
             }
         }
-        if nearby && self.factored && self.preconditioned_cg() {
-            for (k, v) in b.iter_mut().enumerate() {
-                *v = Vec3::new(self.rhs[3 * k], self.rhs[3 * k + 1], self.rhs[3 * k + 2]);
-            }
-            return Ok((0.0, t0.elapsed().as_secs_f64()));
-        }
-        self.factor()?;
-        let t1 = std::time::Instant::now();
-        let mut rhs = std::mem::take(&mut self.rhs);
-        self.apply_factor(&mut rhs);
-        self.rhs = rhs;
-        for (k, v) in b.iter_mut().enumerate() {
-            *v = Vec3::new(self.rhs[3 * k], self.rhs[3 * k + 1], self.rhs[3 * k + 2]);
-        }
-        Ok((t1.duration_since(t0).as_secs_f64(), t1.elapsed().as_secs_f64()))
     }
 
-    /// Non-zeros of the factor `L`.
-    fn factor_nnz(&self) -> usize {
-        self.symbolic.len_val()
-    }
-}
-
-impl Cholesky {
-    /// Relative residual a preconditioned re-solve must reach.
-    pub const NEARBY_TOLERANCE: f64 = 1e-11;
-    /// Conjugate-gradient iterations allowed before refactorising.
-    pub const NEARBY_ITERATIONS: usize = 10;
-
-    fn factor(&mut self) -> Result<(), LinearError> {
-        let n = self.rhs.len();
+    fn factor(&mut self, fixed: &[bool]) -> Result<(), LinearError> {
+        let n = self.flat.len();
         let mat = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx),
             &self.values,
@@ -149,83 +132,135 @@ impl Cholesky {
                 }
             })?;
         self.factored = true;
+        self.stale = false;
+        self.factored_fixed.clear();
+        self.factored_fixed.extend_from_slice(fixed);
         Ok(())
     }
+}
 
-    /// `v ← (L Lᵀ)⁻¹ v` with the current factor.
-    fn apply_factor(&mut self, v: &mut [f64]) {
-        let n = v.len();
-        let llt = LltRef::new(&self.symbolic, &self.l_values);
-        let rhs = MatMut::from_column_major_slice_mut(v, n, 1);
-        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
+impl Cholesky {
+    /// Factorises `a` (no fixed unknowns): the coarsest level of [`super::multigrid`].
+    pub(crate) fn factorize(&mut self, a: &BlockMatrix) -> Result<(), LinearError> {
+        let mut none = std::mem::take(&mut self.no_fixed);
+        none.resize(self.rhs.len(), false);
+        self.fill(a, &none);
+        let result = self.factor(&none);
+        self.no_fixed = none;
+        result
     }
 
-    /// `y = A x` with the symmetric upper CSC values.
-    fn matvec(&self, x: &[f64], y: &mut [f64]) {
-        y.fill(0.0);
-        for c in 0..x.len() {
-            let xc = x[c];
-            let mut acc = 0.0;
-            for p in self.col_ptr[c]..self.col_ptr[c + 1] {
-                let (r, v) = (self.row_idx[p], self.values[p]);
-                acc += v * x[r];
-                if r != c {
-                    y[r] += v * xc;
-                }
+    /// `x = (L Lᵀ)⁻¹ b` with the current factor.
+    pub(crate) fn apply(&mut self, b: &[Vec3], x: &mut [Vec3]) {
+        apply_factor(&self.symbolic, &self.l_values, &mut self.mem, &mut self.flat, b, x);
+    }
+}
+
+/// `out = (L Lᵀ)⁻¹ r` with the factor in `l_values`.
+fn apply_factor(
+    symbolic: &SymbolicCholesky<usize>,
+    l_values: &[f64],
+    mem: &mut MemBuffer,
+    flat: &mut [f64],
+    r: &[Vec3],
+    out: &mut [Vec3],
+) {
+    for (k, v) in r.iter().enumerate() {
+        flat[3 * k..3 * k + 3].copy_from_slice(&v.to_array());
+    }
+    let n = flat.len();
+    let llt = LltRef::new(symbolic, l_values);
+    llt.solve_in_place_with_conj(
+        Conj::No,
+        MatMut::from_column_major_slice_mut(flat, n, 1),
+        Par::Seq,
+        MemStack::new(mem),
+    );
+    for (k, v) in out.iter_mut().enumerate() {
+        *v = Vec3::new(flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]);
+    }
+}
+
+impl BlockSolver for Cholesky {
+    fn solve(
+        &mut self,
+        a: &BlockMatrix,
+        fixed: &[bool],
+        b: &[Vec3],
+        x: &mut [Vec3],
+        reuse: Reuse,
+    ) -> Result<SolveStats, LinearError> {
+        let t0 = Instant::now();
+        eliminate_fixed(&self.pattern, a, fixed, b, x, &mut self.rhs, &mut self.scratch);
+        let mut stats = SolveStats::default();
+        let skip = self.skip > 0;
+        self.skip = self.skip.saturating_sub(1);
+        if reuse == Reuse::Allowed && self.factored && !self.stale && !skip && self.factored_fixed == fixed {
+            let any = fixed.iter().any(|&f| f);
+            let Self { pattern, symbolic, l_values, mem, flat, rhs, scratch, work, .. } = self;
+            apply_factor(symbolic, l_values, mem, flat, rhs, x);
+            let result = cg::solve(
+                |v, out| apply_fixed(pattern, a, fixed, any, v, out, scratch),
+                |r, out| apply_factor(symbolic, l_values, mem, flat, r, out),
+                rhs,
+                x,
+                super::ITERATIVE_TOLERANCE,
+                Self::MAX_REUSE_ITERATIONS,
+                work,
+            );
+            if let Ok(iterations) = result {
+                self.failures = 0;
+                self.stale = iterations > Self::REFACTOR_AFTER;
+                stats.iterations = iterations;
+                stats.solve_seconds = t0.elapsed().as_secs_f64();
+                return Ok(stats);
             }
-            y[c] += acc;
+            stats.iterations = Self::MAX_REUSE_ITERATIONS;
+            // Matrices that change this fast: factorise the next 2, 4, … 64 solves without trying.
+            self.failures = (self.failures + 1).min(6);
+            self.skip = 1 << self.failures;
         }
+        self.fill(a, fixed);
+        self.factor(fixed)?;
+        let t1 = Instant::now();
+        let Self { symbolic, l_values, mem, flat, rhs, .. } = self;
+        apply_factor(symbolic, l_values, mem, flat, rhs, x);
+        stats.factorized = true;
+        stats.setup_seconds = t1.duration_since(t0).as_secs_f64();
+        stats.solve_seconds = t1.elapsed().as_secs_f64();
+        Ok(stats)
     }
 
-    /// Conjugate gradients on the current values, preconditioned by the last factor; on success `self.rhs`
-    /// holds the solution.
-    fn preconditioned_cg(&mut self) -> bool {
-        let n = self.rhs.len();
-        let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
-        let [mut x, mut r, mut z, mut q] = std::mem::take(&mut self.work);
-        let b = self.rhs.clone();
-        let tol = Self::NEARBY_TOLERANCE * dot(&b, &b).sqrt();
-        x.copy_from_slice(&b);
-        self.apply_factor(&mut x);
-        self.matvec(&x, &mut q);
-        for i in 0..n {
-            r[i] = b[i] - q[i];
-        }
-        let mut ok = dot(&r, &r).sqrt() <= tol;
-        if !ok {
-            z.copy_from_slice(&r);
-            self.apply_factor(&mut z);
-            let mut p = z.clone();
-            let mut rz = dot(&r, &z);
-            for _ in 0..Self::NEARBY_ITERATIONS {
-                self.matvec(&p, &mut q);
-                let pq = dot(&p, &q);
-                if !(pq > 0.0 && pq.is_finite()) {
-                    break;
-                }
-                let alpha = rz / pq;
-                for i in 0..n {
-                    x[i] += alpha * p[i];
-                    r[i] -= alpha * q[i];
-                }
-                if dot(&r, &r).sqrt() <= tol {
-                    ok = true;
-                    break;
-                }
-                z.copy_from_slice(&r);
-                self.apply_factor(&mut z);
-                let rz_new = dot(&r, &z);
-                let beta = rz_new / rz;
-                rz = rz_new;
-                for i in 0..n {
-                    p[i] = z[i] + beta * p[i];
-                }
+    /// Non-zeros of the factor `L`.
+    fn factor_nnz(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
+    fn kind(&self) -> SolverKind {
+        SolverKind::Cholesky
+    }
+
+    fn warm(&self) -> super::SolverWarm {
+        let factor = self.factored.then(|| super::FactorWarm {
+            values: self.values.clone(),
+            fixed: self.factored_fixed.clone(),
+            stale: self.stale,
+            failures: self.failures,
+            skip: self.skip,
+        });
+        super::SolverWarm { guess: Vec::new(), factor }
+    }
+
+    fn restore(&mut self, warm: &super::SolverWarm) -> Result<(), LinearError> {
+        self.factored = false;
+        if let Some(f) = &warm.factor {
+            if f.values.len() != self.values.len() || f.fixed.len() != self.rhs.len() {
+                return Err(LinearError::Symbolic("the saved factor is of another pattern".into()));
             }
+            self.values.copy_from_slice(&f.values);
+            self.factor(&f.fixed)?;
+            (self.stale, self.failures, self.skip) = (f.stale, f.failures, f.skip);
         }
-        if ok {
-            self.rhs.copy_from_slice(&x);
-        }
-        self.work = [x, r, z, q];
-        ok
+        Ok(())
     }
 }

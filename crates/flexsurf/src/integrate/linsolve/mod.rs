@@ -1,23 +1,32 @@
 //! The step's sparse symmetric positive definite solve, the last stage of a step in [`crate::integrate`]: a
-//! [`LinearSolver`] bound to the model's block pattern solves `A x = b` with the fixed (pinned) unknowns
-//! eliminated symmetrically, so the matrix stays SPD. Each solver is a [`BlockSolver`] in its own file:
+//! [`LinearSolver`] bound to the model's block pattern (and grid) solves `A x = b` with the fixed (pinned)
+//! unknowns eliminated symmetrically, so the matrix stays SPD. Each solver is a [`BlockSolver`] in its own file:
 //!
-//! - [`cholesky`]: supernodal/simplicial Cholesky from `faer`, the symbolic analysis (AMD ordering, elimination
-//!   tree) done once per run and a numeric refactorisation per step (the default);
-//! - [`pcg`]: block-Jacobi preconditioned conjugate gradients on the block matrix.
+//! - [`cholesky`]: sparse Cholesky from `faer`, the symbolic analysis (AMD ordering, elimination tree) done once
+//!   per run; a factor is kept across solves and steps as the preconditioner of conjugate gradients until they
+//!   need too many iterations, then the matrix is refactorised (docs/performance.md);
+//! - [`multigrid`]: conjugate gradients preconditioned by a geometric multigrid V-cycle on the parametric grid's
+//!   hierarchy (Galerkin coarse operators, symmetric block Gauss–Seidel smoothing, Cholesky on the coarsest
+//!   level): memory and work proportional to the number of nodes;
+//! - [`pcg`]: block-Jacobi preconditioned conjugate gradients (a reference, slow on stiff sheets).
 //!
-//! A new solver is one file implementing [`BlockSolver`], a [`SolverKind`] variant and its arm in
-//! [`SolverKind::solver`].
+//! [`cg`] is the one conjugate-gradient loop they share. A new solver is one file implementing [`BlockSolver`],
+//! a [`SolverKind`] variant and its arm in [`SolverKind::solver`].
 
+pub mod cg;
 pub mod cholesky;
+pub mod lines;
+pub mod multigrid;
 pub mod pcg;
 
+use crate::grid::Grid;
 use crate::math::Vec3;
 use crate::sparse::{BlockMatrix, BlockPattern};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 pub use cholesky::Cholesky;
+pub use multigrid::Multigrid;
 pub use pcg::Pcg;
 
 /// Failure of the linear solve.
@@ -50,45 +59,136 @@ pub enum LinearError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum SolverKind {
-    /// Sparse Cholesky, symbolic analysis once per run (default, measured faster).
+    /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above (the
+    /// default; the measured crossover, docs/performance.md).
     #[default]
+    Auto,
+    /// Sparse Cholesky, its factor reused across steps as a preconditioner.
     Cholesky,
+    /// Multigrid-preconditioned conjugate gradients on the grid hierarchy.
+    Multigrid,
     /// Block-Jacobi preconditioned conjugate gradients.
     Pcg,
 }
 
+/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`].
+pub const AUTO_MULTIGRID_NODES: usize = 12_000;
+
 impl SolverKind {
-    /// A solver of this kind for `pattern` (its analysis done): the one table of the linear solvers.
-    pub fn solver(self, pattern: &BlockPattern) -> Result<Box<dyn BlockSolver>, LinearError> {
-        Ok(match self {
-            SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
+    /// Name as in scene files and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Auto => "auto",
+            SolverKind::Cholesky => "cholesky",
+            SolverKind::Multigrid => "multigrid",
+            SolverKind::Pcg => "pcg",
+        }
+    }
+
+    /// The concrete solver for a grid of `nodes` nodes ([`SolverKind::Auto`] resolved; the others as they are).
+    pub fn resolve(self, nodes: usize) -> SolverKind {
+        match self {
+            SolverKind::Auto if nodes > AUTO_MULTIGRID_NODES => SolverKind::Multigrid,
+            SolverKind::Auto => SolverKind::Cholesky,
+            k => k,
+        }
+    }
+
+    /// A solver of this kind for `pattern` on `grid` (its analysis done): the one table of the linear solvers.
+    pub fn solver(self, pattern: &BlockPattern, grid: &Grid) -> Result<Box<dyn BlockSolver>, LinearError> {
+        Ok(match self.resolve(pattern.nodes()) {
+            SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
+            SolverKind::Multigrid => Box::new(Multigrid::new(pattern, grid)?),
             SolverKind::Pcg => Box::new(Pcg::new(pattern)),
         })
     }
 }
 
+/// What a solve may take over from the solves before it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reuse {
+    /// Factorise this matrix (a static solve that tests positive definiteness by factorising).
+    Fresh,
+    /// A factor or hierarchy kept from earlier solves may precondition this one (a time step).
+    Allowed,
+}
+
+/// What one solve did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolveStats {
+    /// Seconds spent factorising or setting up the preconditioner.
+    pub setup_seconds: f64,
+    /// Seconds spent in triangular solves or iterations.
+    pub solve_seconds: f64,
+    /// Conjugate-gradient iterations (0 for a direct solve).
+    pub iterations: usize,
+    /// True when the solve factorised the matrix (or rebuilt the hierarchy's coarsest factor).
+    pub factorized: bool,
+}
+
 /// A linear solver bound to one block pattern.
 pub trait BlockSolver: Send {
-    /// Solves `A x = b` in place (`b` becomes `x`) for the unknowns not fixed; fixed unknowns keep the value in
-    /// `b` (their prescribed increment), and their columns are moved to the right-hand side.
-    /// With `nearby`, `A` differs little from the last factorised matrix (a few diagonal blocks: a contact
-    /// active-set change); the Cholesky solver then first tries conjugate gradients preconditioned by the
-    /// existing factor and refactorises only if that does not converge quickly.
-    /// Returns (factor seconds, solve seconds).
+    /// Solves `A x = b` for the unknowns not fixed; fixed unknowns take the value in `b` (their prescribed
+    /// increment), and their columns are moved to the right-hand side. On entry `x` holds an initial guess
+    /// (iterative solvers start from it; its fixed entries are ignored), on return the solution.
     fn solve(
         &mut self,
-        pattern: &BlockPattern,
         a: &BlockMatrix,
         fixed: &[bool],
-        b: &mut [Vec3],
-        nearby: bool,
-    ) -> Result<(f64, f64), LinearError>;
+        b: &[Vec3],
+        x: &mut [Vec3],
+        reuse: Reuse,
+    ) -> Result<SolveStats, LinearError>;
 
     /// Non-zeros of the factor (0, the default, for a solver without one).
     fn factor_nnz(&self) -> usize {
         0
     }
+
+    /// The concrete kind (for summaries).
+    fn kind(&self) -> SolverKind;
+
+    /// What the solver carries from one solve to the next that changes its results (a kept factor), for a
+    /// checkpoint.
+    fn warm(&self) -> SolverWarm {
+        SolverWarm::default()
+    }
+
+    /// Restores a [`BlockSolver::warm`] into a fresh solver of the same pattern.
+    fn restore(&mut self, _warm: &SolverWarm) -> Result<(), LinearError> {
+        Ok(())
+    }
 }
+
+/// The solver's part of a checkpoint: the iterative solvers' starting guess and, for [`Cholesky`], the
+/// matrix its kept factor was made from (refactorised on restore: the factorisation is deterministic).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SolverWarm {
+    /// The next step's starting guess.
+    pub guess: Vec<Vec3>,
+    /// The kept factor of [`Cholesky`].
+    pub factor: Option<FactorWarm>,
+}
+
+/// A kept Cholesky factor as saved: the matrix it was made from and the reuse policy's counters.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FactorWarm {
+    /// The factorised matrix's scalar upper triangle.
+    pub values: Vec<f64>,
+    /// Its fixed set.
+    pub fixed: Vec<bool>,
+    /// Due for renewal at the next solve.
+    pub stale: bool,
+    /// Consecutive failed re-solves.
+    pub failures: u32,
+    /// Solves left to factorise without trying a re-solve.
+    pub skip: usize,
+}
+
+/// Relative residual `‖b − A x‖ / ‖b‖` an iterative solve reaches ([`cholesky`]'s preconditioned re-solves and
+/// [`multigrid`]): far below the step's own residual tolerance, so that the positions agree with the direct
+/// solve's to about this relative precision (measured in docs/performance.md).
+pub const ITERATIVE_TOLERANCE: f64 = 1e-9;
 
 /// A solver bound to one block pattern.
 pub struct LinearSolver {
@@ -96,9 +196,9 @@ pub struct LinearSolver {
 }
 
 impl LinearSolver {
-    /// Analyses `pattern` for `kind`.
-    pub fn new(kind: SolverKind, pattern: &BlockPattern) -> Result<Self, LinearError> {
-        Ok(Self { solver: kind.solver(pattern)? })
+    /// Analyses `pattern` on `grid` for `kind`.
+    pub fn new(kind: SolverKind, pattern: &BlockPattern, grid: &Grid) -> Result<Self, LinearError> {
+        Ok(Self { solver: kind.solver(pattern, grid)? })
     }
 }
 
@@ -113,5 +213,59 @@ impl std::ops::Deref for LinearSolver {
 impl std::ops::DerefMut for LinearSolver {
     fn deref_mut(&mut self) -> &mut Self::Target {
         &mut *self.solver
+    }
+}
+
+/// The right-hand side with the fixed unknowns' columns moved over, `b' = b − A x_f` on free nodes and
+/// `b' = b` on fixed ones, and `x` with its fixed entries set to `b`'s: the system every iterative solver
+/// then solves with the fixed rows and columns replaced by the identity ([`apply_fixed`]).
+pub(crate) fn eliminate_fixed(
+    pattern: &BlockPattern,
+    a: &BlockMatrix,
+    fixed: &[bool],
+    b: &[Vec3],
+    x: &mut [Vec3],
+    out: &mut [Vec3],
+    scratch: &mut [Vec3],
+) {
+    let any = fixed.iter().any(|&f| f);
+    for k in 0..b.len() {
+        scratch[k] = if fixed[k] { b[k] } else { Vec3::ZERO };
+        if fixed[k] {
+            x[k] = b[k];
+        }
+    }
+    out.iter_mut().for_each(|v| *v = Vec3::ZERO);
+    if any {
+        a.mul_add(pattern, scratch, out);
+    }
+    for k in 0..b.len() {
+        out[k] = if fixed[k] { b[k] } else { b[k] - out[k] };
+    }
+}
+
+/// `out = A' x` for `A` with the fixed rows and columns replaced by the identity.
+pub(crate) fn apply_fixed(
+    pattern: &BlockPattern,
+    a: &BlockMatrix,
+    fixed: &[bool],
+    any_fixed: bool,
+    x: &[Vec3],
+    out: &mut [Vec3],
+    scratch: &mut [Vec3],
+) {
+    out.iter_mut().for_each(|v| *v = Vec3::ZERO);
+    if any_fixed {
+        for k in 0..x.len() {
+            scratch[k] = if fixed[k] { Vec3::ZERO } else { x[k] };
+        }
+        a.mul_add(pattern, scratch, out);
+        for k in 0..x.len() {
+            if fixed[k] {
+                out[k] = x[k];
+            }
+        }
+    } else {
+        a.mul_add(pattern, x, out);
     }
 }

@@ -1,0 +1,60 @@
+//! Per-step solver trace of the bench ball drop: `cargo run --release -p flexsurf --example solve_trace -- N
+//! STEPS [auto|cholesky|multigrid|pcg]` prints each step's solves, iterations, factorisations, re-solves and
+//! Newton corrections (`SCENE=path.toml`: that scene's sheet at N × N instead of the bench's ball drop).
+use flexsurf::integrate::{linsolve::SolverKind, Stepper};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(21);
+    let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(300);
+    let solver = match args.get(3).map(String::as_str) {
+        Some("cholesky") => SolverKind::Cholesky,
+        Some("multigrid") => SolverKind::Multigrid,
+        Some("pcg") => SolverKind::Pcg,
+        _ => SolverKind::Auto,
+    };
+    let scene = match std::env::var("SCENE") {
+        Ok(path) => {
+            let file = std::path::Path::new(&path);
+            let text = std::fs::read_to_string(file).expect("scene file");
+            let mut spec = flexsurf::scene::SceneSpec::from_toml(&text, file).expect("scene");
+            if let Some(sheet) = spec.sheet.as_mut() {
+                sheet.nodes = [n, n];
+            }
+            spec.build(file).expect("scene")
+        }
+        Err(_) => flexsurf::bench::ball_drop(n).expect("scene"),
+    };
+    let mut state = scene.state.clone();
+    let params = flexsurf::integrate::StepParams { solver, ..scene.step_params() };
+    let mut stepper = Stepper::new(&scene.model, &params).expect("stepper");
+    let t = std::time::Instant::now();
+    for _ in 0..steps {
+        let info = stepper.step(&scene.model, &mut state).expect("step");
+        let c = info.timings;
+        println!(
+            "step {:4} contacts {:5} solves {} iters {:3} factor {} resolves {} corrections {} setup {:.2} ms solve {:.2} ms",
+            state.step,
+            info.contacts,
+            c.solves,
+            c.iterations,
+            c.factorizations,
+            c.resolves,
+            c.corrections,
+            1e3 * c.factorization,
+            1e3 * c.solve
+        );
+    }
+    let c = stepper.counters;
+    eprintln!(
+        "{} ({}): {steps} steps in {:.3} s; solves {} iterations {} factorisations {} re-solves {} corrections {}",
+        stepper.solver_kind().name(),
+        n,
+        t.elapsed().as_secs_f64(),
+        c.solves,
+        c.iterations,
+        c.factorizations,
+        c.resolves,
+        c.corrections
+    );
+}

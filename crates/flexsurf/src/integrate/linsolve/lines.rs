@@ -1,0 +1,368 @@
+//! The smoother of a [`super::multigrid`] level: symmetric block Gauss–Seidel by grid lines. A fabric's
+//! membrane is stiff along the warp and the weft and soft in shear (tensile/shear stiffness 100–400 for the
+//! paper's cotton), so the step matrix couples a node's motion along `u1` hundreds of times more strongly to
+//! its `u1` neighbours than to its `u2` ones, and the other way round for the weft: point smoothers leave
+//! such errors rough, line smoothers remove them (the classic remedy for anisotropy, Trottenberg et al.,
+//! *Multigrid*, §5.1). Each line's three components are solved together, so the stiff direction may point
+//! anywhere in space (a draped sheet).
+//!
+//! A level's nodes are `m × n` (flat index `i + m j`). The `u1` lines (fixed `j`) are swept, then the `u2`
+//! lines; the post-smoothing sweeps the same lines in the reverse order, so the V-cycle stays symmetric. A
+//! periodic line is split into two halves, each a principal submatrix (SPD) with a banded structure. The line
+//! matrices are factorised by a banded Cholesky at each refill. Masked nodes (pinned) are never changed.
+//!
+//! The matrix is kept here by rows (both triangles), so the residuals of a line and the products run row by
+//! row, split over rayon's threads with each row summed in a fixed order.
+
+use crate::grid::Topology;
+use crate::math::{Mat3, Vec3};
+use crate::sparse::{BlockMatrix, BlockPattern};
+use rayon::prelude::*;
+
+/// Rows per chunk of a parallel row operation.
+const ROW_CHUNK: usize = 1024;
+
+/// A symmetric block matrix by rows, refilled from the upper-triangle [`BlockMatrix`].
+#[derive(Debug, Clone)]
+pub(crate) struct RowMatrix {
+    start: Vec<u32>,
+    col: Vec<u32>,
+    /// For each entry: the upper block it copies, and whether transposed (a lower entry).
+    src: Vec<(u32, bool)>,
+    blocks: Vec<Mat3>,
+}
+
+impl RowMatrix {
+    fn new(pattern: &BlockPattern) -> Self {
+        let n = pattern.nodes();
+        let rows = pattern.block_rows();
+        let mut per_row: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); n];
+        for j in 0..n {
+            let (s, e) = pattern.column(j);
+            for (blk, &i) in rows.iter().enumerate().take(e).skip(s) {
+                per_row[i].push((j as u32, blk as u32, false));
+                if i != j {
+                    per_row[j].push((i as u32, blk as u32, true));
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(n + 1);
+        let (mut col, mut src) = (Vec::new(), Vec::new());
+        start.push(0);
+        for mut r in per_row {
+            r.sort_unstable_by_key(|e| e.0);
+            for (c, blk, t) in r {
+                col.push(c);
+                src.push((blk, t));
+            }
+            start.push(col.len() as u32);
+        }
+        let blocks = vec![Mat3::ZERO; col.len()];
+        Self { start, col, src, blocks }
+    }
+
+    fn refill(&mut self, a: &BlockMatrix) {
+        let src = &self.src;
+        let fill = |(out, &(blk, t)): (&mut Mat3, &(u32, bool))| {
+            let m = a.blocks[blk as usize];
+            *out = if t { m.transpose() } else { m };
+        };
+        if self.blocks.len() > ROW_CHUNK * 16 {
+            self.blocks.par_iter_mut().zip(src.par_iter()).with_min_len(ROW_CHUNK * 16).for_each(fill);
+        } else {
+            self.blocks.iter_mut().zip(src.iter()).for_each(fill);
+        }
+    }
+
+    #[inline]
+    fn row(&self, p: usize) -> std::ops::Range<usize> {
+        self.start[p] as usize..self.start[p + 1] as usize
+    }
+
+    /// `Σ_c A_pc x_c` over row `p`.
+    #[inline]
+    fn row_dot(&self, p: usize, x: &[Vec3]) -> Vec3 {
+        let mut acc = Vec3::ZERO;
+        for e in self.row(p) {
+            acc += self.blocks[e] * x[self.col[e] as usize];
+        }
+        acc
+    }
+
+    /// The block `(p, c)`, zero when not stored.
+    fn get(&self, p: usize, c: usize) -> Mat3 {
+        let r = self.row(p);
+        match self.col[r.clone()].binary_search(&(c as u32)) {
+            Ok(k) => self.blocks[r.start + k],
+            Err(_) => Mat3::ZERO,
+        }
+    }
+
+    /// `out = f(p, row p · x)` for every row, over the threads for long vectors.
+    fn rows_map(&self, x: &[Vec3], out: &mut [Vec3], f: impl Fn(usize, Vec3) -> Vec3 + Sync) {
+        if out.len() > ROW_CHUNK {
+            out.par_chunks_mut(ROW_CHUNK).enumerate().for_each(|(c, chunk)| {
+                for (k, o) in chunk.iter_mut().enumerate() {
+                    let p = c * ROW_CHUNK + k;
+                    *o = f(p, self.row_dot(p, x));
+                }
+            });
+        } else {
+            for (p, o) in out.iter_mut().enumerate() {
+                *o = f(p, self.row_dot(p, x));
+            }
+        }
+    }
+}
+
+/// One line (or half of a periodic one): its nodes in order, and its banded factor.
+#[derive(Debug, Clone)]
+struct Segment {
+    nodes: Vec<u32>,
+    /// Lower band of the scalar Cholesky factor, `(3 len) × (w + 1)`: entry `(i, i − d)` at `i (w + 1) + d`.
+    band: Vec<f64>,
+}
+
+/// The lines of one direction.
+#[derive(Debug, Clone)]
+struct Family {
+    segments: Vec<Segment>,
+    /// Half-bandwidth in scalars, `3 R + 2` for couplings `R` nodes apart along a line.
+    w: usize,
+}
+
+/// Symmetric line Gauss–Seidel of one level.
+#[derive(Debug, Clone)]
+pub(crate) struct LineSmoother {
+    rows: RowMatrix,
+    families: [Family; 2],
+    masked: Vec<bool>,
+}
+
+impl Family {
+    fn new(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Self {
+        // The widest coupling along a segment, from the pattern.
+        let n = pattern.nodes();
+        let (mut seg_of, mut pos) = (vec![u32::MAX; n], vec![0u32; n]);
+        for (s, nodes) in lines.iter().enumerate() {
+            for (k, &p) in nodes.iter().enumerate() {
+                seg_of[p as usize] = s as u32;
+                pos[p as usize] = k as u32;
+            }
+        }
+        let rows = pattern.block_rows();
+        let mut reach = 0;
+        for j in 0..n {
+            let (s, e) = pattern.column(j);
+            for &i in &rows[s..e] {
+                if seg_of[i] == seg_of[j] {
+                    reach = reach.max((pos[i] as i64 - pos[j] as i64).unsigned_abs() as usize);
+                }
+            }
+        }
+        let w = 3 * reach + 2;
+        let segments =
+            lines.into_iter().map(|nodes| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], nodes }).collect();
+        Self { segments, w }
+    }
+}
+
+/// The lines along direction `d` (0: `u1`, fixed `j`; 1: `u2`, fixed `i`) of an `m × n` grid, periodic ones
+/// split in two.
+fn lines(m: usize, n: usize, d: usize, topology: Topology) -> Vec<Vec<u32>> {
+    let (count, len) = if d == 0 { (n, m) } else { (m, n) };
+    let node = |line: usize, k: usize| if d == 0 { (k + m * line) as u32 } else { (line + m * k) as u32 };
+    let mut out = Vec::new();
+    for line in 0..count {
+        let all: Vec<u32> = (0..len).map(|k| node(line, k)).collect();
+        if topology == Topology::Periodic && len >= 4 {
+            let half = len / 2;
+            out.push(all[..half].to_vec());
+            out.push(all[half..].to_vec());
+        } else {
+            out.push(all);
+        }
+    }
+    out
+}
+
+impl LineSmoother {
+    /// The smoother of an `m × n` level with `pattern`; `masked` nodes are never changed.
+    pub(crate) fn new(pattern: &BlockPattern, m: usize, n: usize, topology: [Topology; 2], masked: &[bool]) -> Self {
+        let families =
+            [Family::new(pattern, lines(m, n, 0, topology[0])), Family::new(pattern, lines(m, n, 1, topology[1]))];
+        Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec() }
+    }
+
+    /// Copies `a` and factorises every line.
+    pub(crate) fn refill(&mut self, a: &BlockMatrix) {
+        self.rows.refill(a);
+        let (rows, masked) = (&self.rows, &self.masked);
+        for family in &mut self.families {
+            let w = family.w;
+            family.segments.par_iter_mut().with_min_len(16).for_each(|seg| factor_segment(rows, masked, seg, w));
+        }
+    }
+
+    /// `r = b − A x` (masked rows zero).
+    pub(crate) fn residual(&self, b: &[Vec3], x: &[Vec3], r: &mut [Vec3]) {
+        let masked = &self.masked;
+        self.rows.rows_map(x, r, |p, ax| if masked[p] { Vec3::ZERO } else { b[p] - ax });
+    }
+
+    /// `out = A x` with the masked rows and columns replaced by the identity (`x` zero on masked nodes
+    /// except for their own row).
+    pub(crate) fn apply_masked(&self, x: &[Vec3], out: &mut [Vec3], scratch: &mut [Vec3]) {
+        let masked = &self.masked;
+        for (p, s) in scratch.iter_mut().enumerate() {
+            *s = if masked[p] { Vec3::ZERO } else { x[p] };
+        }
+        self.rows.rows_map(scratch, out, |p, ax| if masked[p] { x[p] } else { ax });
+    }
+
+    /// Pre-smoothing from `x = 0`: the `u1` lines, then the `u2` lines, each in order.
+    /// `rhs` is scratch of at least three scalars per node of the longest line.
+    pub(crate) fn pre(&self, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
+        x.iter_mut().for_each(|v| *v = Vec3::ZERO);
+        for family in &self.families {
+            for seg in &family.segments {
+                self.relax(family.w, seg, b, x, rhs);
+            }
+        }
+    }
+
+    /// Post-smoothing: the adjoint of [`LineSmoother::pre`] (the `u2` lines, then the `u1` lines, each in
+    /// reverse order).
+    pub(crate) fn post(&self, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
+        for family in self.families.iter().rev() {
+            for seg in family.segments.iter().rev() {
+                self.relax(family.w, seg, b, x, rhs);
+            }
+        }
+    }
+
+    /// Block Gauss–Seidel on one segment: `x_l += A_ll⁻¹ (b − A x)_l`.
+    fn relax(&self, w: usize, seg: &Segment, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
+        let len = seg.nodes.len();
+        let rhs = &mut rhs[..3 * len];
+        for (k, &p) in seg.nodes.iter().enumerate() {
+            let p = p as usize;
+            let r = if self.masked[p] { Vec3::ZERO } else { b[p] - self.rows.row_dot(p, x) };
+            rhs[3 * k..3 * k + 3].copy_from_slice(&r.to_array());
+        }
+        band_solve(&seg.band, w, rhs);
+        for (k, &p) in seg.nodes.iter().enumerate() {
+            if !self.masked[p as usize] {
+                x[p as usize] += Vec3::new(rhs[3 * k], rhs[3 * k + 1], rhs[3 * k + 2]);
+            }
+        }
+    }
+}
+
+/// Fills and factorises one segment's banded matrix (masked nodes, and nodes without stiffness, as identity).
+fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize) {
+    let len = seg.nodes.len();
+    let stride = w + 1;
+    seg.band.iter_mut().for_each(|v| *v = 0.0);
+    let reach = (w - 2) / 3;
+    for a in 0..len {
+        let p = seg.nodes[a] as usize;
+        for back in 0..=reach.min(a) {
+            let bnode = a - back;
+            let q = seg.nodes[bnode] as usize;
+            let block = if masked[p] || masked[q] {
+                if back == 0 {
+                    Mat3::IDENTITY
+                } else {
+                    Mat3::ZERO
+                }
+            } else {
+                rows.get(p, q)
+            };
+            // Scalar (3a + r, 3 bnode + c) with 3a + r ≥ 3 bnode + c.
+            for r in 0..3 {
+                for c in 0..3 {
+                    let (i, j) = (3 * a + r, 3 * bnode + c);
+                    if j <= i {
+                        seg.band[i * stride + (i - j)] = block.col(c)[r];
+                    }
+                }
+            }
+        }
+    }
+    band_factor(&mut seg.band, w, 3 * len);
+}
+
+/// In-place banded Cholesky `A = L Lᵀ` (lower band, `(i, i − d)` at `i (w + 1) + d`). A pivot that is not
+/// positive (a node with no stiffness) is replaced by the unit pivot, which keeps the smoother symmetric and
+/// positive definite.
+fn band_factor(band: &mut [f64], w: usize, n: usize) {
+    let stride = w + 1;
+    for i in 0..n {
+        let lo = i.saturating_sub(w);
+        for j in lo..=i {
+            let mut s = band[i * stride + (i - j)];
+            for k in lo.max(j.saturating_sub(w))..j {
+                s -= band[i * stride + (i - k)] * band[j * stride + (j - k)];
+            }
+            if i == j {
+                band[i * stride] = if s > 0.0 && s.is_finite() { s.sqrt() } else { 1.0 };
+            } else {
+                band[i * stride + (i - j)] = s / band[j * stride];
+            }
+        }
+    }
+}
+
+/// `x = (L Lᵀ)⁻¹ x` with a [`band_factor`] factor.
+fn band_solve(band: &[f64], w: usize, x: &mut [f64]) {
+    let n = x.len();
+    let stride = w + 1;
+    for i in 0..n {
+        let mut s = x[i];
+        for k in i.saturating_sub(w)..i {
+            s -= band[i * stride + (i - k)] * x[k];
+        }
+        x[i] = s / band[i * stride];
+    }
+    for i in (0..n).rev() {
+        let mut s = x[i];
+        for k in i + 1..n.min(i + w + 1) {
+            s -= band[k * stride + (k - i)] * x[k];
+        }
+        x[i] = s / band[i * stride];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn banded_cholesky_solves_a_banded_system() {
+        // A pentadiagonal SPD matrix, w = 2.
+        let n = 12;
+        let w = 2;
+        let a = |i: usize, j: usize| -> f64 {
+            match i.abs_diff(j) {
+                0 => 6.0 + i as f64 * 0.1,
+                1 => -2.0,
+                2 => 0.5,
+                _ => 0.0,
+            }
+        };
+        let mut band = vec![0.0; n * (w + 1)];
+        for i in 0..n {
+            for d in 0..=w.min(i) {
+                band[i * (w + 1) + d] = a(i, i - d);
+            }
+        }
+        band_factor(&mut band, w, n);
+        let x_true: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+        let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum()).collect();
+        band_solve(&band, w, &mut b);
+        for (x, t) in b.iter().zip(&x_true) {
+            assert!((x - t).abs() < 1e-12, "{x} vs {t}");
+        }
+    }
+}
