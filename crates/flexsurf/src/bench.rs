@@ -1,7 +1,13 @@
-//! The ball-drop benchmark (docs/model.md §13.1 at several grid sizes): wall time of the time stepping and its
-//! per-stage breakdown, as reported by `flexsurf bench` and the criterion bench `cargo bench -p flexsurf`.
+//! The ball-drop benchmark (docs/model.md §13.1 at several grid sizes), as reported by `flexsurf bench` and the
+//! criterion bench `cargo bench -p flexsurf`: wall time of the time stepping, its per-step breakdown by stage,
+//! the linear solver's work (solves and why, iterations, factorisations) and the process's peak memory.
+//!
+//! Two workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape), and
+//! [`Workload::Touching`], the same sheet placed on the ball so that contact acts from the first step (the
+//! per-step cost of a drape in progress, without the free fall's easy steps).
 
-use crate::integrate::{Counters, StepError, Stepper};
+use crate::integrate::linsolve::SolverKind;
+use crate::integrate::{Counters, StepError, StepParams, Stepper};
 use crate::scene::{Scene, SceneError, SceneSpec};
 use serde::Serialize;
 use std::path::Path;
@@ -10,12 +16,32 @@ use std::time::Instant;
 /// The canonical ball-drop scene file, embedded.
 pub const BALL_DROP_TOML: &str = include_str!("../../../scenes/ball_drop.toml");
 
+/// What the benchmark runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Workload {
+    /// The canonical ball drop from 5 cm above the ball.
+    Drop,
+    /// The sheet's centre placed on the ball (inside the contact layer): contact from the first step.
+    Touching,
+}
+
 /// The canonical ball drop with `n × n` nodes (same sheet, ball, fabric and time step).
 pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
+    scene(n, Workload::Drop)
+}
+
+/// The ball drop of `workload` with `n × n` nodes.
+pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
     if let Some(sheet) = spec.sheet.as_mut() {
         sheet.nodes = [n, n];
+        if workload == Workload::Touching {
+            // The ball's radius is 0.3 m and the contact offset 5 mm: the centre node starts 0.1 mm inside the
+            // contact layer.
+            sheet.center[2] = 0.3049;
+        }
     }
     spec.build(file)
 }
@@ -29,21 +55,27 @@ pub struct BenchRow {
     pub nodes: usize,
     /// Steps timed.
     pub steps: usize,
+    /// The linear solver used (`auto` resolved).
+    pub solver: &'static str,
     /// Wall seconds of all timed steps.
     pub wall_seconds: f64,
     /// Median wall seconds of one step.
     pub step_median: f64,
-    /// Mean seconds per step by stage.
+    /// Mean seconds per step by stage; the counts are totals over the timed steps.
     pub per_step: Counters,
     /// Non-zeros of the Cholesky factor (0 for other solvers).
     pub factor_nnz: usize,
+    /// Peak resident memory of the process during this measurement (bytes; 0 where not measurable).
+    pub peak_bytes: u64,
 }
 
-/// Runs `steps` steps of the `n × n` ball drop (from its initial state) and times them.
-pub fn run(n: usize, steps: usize) -> Result<BenchRow, BenchError> {
-    let scene = ball_drop(n)?;
+/// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
+pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Result<BenchRow, BenchError> {
+    reset_peak_memory();
+    let scene = scene(n, workload)?;
     let mut state = scene.state.clone();
-    let mut stepper = Stepper::new(&scene.model, &scene.step_params())?;
+    let params = StepParams { solver, ..scene.step_params() };
+    let mut stepper = Stepper::new(&scene.model, &params)?;
     let mut times = Vec::with_capacity(steps);
     for _ in 0..steps {
         let t = Instant::now();
@@ -62,10 +94,20 @@ pub fn run(n: usize, steps: usize) -> Result<BenchRow, BenchError> {
         solve: c.solve / s,
         ..c
     };
-    Ok(BenchRow { n, nodes: n * n, steps, wall_seconds, step_median, per_step, factor_nnz: stepper.factor_nnz() })
+    Ok(BenchRow {
+        n,
+        nodes: n * n,
+        steps,
+        solver: stepper.solver_kind().name(),
+        wall_seconds,
+        step_median,
+        per_step,
+        factor_nnz: stepper.factor_nnz(),
+        peak_bytes: peak_memory(),
+    })
 }
 
-/// Least-squares exponent `p` of `t ∝ nodes^p` over the rows.
+/// Least-squares exponent `p` of `t ∝ nodes^p` over the rows (their median step times).
 pub fn scaling_exponent(rows: &[BenchRow]) -> Option<f64> {
     if rows.len() < 2 {
         return None;
@@ -76,7 +118,23 @@ pub fn scaling_exponent(rows: &[BenchRow]) -> Option<f64> {
     let (mx, my) = (sx / m, sy / m);
     let num: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     let den: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
-    Some(num / den)
+    (den > 0.0).then(|| num / den)
+}
+
+/// Resets the process's peak resident set (Linux: `/proc/self/clear_refs`); nothing elsewhere.
+fn reset_peak_memory() {
+    // Writing 5 resets the peak RSS the kernel reports as VmHWM.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The process's peak resident set since the last reset (bytes; 0 where `/proc` is missing).
+pub fn peak_memory() -> u64 {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else { return 0 };
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .map_or(0, |kb| kb * 1024)
 }
 
 /// Why a benchmark could not run.

@@ -1,9 +1,13 @@
-//! `flexsurf bench`: times the ball drop (`flexsurf::bench`) at several grid sizes and prints the per-step
-//! breakdown (assembly, contact, factorisation, solve) as a table or one JSON object.
+//! `flexsurf bench`: times the ball drop (`flexsurf::bench`) at several grid sizes and prints, per size, the
+//! per-step breakdown (assembly, contact, factorisation or preconditioner set-up, solve), the solver and its
+//! work (solves and their causes, iterations, factorisations), the peak memory, and the growth exponent of the
+//! median step time, as a table or one JSON object.
 
 use super::shared::print_json;
 use anyhow::{Context, Result};
-use flexsurf::bench;
+use clap::ValueEnum;
+use flexsurf::bench::{self, Workload};
+use flexsurf::integrate::linsolve::SolverKind;
 
 /// The arguments of `flexsurf bench`.
 #[derive(Debug, clap::Args)]
@@ -11,56 +15,113 @@ pub struct BenchArgs {
     /// Nodes per side of the sheet (one run each).
     #[arg(long, value_delimiter = ',', default_values_t = vec![21, 41, 81, 161, 321])]
     sizes: Vec<usize>,
-    /// Steps per size (default: 300 for up to 41², fewer for larger grids so each size takes seconds).
+    /// Steps per size (default: the whole 300-step drop up to 41², fewer for larger grids so each size takes
+    /// seconds; 10 steps up to 161² and 3 above for `touching`).
     #[arg(long)]
     steps: Option<usize>,
     /// Repetitions of each size; the row with the median wall time is reported.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
+    /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step.
+    #[arg(long, value_enum, default_value_t = WorkloadArg::Drop)]
+    workload: WorkloadArg,
+    /// The linear solver (`auto`: Cholesky on small grids, multigrid on large ones).
+    #[arg(long, value_enum, default_value_t = SolverArg::Auto)]
+    solver: SolverArg,
+    /// Threads for the parallel assembly and solve (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
 }
 
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum WorkloadArg {
+    Drop,
+    Touching,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SolverArg {
+    Auto,
+    Cholesky,
+    Multigrid,
+    Pcg,
+}
+
 /// `flexsurf bench`.
 pub fn execute(args: &BenchArgs) -> Result<()> {
-    let &BenchArgs { ref sizes, steps, repeat, json } = args;
+    let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json } = args;
+    if let Some(t) = threads {
+        rayon::ThreadPoolBuilder::new().num_threads(t).build_global().context("setting the thread count")?;
+    }
+    let workload = match workload {
+        WorkloadArg::Drop => Workload::Drop,
+        WorkloadArg::Touching => Workload::Touching,
+    };
+    let solver = match solver {
+        SolverArg::Auto => SolverKind::Auto,
+        SolverArg::Cholesky => SolverKind::Cholesky,
+        SolverArg::Multigrid => SolverKind::Multigrid,
+        SolverArg::Pcg => SolverKind::Pcg,
+    };
     let mut rows = Vec::new();
     for &n in sizes {
-        // The first 300 steps include the fall, the impact and the drape; large grids time fewer steps.
-        let steps = steps.unwrap_or(match n {
-            0..=41 => 300,
-            42..=81 => 60,
-            82..=161 => 12,
-            _ => 3,
+        let steps = steps.unwrap_or(match (workload, n) {
+            // The first 300 steps include the fall, the impact and the drape; large grids time fewer steps.
+            (Workload::Drop, 0..=41) => 300,
+            (Workload::Drop, 42..=81) => 60,
+            (Workload::Drop, 82..=161) => 12,
+            (Workload::Drop, _) => 3,
+            (Workload::Touching, 0..=161) => 10,
+            (Workload::Touching, _) => 3,
         });
         let mut runs = Vec::new();
         for _ in 0..repeat.max(1) {
-            runs.push(bench::run(n, steps).with_context(|| format!("ball drop {n}x{n}"))?);
+            runs.push(bench::run(n, steps, workload, solver).with_context(|| format!("ball drop {n}x{n}"))?);
         }
         runs.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));
         let row = runs[runs.len() / 2];
         if !json {
-            eprintln!("{n}x{n}: {steps} steps in {:.3} s", row.wall_seconds);
+            eprintln!("{n}x{n}: {steps} steps in {:.3} s ({})", row.wall_seconds, row.solver);
         }
         rows.push(row);
     }
     let exponent = bench::scaling_exponent(&rows);
+    let large: Vec<_> = rows.iter().copied().filter(|r| r.n >= 161).collect();
+    let large_exponent = bench::scaling_exponent(&large);
     if json {
-        let v = serde_json::json!({ "workload": "ball drop (scenes/ball_drop.toml)", "rows": rows,
-            "per_step_exponent": exponent });
+        let v = serde_json::json!({ "workload": workload, "scene": "scenes/ball_drop.toml", "rows": rows,
+            "per_step_exponent": exponent, "per_step_exponent_from_161": large_exponent,
+            "threads": rayon::current_num_threads() });
         return print_json(&v);
     }
     println!(
-        "{:>9} {:>6} {:>10} {:>11} {:>10} {:>10} {:>10} {:>10} {:>8} {:>10}",
-        "grid", "steps", "wall s", "step ms", "assem ms", "contact", "factor ms", "solve ms", "solves", "nnz(L)"
+        "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8}",
+        "grid",
+        "steps",
+        "solver",
+        "wall s",
+        "step ms",
+        "assem",
+        "contact",
+        "setup ms",
+        "solve ms",
+        "solves",
+        "resolv",
+        "newton",
+        "iters",
+        "factors",
+        "peak MB"
     );
     for r in &rows {
         let p = &r.per_step;
         println!(
-            "{:>9} {:>6} {:>10.4} {:>11.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>8} {:>10}",
+            "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0}",
             format!("{}x{}", r.n, r.n),
             r.steps,
+            r.solver,
             r.wall_seconds,
             1e3 * r.step_median,
             1e3 * p.assembly,
@@ -68,11 +129,19 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             1e3 * p.factorization,
             1e3 * p.solve,
             p.solves,
-            r.factor_nnz
+            p.resolves,
+            p.corrections,
+            p.iterations,
+            p.factorizations,
+            r.peak_bytes as f64 / (1 << 20) as f64
         );
     }
+    println!("(stage columns: mean ms per step; solves, re-solves, Newton corrections, iterations, factorisations: totals; {} threads)", rayon::current_num_threads());
     if let Some(e) = exponent {
-        println!("median step time grows as nodes^{e:.2}");
+        println!("median step time grows as nodes^{e:.2} over all sizes");
+    }
+    if let (Some(e), true) = (large_exponent, large.len() >= 2) {
+        println!("median step time grows as nodes^{e:.2} from 161x161 up");
     }
     Ok(())
 }

@@ -42,7 +42,7 @@ pub struct Cholesky {
     /// Consecutive failed re-solves, and solves left to factorise without trying one.
     failures: u32,
     skip: usize,
-    /// No node fixed (the coarsest level of a hierarchy).
+    /// The nodes without stiffness of the coarsest level of a hierarchy.
     no_fixed: Vec<bool>,
 }
 
@@ -140,10 +140,15 @@ impl Cholesky {
 }
 
 impl Cholesky {
-    /// Factorises `a` (no fixed unknowns): the coarsest level of [`super::multigrid`].
+    /// Factorises `a`, the coarsest level of [`super::multigrid`]: its nodes without any stiffness (every
+    /// finer node under them pinned) are fixed, so they keep a zero correction.
     pub(crate) fn factorize(&mut self, a: &BlockMatrix) -> Result<(), LinearError> {
         let mut none = std::mem::take(&mut self.no_fixed);
-        none.resize(self.rhs.len(), false);
+        none.clear();
+        none.extend((0..self.rhs.len()).map(|k| {
+            let (s, e) = self.pattern.column(k);
+            a.blocks[e - 1] == crate::math::Mat3::ZERO && s < e
+        }));
         self.fill(a, &none);
         let result = self.factor(&none);
         self.no_fixed = none;

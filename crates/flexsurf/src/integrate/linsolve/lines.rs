@@ -22,14 +22,16 @@ use rayon::prelude::*;
 /// Rows per chunk of a parallel row operation.
 const ROW_CHUNK: usize = 1024;
 
-/// A symmetric block matrix by rows, refilled from the upper-triangle [`BlockMatrix`].
+/// A symmetric block matrix by rows, refilled from the upper-triangle [`BlockMatrix`], its blocks rounded to
+/// `f32`: the smoother is a preconditioner, and halving the bytes it streams halves its time (memory-bound).
+/// Every product and sum runs in `f64`; conjugate gradients use the exact matrix.
 #[derive(Debug, Clone)]
 pub(crate) struct RowMatrix {
     start: Vec<u32>,
     col: Vec<u32>,
     /// For each entry: the upper block it copies, and whether transposed (a lower entry).
     src: Vec<(u32, bool)>,
-    blocks: Vec<Mat3>,
+    blocks: Vec<glam::Mat3>,
 }
 
 impl RowMatrix {
@@ -57,15 +59,15 @@ impl RowMatrix {
             }
             start.push(col.len() as u32);
         }
-        let blocks = vec![Mat3::ZERO; col.len()];
+        let blocks = vec![glam::Mat3::ZERO; col.len()];
         Self { start, col, src, blocks }
     }
 
     fn refill(&mut self, a: &BlockMatrix) {
         let src = &self.src;
-        let fill = |(out, &(blk, t)): (&mut Mat3, &(u32, bool))| {
+        let fill = |(out, &(blk, t)): (&mut glam::Mat3, &(u32, bool))| {
             let m = a.blocks[blk as usize];
-            *out = if t { m.transpose() } else { m };
+            *out = if t { m.transpose() } else { m }.as_mat3();
         };
         if self.blocks.len() > ROW_CHUNK * 16 {
             self.blocks.par_iter_mut().zip(src.par_iter()).with_min_len(ROW_CHUNK * 16).for_each(fill);
@@ -84,7 +86,7 @@ impl RowMatrix {
     fn row_dot(&self, p: usize, x: &[Vec3]) -> Vec3 {
         let mut acc = Vec3::ZERO;
         for e in self.row(p) {
-            acc += self.blocks[e] * x[self.col[e] as usize];
+            acc += self.blocks[e].as_dmat3() * x[self.col[e] as usize];
         }
         acc
     }
@@ -93,7 +95,7 @@ impl RowMatrix {
     fn get(&self, p: usize, c: usize) -> Mat3 {
         let r = self.row(p);
         match self.col[r.clone()].binary_search(&(c as u32)) {
-            Ok(k) => self.blocks[r.start + k],
+            Ok(k) => self.blocks[r.start + k].as_dmat3(),
             Err(_) => Mat3::ZERO,
         }
     }
@@ -123,12 +125,17 @@ struct Segment {
     band: Vec<f64>,
 }
 
-/// The lines of one direction.
+/// The lines of one direction, ordered by colour: segments of one colour share no coupling, so they are
+/// relaxed at the same time (over rayon's threads) with the same result as one after the other.
 #[derive(Debug, Clone)]
 struct Family {
     segments: Vec<Segment>,
+    /// The colours' ranges in `segments`.
+    colors: Vec<std::ops::Range<usize>>,
     /// Half-bandwidth in scalars, `3 R + 2` for couplings `R` nodes apart along a line.
     w: usize,
+    /// Scalars of scratch per segment (three per node of the longest).
+    stride: usize,
 }
 
 /// Symmetric line Gauss–Seidel of one level.
@@ -141,7 +148,6 @@ pub(crate) struct LineSmoother {
 
 impl Family {
     fn new(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Self {
-        // The widest coupling along a segment, from the pattern.
         let n = pattern.nodes();
         let (mut seg_of, mut pos) = (vec![u32::MAX; n], vec![0u32; n]);
         for (s, nodes) in lines.iter().enumerate() {
@@ -150,20 +156,58 @@ impl Family {
                 pos[p as usize] = k as u32;
             }
         }
+        // The widest coupling along a segment, and which segments couple, from the pattern.
         let rows = pattern.block_rows();
         let mut reach = 0;
+        let mut edges = Vec::new();
         for j in 0..n {
             let (s, e) = pattern.column(j);
             for &i in &rows[s..e] {
-                if seg_of[i] == seg_of[j] {
+                let (si, sj) = (seg_of[i], seg_of[j]);
+                if si == sj {
                     reach = reach.max((pos[i] as i64 - pos[j] as i64).unsigned_abs() as usize);
+                } else {
+                    edges.push((si.min(sj), si.max(sj)));
                 }
             }
         }
+        edges.sort_unstable();
+        edges.dedup();
+        let count = lines.len();
+        let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); count];
+        for &(a, b) in &edges {
+            adjacent[a as usize].push(b);
+            adjacent[b as usize].push(a);
+        }
+        // Greedy colouring in segment order (deterministic).
+        let mut color = vec![usize::MAX; count];
+        for s in 0..count {
+            let used: Vec<usize> =
+                adjacent[s].iter().map(|&t| color[t as usize]).filter(|&c| c != usize::MAX).collect();
+            color[s] = (0..).find(|c| !used.contains(c)).unwrap_or(0);
+        }
+        let colors_n = color.iter().copied().max().map_or(0, |c| c + 1);
         let w = 3 * reach + 2;
-        let segments =
-            lines.into_iter().map(|nodes| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], nodes }).collect();
-        Self { segments, w }
+        let stride = 3 * lines.iter().map(Vec::len).max().unwrap_or(0);
+        let mut tagged: Vec<(usize, Vec<u32>)> = lines.into_iter().enumerate().map(|(s, l)| (color[s], l)).collect();
+        tagged.sort_by_key(|t| t.0);
+        let mut colors = Vec::with_capacity(colors_n);
+        let mut begin = 0;
+        for c in 0..colors_n {
+            let end = begin + tagged[begin..].iter().take_while(|t| t.0 == c).count();
+            colors.push(begin..end);
+            begin = end;
+        }
+        let segments = tagged
+            .into_iter()
+            .map(|(_, nodes)| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], nodes })
+            .collect();
+        Self { segments, colors, w, stride }
+    }
+
+    /// Scratch scalars for relaxing the largest colour.
+    fn scratch_len(&self) -> usize {
+        self.colors.iter().map(|c| c.len()).max().unwrap_or(0) * self.stride
     }
 }
 
@@ -210,50 +254,58 @@ impl LineSmoother {
         self.rows.rows_map(x, r, |p, ax| if masked[p] { Vec3::ZERO } else { b[p] - ax });
     }
 
-    /// `out = A x` with the masked rows and columns replaced by the identity (`x` zero on masked nodes
-    /// except for their own row).
-    pub(crate) fn apply_masked(&self, x: &[Vec3], out: &mut [Vec3], scratch: &mut [Vec3]) {
-        let masked = &self.masked;
-        for (p, s) in scratch.iter_mut().enumerate() {
-            *s = if masked[p] { Vec3::ZERO } else { x[p] };
-        }
-        self.rows.rows_map(scratch, out, |p, ax| if masked[p] { x[p] } else { ax });
+    /// Scratch scalars [`LineSmoother::pre`] and [`LineSmoother::post`] need.
+    pub(crate) fn scratch_len(&self) -> usize {
+        self.families.iter().map(Family::scratch_len).max().unwrap_or(0)
     }
 
-    /// Pre-smoothing from `x = 0`: the `u1` lines, then the `u2` lines, each in order.
-    /// `rhs` is scratch of at least three scalars per node of the longest line.
-    pub(crate) fn pre(&self, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
+    /// Pre-smoothing from `x = 0`: the `u1` lines, then the `u2` lines, colour by colour. `scratch` holds at
+    /// least [`LineSmoother::scratch_len`] scalars.
+    pub(crate) fn pre(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         x.iter_mut().for_each(|v| *v = Vec3::ZERO);
         for family in &self.families {
-            for seg in &family.segments {
-                self.relax(family.w, seg, b, x, rhs);
+            for c in family.colors.iter() {
+                self.relax(family, c.clone(), b, x, scratch);
             }
         }
     }
 
-    /// Post-smoothing: the adjoint of [`LineSmoother::pre`] (the `u2` lines, then the `u1` lines, each in
-    /// reverse order).
-    pub(crate) fn post(&self, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
+    /// Post-smoothing: the adjoint of [`LineSmoother::pre`] (the `u2` lines, then the `u1` lines, the colours
+    /// in reverse order).
+    pub(crate) fn post(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         for family in self.families.iter().rev() {
-            for seg in family.segments.iter().rev() {
-                self.relax(family.w, seg, b, x, rhs);
+            for c in family.colors.iter().rev() {
+                self.relax(family, c.clone(), b, x, scratch);
             }
         }
     }
 
-    /// Block Gauss–Seidel on one segment: `x_l += A_ll⁻¹ (b − A x)_l`.
-    fn relax(&self, w: usize, seg: &Segment, b: &[Vec3], x: &mut [Vec3], rhs: &mut [f64]) {
-        let len = seg.nodes.len();
-        let rhs = &mut rhs[..3 * len];
-        for (k, &p) in seg.nodes.iter().enumerate() {
-            let p = p as usize;
-            let r = if self.masked[p] { Vec3::ZERO } else { b[p] - self.rows.row_dot(p, x) };
-            rhs[3 * k..3 * k + 3].copy_from_slice(&r.to_array());
+    /// Block Gauss–Seidel on the segments of one colour: `x_l += A_ll⁻¹ (b − A x)_l` for each.
+    fn relax(&self, family: &Family, color: std::ops::Range<usize>, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
+        let segs = &family.segments[color];
+        let buf = &mut scratch[..segs.len() * family.stride];
+        let (w, rows, masked) = (family.w, &self.rows, &self.masked);
+        let xr: &[Vec3] = x;
+        let solve = |(seg, out): (&Segment, &mut [f64])| {
+            let rhs = &mut out[..3 * seg.nodes.len()];
+            for (k, &p) in seg.nodes.iter().enumerate() {
+                let p = p as usize;
+                let r = if masked[p] { Vec3::ZERO } else { b[p] - rows.row_dot(p, xr) };
+                rhs[3 * k..3 * k + 3].copy_from_slice(&r.to_array());
+            }
+            band_solve(&seg.band, w, rhs);
+        };
+        let nodes: usize = segs.iter().map(|s| s.nodes.len()).sum();
+        if segs.len() > 1 && nodes > 4 * ROW_CHUNK {
+            segs.par_iter().zip(buf.par_chunks_mut(family.stride)).for_each(solve);
+        } else {
+            segs.iter().zip(buf.chunks_mut(family.stride)).for_each(solve);
         }
-        band_solve(&seg.band, w, rhs);
-        for (k, &p) in seg.nodes.iter().enumerate() {
-            if !self.masked[p as usize] {
-                x[p as usize] += Vec3::new(rhs[3 * k], rhs[3 * k + 1], rhs[3 * k + 2]);
+        for (seg, out) in segs.iter().zip(buf.chunks(family.stride)) {
+            for (k, &p) in seg.nodes.iter().enumerate() {
+                if !masked[p as usize] {
+                    x[p as usize] += Vec3::new(out[3 * k], out[3 * k + 1], out[3 * k + 2]);
+                }
             }
         }
     }

@@ -20,7 +20,7 @@
 
 use super::cholesky::Cholesky;
 use super::lines::LineSmoother;
-use super::{cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
+use super::{apply_fixed, cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
 use crate::grid::{Grid, Topology};
 use crate::math::{Mat3, Vec3};
 use crate::sparse::{BlockMatrix, BlockPattern};
@@ -169,7 +169,6 @@ impl Multigrid {
         let (mut m, mut n) = (self.grid.m, self.grid.n);
         let topology = self.grid.topology;
         self.fine = Some(LineSmoother::new(&self.pattern, m, n, topology, fixed));
-        let mut longest = m.max(n);
         let mut free: Vec<bool> = fixed.iter().map(|&f| !f).collect();
         while m * n > Self::COARSEST_NODES {
             let t1 = Transfer1d::halve(m, topology[0]);
@@ -183,14 +182,15 @@ impl Multigrid {
             let level = Level::new(fine, &free, m, n, &t1, &t2, topology);
             free = vec![true; level.pattern.nodes()];
             (m, n) = (t1.coarse, t2.coarse);
-            longest = longest.max(m.max(n));
             c.levels.push(level);
         }
         c.coarsest = match c.levels.last() {
             Some(last) => Some(Cholesky::new(&last.pattern)?),
             None => None,
         };
-        c.line_rhs = vec![0.0; 3 * longest];
+        let fine_len = self.fine.as_ref().map_or(0, LineSmoother::scratch_len);
+        let longest = c.levels.iter().map(|l| l.smoother.scratch_len()).fold(fine_len, usize::max);
+        c.line_rhs = vec![0.0; longest];
         self.built_fixed.clear();
         self.built_fixed.extend_from_slice(fixed);
         Ok(())
@@ -425,8 +425,9 @@ impl BlockSolver for Multigrid {
         eliminate_fixed(pattern, a, fixed, b, x, rhs, scratch);
         let t1 = Instant::now();
         let fine = &*fine;
+        let any = fixed.iter().any(|&f| f);
         let iterations = cg::solve(
-            |v, out| fine.apply_masked(v, out, scratch),
+            |v, out| apply_fixed(pattern, a, fixed, any, v, out, scratch),
             |r, out| coarse.v_cycle(fine, r, out),
             rhs,
             x,
