@@ -292,10 +292,11 @@ impl Stepper {
             self.delta.iter_mut().for_each(|d| *d = Vec3::ZERO);
             self.counters.corrections += 1;
         }
+        let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
         for round in 0..=self.params.active_set_rounds {
             let stats = self
                 .solver
-                .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, Reuse::Allowed)
+                .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round))
                 .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
             tf += stats.setup_seconds;
             self.counters.solves += 1;

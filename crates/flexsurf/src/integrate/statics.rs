@@ -470,7 +470,7 @@ impl StaticSolver {
     fn resolve(&mut self, model: &Model, s: f64, rhs: &mut [Vec3]) -> bool {
         self.shift(model, s);
         self.b.copy_from_slice(rhs);
-        let ok = self.solver.solve(&self.ws.matrix, model.pinned(), &self.b, rhs, Reuse::Allowed).is_ok();
+        let ok = self.solver.solve(&self.ws.matrix, model.pinned(), &self.b, rhs, Reuse::Nearby).is_ok();
         self.shift(model, -s);
         ok
     }

@@ -1,10 +1,9 @@
 //! Sparse Cholesky from `faer` ([`BlockSolver`]) with the symbolic analysis (AMD ordering, elimination tree)
-//! done once per run, and a factor kept across solves and steps: the step matrix `M/Δt² + C/(2Δt) + K` changes
-//! little from one solve to the next (a contact, a friction model, a few steps of motion), so the last factor
-//! preconditions conjugate gradients on the new matrix and a numeric refactorisation happens only when they
-//! need more than [`Cholesky::REFACTOR_AFTER`] iterations (next solve) or do not converge within
-//! [`Cholesky::MAX_REUSE_ITERATIONS`] (this solve). The policy counts iterations, never seconds, so a run is
-//! the same whatever the machine's load.
+//! done once per run and a numeric factorisation per new matrix. A re-solve after a contact active-set change
+//! or a friction re-linearisation ([`Reuse::Nearby`]: a few diagonal blocks changed) first runs conjugate
+//! gradients preconditioned by the existing factor and refactorises only if they do not converge within
+//! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
+//! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
 
 use super::{apply_fixed, cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
@@ -33,23 +32,14 @@ pub struct Cholesky {
     rhs: Vec<Vec3>,
     scratch: Vec<Vec3>,
     work: cg::Work,
-    /// A factor of a recent matrix exists (of the current fixed set).
+    /// A factor of a recent matrix exists.
     factored: bool,
-    /// The last reuse needed many iterations: refactorise at the next solve.
-    stale: bool,
-    /// The fixed set the factor was made with.
-    factored_fixed: Vec<bool>,
-    /// Consecutive failed re-solves, and solves left to factorise without trying one.
-    failures: u32,
-    skip: usize,
     /// The nodes without stiffness of the coarsest level of a hierarchy.
     no_fixed: Vec<bool>,
 }
 
 impl Cholesky {
-    /// Iterations of a preconditioned re-solve after which the factor is renewed at the next solve.
-    pub const REFACTOR_AFTER: usize = 4;
-    /// Iterations a preconditioned re-solve may take before this solve refactorises.
+    /// Iterations a preconditioned re-solve may take before it refactorises.
     pub const MAX_REUSE_ITERATIONS: usize = 8;
 
     /// Symbolic analysis of the scalar upper triangle of `pattern`.
@@ -81,11 +71,7 @@ impl Cholesky {
             scratch: vec![Vec3::ZERO; nodes],
             work: cg::Work::new(nodes),
             factored: false,
-            stale: false,
-            factored_fixed: Vec::new(),
             no_fixed: Vec::new(),
-            failures: 0,
-            skip: 0,
         })
     }
 
@@ -109,7 +95,7 @@ impl Cholesky {
         }
     }
 
-    fn factor(&mut self, fixed: &[bool]) -> Result<(), LinearError> {
+    fn factor(&mut self) -> Result<(), LinearError> {
         let n = self.flat.len();
         let mat = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx),
@@ -132,9 +118,6 @@ impl Cholesky {
                 }
             })?;
         self.factored = true;
-        self.stale = false;
-        self.factored_fixed.clear();
-        self.factored_fixed.extend_from_slice(fixed);
         Ok(())
     }
 }
@@ -150,7 +133,7 @@ impl Cholesky {
             a.blocks[e - 1] == crate::math::Mat3::ZERO && s < e
         }));
         self.fill(a, &none);
-        let result = self.factor(&none);
+        let result = self.factor();
         self.no_fixed = none;
         result
     }
@@ -198,9 +181,7 @@ impl BlockSolver for Cholesky {
         let t0 = Instant::now();
         eliminate_fixed(&self.pattern, a, fixed, b, x, &mut self.rhs, &mut self.scratch);
         let mut stats = SolveStats::default();
-        let skip = self.skip > 0;
-        self.skip = self.skip.saturating_sub(1);
-        if reuse == Reuse::Allowed && self.factored && !self.stale && !skip && self.factored_fixed == fixed {
+        if reuse == Reuse::Nearby && self.factored {
             let any = fixed.iter().any(|&f| f);
             let Self { pattern, symbolic, l_values, mem, flat, rhs, scratch, work, .. } = self;
             apply_factor(symbolic, l_values, mem, flat, rhs, x);
@@ -214,19 +195,14 @@ impl BlockSolver for Cholesky {
                 work,
             );
             if let Ok(iterations) = result {
-                self.failures = 0;
-                self.stale = iterations > Self::REFACTOR_AFTER;
                 stats.iterations = iterations;
                 stats.solve_seconds = t0.elapsed().as_secs_f64();
                 return Ok(stats);
             }
             stats.iterations = Self::MAX_REUSE_ITERATIONS;
-            // Matrices that change this fast: factorise the next 2, 4, … 64 solves without trying.
-            self.failures = (self.failures + 1).min(6);
-            self.skip = 1 << self.failures;
         }
         self.fill(a, fixed);
-        self.factor(fixed)?;
+        self.factor()?;
         let t1 = Instant::now();
         let Self { symbolic, l_values, mem, flat, rhs, .. } = self;
         apply_factor(symbolic, l_values, mem, flat, rhs, x);
@@ -243,29 +219,5 @@ impl BlockSolver for Cholesky {
 
     fn kind(&self) -> SolverKind {
         SolverKind::Cholesky
-    }
-
-    fn warm(&self) -> super::SolverWarm {
-        let factor = self.factored.then(|| super::FactorWarm {
-            values: self.values.clone(),
-            fixed: self.factored_fixed.clone(),
-            stale: self.stale,
-            failures: self.failures,
-            skip: self.skip,
-        });
-        super::SolverWarm { guess: Vec::new(), factor }
-    }
-
-    fn restore(&mut self, warm: &super::SolverWarm) -> Result<(), LinearError> {
-        self.factored = false;
-        if let Some(f) = &warm.factor {
-            if f.values.len() != self.values.len() || f.fixed.len() != self.rhs.len() {
-                return Err(LinearError::Symbolic("the saved factor is of another pattern".into()));
-            }
-            self.values.copy_from_slice(&f.values);
-            self.factor(&f.fixed)?;
-            (self.stale, self.failures, self.skip) = (f.stale, f.failures, f.skip);
-        }
-        Ok(())
     }
 }

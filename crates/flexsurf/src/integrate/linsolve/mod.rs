@@ -104,13 +104,15 @@ impl SolverKind {
     }
 }
 
-/// What a solve may take over from the solves before it.
+/// What a solve may take over from the solve before it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reuse {
-    /// Factorise this matrix (a static solve that tests positive definiteness by factorising).
+    /// A new matrix: factorise it (the first solve of a Newton iteration, a static solve that tests positive
+    /// definiteness by factorising).
     Fresh,
-    /// A factor or hierarchy kept from earlier solves may precondition this one (a time step).
-    Allowed,
+    /// The matrix of the last solve changed in a few diagonal blocks (a contact active-set change, a friction
+    /// re-linearisation): the kept factor may precondition conjugate gradients on it.
+    Nearby,
 }
 
 /// What one solve did.
@@ -147,42 +149,14 @@ pub trait BlockSolver: Send {
 
     /// The concrete kind (for summaries).
     fn kind(&self) -> SolverKind;
-
-    /// What the solver carries from one solve to the next that changes its results (a kept factor), for a
-    /// checkpoint.
-    fn warm(&self) -> SolverWarm {
-        SolverWarm::default()
-    }
-
-    /// Restores a [`BlockSolver::warm`] into a fresh solver of the same pattern.
-    fn restore(&mut self, _warm: &SolverWarm) -> Result<(), LinearError> {
-        Ok(())
-    }
 }
 
-/// The solver's part of a checkpoint: the iterative solvers' starting guess and, for [`Cholesky`], the
-/// matrix its kept factor was made from (refactorised on restore: the factorisation is deterministic).
+/// The solver's part of a checkpoint: the iterative solvers' starting guess for the next step. (Nothing else
+/// carries over between steps: each step's first solve factorises or refills afresh.)
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct SolverWarm {
     /// The next step's starting guess.
     pub guess: Vec<Vec3>,
-    /// The kept factor of [`Cholesky`].
-    pub factor: Option<FactorWarm>,
-}
-
-/// A kept Cholesky factor as saved: the matrix it was made from and the reuse policy's counters.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct FactorWarm {
-    /// The factorised matrix's scalar upper triangle.
-    pub values: Vec<f64>,
-    /// Its fixed set.
-    pub fixed: Vec<bool>,
-    /// Due for renewal at the next solve.
-    pub stale: bool,
-    /// Consecutive failed re-solves.
-    pub failures: u32,
-    /// Solves left to factorise without trying a re-solve.
-    pub skip: usize,
 }
 
 /// Relative residual `‖b − A x‖ / ‖b‖` an iterative solve reaches ([`cholesky`]'s preconditioned re-solves and
