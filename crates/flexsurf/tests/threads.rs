@@ -60,8 +60,8 @@ fn check_kernel(name: &str, pattern: &BlockPattern, n: usize, eval: &(dyn Fn(&mu
     }
 }
 
-/// A wrinkled, stretched state of a `n × n` sheet (large enough for the parallel path), its rest shape and
-/// the cotton stiffness.
+/// A wrinkled, stretched state of a `n × n` sheet (large enough for the parallel path, in several batches),
+/// its rest shape and the cotton stiffness.
 fn configuration(n: usize) -> (Grid, Vec<Vec3>, Vec<Vec3>, Stiffness) {
     let grid = Grid::sheet(n, n, 1.0, 1.0).unwrap();
     let rest = grid.flat_positions(0.0);
@@ -72,7 +72,7 @@ fn configuration(n: usize) -> (Grid, Vec<Vec3>, Vec<Vec3>, Stiffness) {
 
 #[test]
 fn kernels_give_the_same_bits_for_any_thread_count() {
-    let (grid, rest, x, s) = configuration(61);
+    let (grid, rest, x, s) = configuration(91);
     let n = grid.len();
     // Aligned warp (4- and 5-node supports) and a bias cut (the cells' twist couples 9 nodes).
     for warp in [0.0, 0.4] {

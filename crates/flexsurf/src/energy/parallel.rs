@@ -4,7 +4,7 @@
 //! gradient contribution per node of its support and one operator block per local pair `p ≤ q` into a
 //! [`Sink`]. [`assemble`] runs that loop in batches of [`BATCH`] items (a constant, not a function of the
 //! thread count): the items of a batch compute their local results in parallel into reused per-item buffers,
-//! then the batch is added into the sink serially, in item order. Every sum therefore receives the same
+//! then the batch is added into the sink serially, in item order, while the next batch is computed. Every sum therefore receives the same
 //! terms in the same order as the plain serial loop, and the result is bit for bit that of the serial loop
 //! whatever the thread count. Below [`PARALLEL_MIN`] items, or on one thread, the plain serial loop runs
 //! (the same additions in the same order, without the buffers).
@@ -62,11 +62,12 @@ struct Buffers {
     blocks: Vec<Mat3>,
 }
 
-/// Batch buffers owned by a kernel and reused between evaluations (no allocation per step once they have
+/// Batch buffers (two: one being added into the sink while the next batch is computed into the other) owned by
+/// a kernel and reused between evaluations (no allocation per step once they have
 /// grown). A copy of the kernel starts with empty buffers. When two evaluations of one kernel run at the same
 /// time, the second uses buffers of its own.
 #[derive(Default)]
-pub(crate) struct Pool(Mutex<Buffers>);
+pub(crate) struct Pool(Mutex<[Buffers; 2]>);
 
 impl Clone for Pool {
     fn clone(&self) -> Self {
@@ -139,15 +140,17 @@ where
         Err(TryLockError::Poisoned(p)) => Some(p.into_inner()),
         Err(TryLockError::WouldBlock) => None,
     };
-    let buf: &mut Buffers = match guard.as_deref_mut() {
+    let bufs: &mut [Buffers; 2] = match guard.as_deref_mut() {
         Some(b) => b,
-        None => own.insert(Buffers::default()),
+        None => own.insert(Default::default()),
     };
     let n = BATCH.min(items.len());
-    fit(&mut buf.energy, n, 0.0);
-    fit(&mut buf.grad, n * gs, Vec3::ZERO);
-    fit(&mut buf.blocks, n * hs, Mat3::ZERO);
-    for batch in items.chunks(BATCH) {
+    for buf in bufs.iter_mut() {
+        fit(&mut buf.energy, n, 0.0);
+        fit(&mut buf.grad, n * gs, Vec3::ZERO);
+        fit(&mut buf.blocks, n * hs, Mat3::ZERO);
+    }
+    let compute = |batch: &[T], buf: &mut Buffers| {
         let n = batch.len();
         let (e, g, h) = (&mut buf.energy[..n], &mut buf.grad[..n * gs], &mut buf.blocks[..n * hs]);
         batch
@@ -160,10 +163,24 @@ where
                 let local = Local { grad: want_grad.then_some(g), hess: op.map(|op| (h, op)) };
                 *e = kernel(item, local);
             });
-        for (i, item) in batch.iter().enumerate() {
-            energy += buf.energy[i];
-            scatter(item, &buf.grad[i * gs..(i + 1) * gs], &buf.blocks[i * hs..(i + 1) * hs], sink);
-        }
+    };
+    // Batch `b` is added into the sink (serially, in item order) while batch `b + 1` is computed into the
+    // other buffer: the thread adding it joins the computation when done.
+    let batches = items.len().div_ceil(BATCH);
+    let batch = |b: usize| &items[b * BATCH..((b + 1) * BATCH).min(items.len())];
+    compute(batch(0), &mut bufs[0]);
+    for b in 0..batches {
+        let [even, odd] = bufs;
+        let (done, next) = if b % 2 == 0 { (&*even, odd) } else { (&*odd, even) };
+        let add = |sink: &mut Sink| {
+            let mut energy = energy;
+            for (i, item) in batch(b).iter().enumerate() {
+                energy += done.energy[i];
+                scatter(item, &done.grad[i * gs..(i + 1) * gs], &done.blocks[i * hs..(i + 1) * hs], sink);
+            }
+            energy
+        };
+        energy = if b + 1 < batches { rayon::join(|| add(sink), || compute(batch(b + 1), next)).0 } else { add(sink) };
     }
     energy
 }
