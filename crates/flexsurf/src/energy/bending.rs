@@ -9,6 +9,7 @@
 
 use super::curvature::NormalCurvature;
 use super::frame::{Frame, Warp};
+use super::parallel::{assemble, Item, Local, Pool};
 use super::{local_blocks, local_pairs, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
@@ -37,9 +38,20 @@ pub(crate) struct Point {
 }
 
 /// Bending (curvature and twist) energy of the whole grid.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Bending {
     pub(crate) points: Vec<Point>,
+    /// Most support nodes and operator blocks of one point (the strides of the parallel assembly's buffers).
+    pub(crate) strides: (usize, usize),
+    /// Buffers of the parallel assembly.
+    pub(crate) pool: Pool,
+}
+
+/// The data alone (the assembly's buffers are not part of the term; run fingerprints hash this).
+impl std::fmt::Debug for Bending {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Bending").field("points", &self.points).finish()
+    }
 }
 
 /// The parametric bending stiffness `C` on `(κ11, κ22, 2κ12)` split into the part carried by the nodal normal
@@ -83,7 +95,8 @@ impl Bending {
         let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
         let mut points: Vec<Point> = (0..grid.len()).filter_map(|k| node_point(grid, rest, &dv, warp, k)).collect();
         points.extend(grid.cells().map(|(i, j)| cell_point(grid, rest, &dv, warp, i, j)));
-        Self { points }
+        let len = points.iter().map(|p| p.support.len).max().unwrap_or(0);
+        Self { points, strides: (len.max(1), (len * (len + 1) / 2).max(1)), pool: Pool::default() }
     }
 
     /// Sets the rest curvature `B⁰` to zero everywhere: the rest shape then only defines the metric (a garment
@@ -234,10 +247,13 @@ impl Point {
         (p, e)
     }
 
-    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+    /// The point's energy, and into `out` its gradient contributions (one per support node) and operator
+    /// blocks.
+    #[inline]
+    fn evaluate(&self, x: &[Vec3], out: Local) -> f64 {
         let (a, b, nc, _vs, kappa) = self.kernels(x);
         let (mom, energy) = self.moments(&kappa);
-        if sink.grad.is_none() && sink.hess.is_none() {
+        if out.energy_only() {
             return energy;
         }
         let len = self.support.len;
@@ -248,21 +264,22 @@ impl Point {
                 g[m][k] = nc[m].da * self.a[k] + nc[m].db * self.b[k] + nc[m].dv * self.v[m][k];
             }
         }
-        if let Some(gr) = sink.grad.as_deref_mut() {
+        if let Some(gr) = out.grad {
             for k in 0..len {
                 let mut f = Vec3::ZERO;
                 for m in 0..self.count {
                     f += g[m][k] * mom[m];
                 }
-                gr[self.support.nodes[k]] += f;
+                gr[k] = f;
             }
         }
-        if let Some((h, op)) = sink.hess.as_mut() {
-            let exact: Vec<[[Mat3; 3]; 3]> = if *op == Operator::Exact {
-                (0..self.count).map(|m| nc[m].hessian(a, b)).collect()
-            } else {
-                Vec::new()
-            };
+        if let Some((h, op)) = out.hess {
+            let mut exact = [[[Mat3::ZERO; 3]; 3]; MEASURES];
+            if op == Operator::Exact {
+                for m in 0..self.count {
+                    exact[m] = nc[m].hessian(a, b);
+                }
+            }
             let mut id = 0;
             for k in 0..len {
                 for l in k..len {
@@ -281,7 +298,7 @@ impl Point {
                                 _ => outer(g[m][k], g[q][l]) * dmq,
                             };
                         }
-                        if *op == Operator::Exact && mom[m] != 0.0 {
+                        if op == Operator::Exact && mom[m] != 0.0 {
                             let c = [[self.a[k], self.b[k], self.v[m][k]], [self.a[l], self.b[l], self.v[m][l]]];
                             for p in 0..3 {
                                 for r in 0..3 {
@@ -293,7 +310,7 @@ impl Point {
                             }
                         }
                     }
-                    h.add(self.blocks[id], self.support.nodes[k], self.support.nodes[l], blk);
+                    h[id] = blk;
                     id += 1;
                 }
             }
@@ -316,8 +333,20 @@ impl Bending {
         }
     }
 
-    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy.
+    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy. Large grids are
+    /// assembled in parallel, with the same result as the serial loop (see [`super::parallel`]).
     pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
-        self.points.iter().map(|p| p.evaluate(x, sink)).sum()
+        // Summed from the neutral element of `f64: Sum`, as the serial `.sum()` of the points was.
+        let start = std::iter::empty::<f64>().sum();
+        assemble(&self.points, &self.pool, self.strides, start, sink, |p, out| p.evaluate(x, out))
+    }
+}
+
+impl Item for Point {
+    fn nodes(&self) -> &[usize] {
+        self.support.nodes()
+    }
+    fn blocks(&self) -> &[u32] {
+        &self.blocks
     }
 }

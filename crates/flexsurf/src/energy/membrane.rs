@@ -7,12 +7,13 @@
 //! boundary edge half, exactly as scheme S, and Poisson coupling stays positive definite.
 
 use super::frame::{Frame, Warp};
+use super::parallel::{assemble, Item, Local, Pool};
 use super::{local_blocks, local_pairs, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
-use crate::math::{diag, outer, Vec3};
+use crate::math::{diag, outer, Mat3, Vec3};
 use crate::ops::CellOps;
-use crate::sparse::{BlockMatrix, BlockPattern};
+use crate::sparse::BlockPattern;
 
 /// Strains per cell: bottom/top `E11`, left/right `E22`, centre engineering shear `γ`.
 const NS: usize = 5;
@@ -32,9 +33,18 @@ struct Cell {
 }
 
 /// Membrane (stretch and shear) energy of the whole grid.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Membrane {
     cells: Vec<Cell>,
+    /// Buffers of the parallel assembly.
+    pool: Pool,
+}
+
+/// The data alone (the assembly's buffers are not part of the term; run fingerprints hash this).
+impl std::fmt::Debug for Membrane {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Membrane").field("cells", &self.cells).finish()
+    }
 }
 
 impl Membrane {
@@ -95,7 +105,7 @@ impl Membrane {
                 Cell { nodes: ops.nodes, alpha, beta, scale, rest: restv, q, blocks: Vec::new() }
             })
             .collect();
-        Self { cells }
+        Self { cells, pool: Pool::default() }
     }
 }
 
@@ -113,19 +123,26 @@ impl Membrane {
         }
     }
 
-    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy.
+    /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy. Large grids are
+    /// assembled in parallel, with the same result as the serial loop (see [`super::parallel`]).
     pub fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
-        let mut energy = 0.0;
-        for cell in &self.cells {
-            energy += cell.evaluate(x, sink);
-        }
-        energy
+        assemble(&self.cells, &self.pool, (4, 10), 0.0, sink, |cell, out| cell.evaluate(x, out))
+    }
+}
+
+impl Item for Cell {
+    fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+    fn blocks(&self) -> &[u32] {
+        &self.blocks
     }
 }
 
 impl Cell {
+    /// The cell's energy, and into `out` its gradient contributions (one per corner) and operator blocks.
     #[inline]
-    fn evaluate(&self, x: &[Vec3], sink: &mut Sink) -> f64 {
+    fn evaluate(&self, x: &[Vec3], out: Local) -> f64 {
         let xl: [Vec3; 4] = self.nodes.map(|k| x[k]);
         let comb = |c: &[f64; 4]| xl[0] * c[0] + xl[1] * c[1] + xl[2] * c[2] + xl[3] * c[3];
         let mut p = [Vec3::ZERO; NS];
@@ -144,7 +161,7 @@ impl Cell {
             }
             energy += 0.5 * s[a] * sigma[a];
         }
-        if sink.grad.is_none() && sink.hess.is_none() {
+        if out.energy_only() {
             return energy;
         }
         // ∇_k s_a = ½ scale (α_ak r_a + β_ak p_a).
@@ -154,24 +171,25 @@ impl Cell {
                 ds[a][k] = (r[a] * self.alpha[a][k] + p[a] * self.beta[a][k]) * (0.5 * self.scale[a]);
             }
         }
-        if let Some(g) = sink.grad.as_deref_mut() {
+        if let Some(g) = out.grad {
             for k in 0..4 {
                 let mut f = Vec3::ZERO;
                 for a in 0..NS {
                     f += ds[a][k] * sigma[a];
                 }
-                g[self.nodes[k]] += f;
+                g[k] = f;
             }
         }
-        if let Some((h, op)) = sink.hess.as_mut() {
-            self.add_hessian(h, *op, &ds, &sigma);
+        if let Some((h, op)) = out.hess {
+            self.hessian(h, op, &ds, &sigma);
         }
         energy
     }
 
-    /// Adds the operator `op` of this cell (material part `Σ ∇s_a Q_ab ∇s_bᵀ` unless secant, and the geometric
-    /// part, exact or its positive part) to `h`, from the strain gradients `ds` and stresses `sigma`.
-    fn add_hessian(&self, h: &mut BlockMatrix, op: Operator, ds: &[[Vec3; 4]; NS], sigma: &[f64; NS]) {
+    /// The operator `op` of this cell (material part `Σ ∇s_a Q_ab ∇s_bᵀ` unless secant, and the geometric
+    /// part, exact or its positive part) into its 10 blocks `h`, from the strain gradients `ds` and stresses
+    /// `sigma`.
+    fn hessian(&self, h: &mut [Mat3], op: Operator, ds: &[[Vec3; 4]; NS], sigma: &[f64; NS]) {
         // Scalar (⊗ I3) geometric part, 4×4.
         let mut geo = [[0.0; 4]; 4];
         for a in 0..NS {
@@ -210,7 +228,7 @@ impl Cell {
                         m += outer(ds[a][k], t[a][l]);
                     }
                 }
-                h.add(self.blocks[id], self.nodes[k], self.nodes[l], m);
+                h[id] = m;
                 id += 1;
             }
         }

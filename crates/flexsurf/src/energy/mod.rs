@@ -10,6 +10,7 @@ pub mod bending;
 pub mod curvature;
 pub mod frame;
 pub mod membrane;
+mod parallel;
 pub mod terzopoulos;
 
 use crate::math::{Mat3, Vec3};
