@@ -169,7 +169,7 @@ pub struct Estimate {
     pub model: u64,
     /// The step matrix (3×3 blocks of the stencil).
     pub matrix: u64,
-    /// The sparse Cholesky factor.
+    /// The sparse Cholesky factor, or the multigrid hierarchy (whichever the run's solver needs).
     pub factor: u64,
     /// One tessellated frame and the snapshot meshes kept for the picture.
     pub frames: u64,
@@ -189,7 +189,7 @@ impl Estimate {
 
     fn breakdown(&self) -> String {
         format!(
-            "model {}, step matrix {}, factor {}, frames {}, pictures {}",
+            "model {}, step matrix {}, factor or multigrid {}, frames {}, pictures {}",
             human(self.model),
             human(self.matrix),
             human(self.factor),
@@ -207,9 +207,14 @@ const MODEL_BYTES_PER_NODE: u64 = 1500;
 const MATRIX_BLOCKS_PER_NODE: u64 = 50;
 /// Bytes of one 3×3 block of doubles.
 const BLOCK_BYTES: u64 = 72;
+/// Bytes per node of the multigrid solver: the smoother's copy of the matrix by rows (25 blocks of `f32`), the
+/// line factors, the coarse levels and their Galerkin recipes, the vectors of conjugate gradients and the
+/// V-cycle (measured: `flexsurf bench --workload touching --solver multigrid`, peak memory, docs/performance.md).
+const MULTIGRID_BYTES_PER_NODE: u64 = 3000;
 
 /// The memory estimate of a run of `nodes = m · n` nodes with `spec`'s outputs (saturating arithmetic).
 pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate {
+    use crate::integrate::linsolve::SolverKind;
     let nodes = nodes as u64;
     let log2 = 64 - nodes.max(2).leading_zeros() as u64;
     // The fill of the factor of a 2D grid grows as n log n. Measured (`flexsurf bench`, nnz(L) / 9 per node):
@@ -227,7 +232,13 @@ pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate 
     Estimate {
         model: nodes.saturating_mul(MODEL_BYTES_PER_NODE),
         matrix: nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES),
-        factor: factor_blocks.saturating_mul(BLOCK_BYTES),
+        // A static solve always factorises.
+        factor: match (spec.integrator.kind, spec.integrator.solver.resolve(nodes as usize)) {
+            (crate::scene::spec::IntegratorKind::Static, _) => factor_blocks.saturating_mul(BLOCK_BYTES),
+            (_, SolverKind::Multigrid) => nodes.saturating_mul(MULTIGRID_BYTES_PER_NODE),
+            (_, SolverKind::Pcg) => 0,
+            _ => factor_blocks.saturating_mul(BLOCK_BYTES),
+        },
         frames: frame.saturating_mul(9),
         pictures: image.saturating_mul(9 + 8),
     }
