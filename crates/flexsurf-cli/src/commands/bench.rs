@@ -3,7 +3,7 @@
 //! work (solves and their causes, iterations, factorisations), the peak memory, and the growth exponent of the
 //! median step time, as a table or one JSON object.
 
-use super::shared::print_json;
+use super::shared::{print_json, SolverArg};
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 use flexsurf::bench::{self, Workload};
@@ -42,14 +42,6 @@ enum WorkloadArg {
     Touching,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum SolverArg {
-    Auto,
-    Cholesky,
-    Multigrid,
-    Pcg,
-}
-
 /// `flexsurf bench`.
 pub fn execute(args: &BenchArgs) -> Result<()> {
     let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json } = args;
@@ -60,12 +52,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
         WorkloadArg::Drop => Workload::Drop,
         WorkloadArg::Touching => Workload::Touching,
     };
-    let solver = match solver {
-        SolverArg::Auto => SolverKind::Auto,
-        SolverArg::Cholesky => SolverKind::Cholesky,
-        SolverArg::Multigrid => SolverKind::Multigrid,
-        SolverArg::Pcg => SolverKind::Pcg,
-    };
+    let solver = SolverKind::from(solver);
     let mut rows = Vec::new();
     for &n in sizes {
         let steps = steps.unwrap_or(match (workload, n) {

@@ -1,7 +1,7 @@
 //! `flexsurf run`: loads a TOML scene, applies the command-line overrides, runs it into `--out` with a progress
 //! bar and prints the run table.
 
-use super::shared::{print_table, run_built};
+use super::shared::{print_table, run_built, SolverArg};
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 use flexsurf::integrate::linsolve::SolverKind;
@@ -95,14 +95,6 @@ enum IntegratorArg {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum SolverArg {
-    Auto,
-    Cholesky,
-    Multigrid,
-    Pcg,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum FormatArg {
     Obj,
     Ply,
@@ -129,12 +121,7 @@ impl Overrides {
             };
         }
         if let Some(s) = self.solver {
-            spec.integrator.solver = match s {
-                SolverArg::Auto => SolverKind::Auto,
-                SolverArg::Cholesky => SolverKind::Cholesky,
-                SolverArg::Multigrid => SolverKind::Multigrid,
-                SolverArg::Pcg => SolverKind::Pcg,
-            };
+            spec.integrator.solver = SolverKind::from(s);
         }
         if let Some(f) = self.format {
             spec.output.format = match f {

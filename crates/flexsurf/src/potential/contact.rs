@@ -369,9 +369,20 @@ impl Term for PenaltyContact {
         }
         let params = &self.params;
         let s = self.scratch(scratch);
-        let before = s.contacts.len();
-        s.contacts.retain(|c| c.gap(y[c.node] + delta[c.node]) < params.offset);
-        let mut changed = s.contacts.len() != before;
+        // A change of the contact set costs a re-solve only where the force the solve got wrong is more than
+        // `MODEL_TOLERANCE` of the largest contact force of the step (as for friction's models): a node that
+        // barely left the layer kept a tiny pull, one that barely entered missed a tiny push.
+        let largest = s.contacts.iter().map(|c| c.force.abs()).fold(0.0, f64::max);
+        let tolerance = MODEL_TOLERANCE * largest;
+        let mut changed = false;
+        s.contacts.retain(|c| {
+            let gap = c.gap(y[c.node] + delta[c.node]);
+            let keep = gap < params.offset;
+            if !keep && c.stiffness * (gap - params.offset) > tolerance {
+                changed = true;
+            }
+            keep
+        });
         s.has_contact.iter_mut().for_each(|f| *f = false);
         for c in &s.contacts {
             s.has_contact[c.node] = true;
@@ -385,13 +396,16 @@ impl Term for PenaltyContact {
                 continue;
             }
             if let Some((at, d, n)) = entry(&self.obstacles, &mut s.cache, k, y[k], q, params.offset) {
-                s.contacts.push(Contact::new(k, y[k], at, d, n, params, self.area[k]));
-                changed = true;
+                let c = Contact::new(k, y[k], at, d, n, params, self.area[k]);
+                // The push the solve missed at the proposal (or the whole crossing, caught from the path).
+                let missed = c.stiffness * (params.offset - c.gap(q));
+                if largest == 0.0 || missed > tolerance || d <= 0.0 {
+                    changed = true;
+                }
+                s.contacts.push(c);
             }
         }
-        if changed {
-            s.contacts.sort_by_key(|c| c.node);
-        }
+        s.contacts.sort_by_key(|c| c.node);
         // Friction whose linear model is off at the proposal is re-linearised there (at most
         // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
         if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {

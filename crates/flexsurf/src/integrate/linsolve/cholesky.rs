@@ -180,7 +180,7 @@ impl BlockSolver for Cholesky {
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
         eliminate_fixed(&self.pattern, a, fixed, b, x, &mut self.rhs, &mut self.scratch);
-        let mut stats = SolveStats::default();
+        let mut tried = 0;
         if reuse == Reuse::Nearby && self.factored {
             let any = fixed.iter().any(|&f| f);
             let Self { pattern, symbolic, l_values, mem, flat, rhs, scratch, work, .. } = self;
@@ -195,21 +195,17 @@ impl BlockSolver for Cholesky {
                 work,
             );
             if let Ok(iterations) = result {
-                stats.iterations = iterations;
-                stats.solve_seconds = t0.elapsed().as_secs_f64();
-                return Ok(stats);
+                return Ok(SolveStats::since(t0, t0, iterations, false));
             }
-            stats.iterations = Self::MAX_REUSE_ITERATIONS;
+            tried = Self::MAX_REUSE_ITERATIONS;
         }
         self.fill(a, fixed);
         self.factor()?;
         let t1 = Instant::now();
         let Self { symbolic, l_values, mem, flat, rhs, .. } = self;
         apply_factor(symbolic, l_values, mem, flat, rhs, x);
-        stats.factorized = true;
-        stats.setup_seconds = t1.duration_since(t0).as_secs_f64();
-        stats.solve_seconds = t1.elapsed().as_secs_f64();
-        Ok(stats)
+        // The failed re-solve's iterations count, and their time is the factorisation's set-up.
+        Ok(SolveStats::since(t0, t1, tried, true))
     }
 
     /// Non-zeros of the factor `L`.

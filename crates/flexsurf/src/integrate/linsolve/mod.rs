@@ -60,7 +60,7 @@ pub enum LinearError {
 #[serde(rename_all = "lowercase")]
 pub enum SolverKind {
     /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above (the
-    /// default; the measured crossover, docs/performance.md).
+    /// default; docs/performance.md).
     #[default]
     Auto,
     /// Sparse Cholesky, its factor reused across steps as a preconditioner.
@@ -71,8 +71,11 @@ pub enum SolverKind {
     Pcg,
 }
 
-/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`].
-pub const AUTO_MULTIGRID_NODES: usize = 50_000;
+/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`]. Measured with contact
+/// from the first step (docs/performance.md): Cholesky is as fast or faster up to 321² (103k nodes: 7.7 s a step
+/// against 8.6 s, but 1.6 GB against 0.6 GB); at 641² its factor alone would take about 4 GB (a 6.7 GB peak
+/// measured), multigrid's whole run 2.3 GB.
+pub const AUTO_MULTIGRID_NODES: usize = 120_000;
 
 impl SolverKind {
     /// Name as in scene files and summaries.
@@ -126,6 +129,23 @@ pub struct SolveStats {
     pub iterations: usize,
     /// True when the solve factorised the matrix (or rebuilt the hierarchy's coarsest factor).
     pub factorized: bool,
+}
+
+impl SolveStats {
+    /// A solve that started at `start`, finished its set-up at `setup_done` and ends now.
+    pub fn since(
+        start: std::time::Instant,
+        setup_done: std::time::Instant,
+        iterations: usize,
+        factorized: bool,
+    ) -> Self {
+        Self {
+            setup_seconds: setup_done.duration_since(start).as_secs_f64(),
+            solve_seconds: setup_done.elapsed().as_secs_f64(),
+            iterations,
+            factorized,
+        }
+    }
 }
 
 /// A linear solver bound to one block pattern.

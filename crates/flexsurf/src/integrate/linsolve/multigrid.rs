@@ -435,12 +435,7 @@ impl BlockSolver for Multigrid {
             Self::MAX_ITERATIONS,
             work,
         )?;
-        Ok(SolveStats {
-            setup_seconds: t1.duration_since(t0).as_secs_f64(),
-            solve_seconds: t1.elapsed().as_secs_f64(),
-            iterations,
-            factorized: true,
-        })
+        Ok(SolveStats::since(t0, t1, iterations, true))
     }
 
     fn kind(&self) -> SolverKind {

@@ -62,12 +62,7 @@ impl BlockSolver for Pcg {
             20 * n + 100,
             &mut self.work,
         )?;
-        Ok(SolveStats {
-            setup_seconds: t1.duration_since(t0).as_secs_f64(),
-            solve_seconds: t1.elapsed().as_secs_f64(),
-            iterations,
-            factorized: false,
-        })
+        Ok(SolveStats::since(t0, t1, iterations, false))
     }
 
     fn kind(&self) -> SolverKind {
