@@ -133,7 +133,7 @@ fn multigrid_matches_cholesky_on_free_periodic_and_polar_grids() {
         let diff = direct.iter().zip(&mg).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
         eprintln!("{name}: {iterations} multigrid iterations, max difference {diff:.2e} of {scale:.2e}");
         assert!(diff <= 1e-6 * scale, "{name}: multigrid differs from Cholesky by {diff:e} of {scale:e}");
-        assert!(iterations <= 50, "{name}: {iterations} iterations");
+        assert!(iterations <= 60, "{name}: {iterations} iterations");
         for (k, &f) in model.pinned().iter().enumerate() {
             if f {
                 assert_eq!(mg[k], b[k], "{name}: pinned node {k} moved");
