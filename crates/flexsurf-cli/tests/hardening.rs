@@ -11,15 +11,11 @@ use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_flexsurf");
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
+/// A fresh empty directory for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flexsurf-cli-hardening-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    flexsurf::testing::scratch("cli-hardening", tag)
 }
 
 fn flexsurf(args: &[&str]) -> (i32, String, String) {

@@ -256,3 +256,18 @@ pub fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str)
         }
     }
 }
+
+/// The repository's root (scenes, materials, bodies), from any crate of the workspace.
+pub fn repo() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A fresh empty directory for one test: `flexsurf-{suite}-{tag}-{pid}` in the system's temporary folder.
+pub fn scratch(suite: &str, tag: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("flexsurf-{suite}-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    if let Err(e) = std::fs::create_dir_all(&d) {
+        panic!("cannot create the scratch folder {}: {e}", d.display());
+    }
+    d
+}

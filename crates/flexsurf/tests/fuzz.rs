@@ -35,9 +35,7 @@ const SLOW_SECONDS: f64 = 20.0;
 /// The watchdog ends the process after this (s) on one input.
 const HANG_SECONDS: u64 = 120;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
 /// What a corpus file is, so a mutated copy is checked the right way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

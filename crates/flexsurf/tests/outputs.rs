@@ -7,15 +7,11 @@ use flexsurf::runner::run_scene;
 use flexsurf::scene::SceneSpec;
 use std::path::{Path, PathBuf};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
+/// A fresh empty directory for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flexsurf-outputs-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    flexsurf::testing::scratch("outputs", tag)
 }
 
 /// A short, coarse ball drop: 11 × 11 nodes, 60 steps, frames every 15 (steps 0, 15, 30, 45, 60).

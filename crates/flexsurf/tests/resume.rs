@@ -13,15 +13,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
+/// A fresh empty directory for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flexsurf-resume-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    flexsurf::testing::scratch("resume", tag)
 }
 
 fn scene(file: &str, steps: usize, every: usize, nodes: Option<[usize; 2]>) -> Scene {

@@ -13,16 +13,11 @@ use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{self, SceneError, SceneSpec};
 use std::path::{Path, PathBuf};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
 /// A fresh empty directory for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flexsurf-scenes-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    flexsurf::testing::scratch("scenes", tag)
 }
 
 /// The smallest valid scene; tests splice a fault into it.

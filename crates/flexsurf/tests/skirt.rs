@@ -8,9 +8,7 @@ use flexsurf::runner::run_scene;
 use flexsurf::scene::{self, SceneError, SceneSpec};
 use std::path::{Path, PathBuf};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use flexsurf::testing::repo;
 
 fn skirt_path() -> PathBuf {
     repo().join("scenes/skirt.toml")
@@ -18,10 +16,7 @@ fn skirt_path() -> PathBuf {
 
 /// A fresh empty directory for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flexsurf-skirt-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    flexsurf::testing::scratch("skirt", tag)
 }
 
 /// A small skirt scene on the built-in mannequin; tests splice faults into it.

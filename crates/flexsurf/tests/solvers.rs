@@ -45,29 +45,14 @@ fn sheet(n: usize) -> (Model, Vec<Vec3>) {
     (b.build().unwrap(), x)
 }
 
-/// A tube periodic around (`u1`) and free down (`u2`), its top ring pinned: a skirt's grid.
+/// A tube periodic around (`u1`) and free along its axis (`u2`), its top ring pinned: a skirt's grid.
 fn tube(around: usize, down: usize) -> (Model, Vec<Vec3>) {
     let (f, s) = fabric();
-    let radius = 0.2;
-    let grid = Grid::new(
-        around,
-        down,
-        2.0 * PI * radius / around as f64,
-        0.5 / (down - 1) as f64,
-        [Topology::Periodic, Topology::Free],
-    )
-    .unwrap();
-    let rest: Vec<Vec3> = (0..grid.len())
-        .map(|k| {
-            let (i, j) = grid.coords(k);
-            let t = i as f64 * 2.0 * PI / around as f64;
-            Vec3::new(radius * t.cos(), radius * t.sin(), -(j as f64) * grid.h2)
-        })
-        .collect();
+    let (grid, rest) = flexsurf::testing::cylinder(around, down, 0.2, 0.5);
     let mut b = ModelBuilder::new(grid, rest.clone(), f, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81));
     b.options = ElasticOptions { flat_pattern: true, ..Default::default() };
     for k in 0..grid.len() {
-        b.pinned[k] = grid.coords(k).1 == 0;
+        b.pinned[k] = grid.coords(k).1 == down - 1;
     }
     let x = deformed(&grid, &rest, 0.005);
     (b.build().unwrap(), x)

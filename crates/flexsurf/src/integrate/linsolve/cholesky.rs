@@ -5,7 +5,7 @@
 //! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
 //! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
 
-use super::{apply_fixed, cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
+use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
 use crate::sparse::{BlockMatrix, BlockPattern};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -19,7 +19,7 @@ use std::time::Instant;
 
 /// `faer` sparse Cholesky with a fixed symbolic structure and a reused factor.
 pub struct Cholesky {
-    pattern: BlockPattern,
+    system: Reduced,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     src: Vec<(u32, u8)>,
@@ -29,9 +29,6 @@ pub struct Cholesky {
     mem: MemBuffer,
     /// Scalar right-hand side / solution of the triangular solves.
     flat: Vec<f64>,
-    rhs: Vec<Vec3>,
-    scratch: Vec<Vec3>,
-    work: cg::Work,
     /// A factor of a recent matrix exists.
     factored: bool,
     /// The nodes without stiffness of the coarsest level of a hierarchy.
@@ -56,9 +53,8 @@ impl Cholesky {
         ]);
         let l_values = vec![0.0; symbolic.len_val()];
         let values = vec![0.0; row_idx.len()];
-        let nodes = pattern.nodes();
         Ok(Self {
-            pattern: pattern.clone(),
+            system: Reduced::new(pattern),
             col_ptr,
             row_idx,
             src,
@@ -67,9 +63,6 @@ impl Cholesky {
             l_values,
             mem: MemBuffer::new(req),
             flat: vec![0.0; n],
-            rhs: vec![Vec3::ZERO; nodes],
-            scratch: vec![Vec3::ZERO; nodes],
-            work: cg::Work::new(nodes),
             factored: false,
             no_fixed: Vec::new(),
         })
@@ -128,8 +121,8 @@ impl Cholesky {
     pub(crate) fn factorize(&mut self, a: &BlockMatrix) -> Result<(), LinearError> {
         let mut none = std::mem::take(&mut self.no_fixed);
         none.clear();
-        none.extend((0..self.rhs.len()).map(|k| {
-            let (s, e) = self.pattern.column(k);
+        none.extend((0..self.system.pattern().nodes()).map(|k| {
+            let (s, e) = self.system.pattern().column(k);
             a.blocks[e - 1] == crate::math::Mat3::ZERO && s < e
         }));
         self.fill(a, &none);
@@ -179,20 +172,18 @@ impl BlockSolver for Cholesky {
         reuse: Reuse,
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
-        eliminate_fixed(&self.pattern, a, fixed, b, x, &mut self.rhs, &mut self.scratch);
+        self.system.eliminate(a, fixed, b, x);
         let mut tried = 0;
         if reuse == Reuse::Nearby && self.factored {
-            let any = fixed.iter().any(|&f| f);
-            let Self { pattern, symbolic, l_values, mem, flat, rhs, scratch, work, .. } = self;
-            apply_factor(symbolic, l_values, mem, flat, rhs, x);
-            let result = cg::solve(
-                |v, out| apply_fixed(pattern, a, fixed, any, v, out, scratch),
-                |r, out| apply_factor(symbolic, l_values, mem, flat, r, out),
-                rhs,
+            let Self { system, symbolic, l_values, mem, flat, .. } = self;
+            apply_factor(symbolic, l_values, mem, flat, system.rhs(), x);
+            let result = system.cg(
+                a,
+                fixed,
                 x,
+                |r, out| apply_factor(symbolic, l_values, mem, flat, r, out),
                 super::ITERATIVE_TOLERANCE,
                 Self::MAX_REUSE_ITERATIONS,
-                work,
             );
             if let Ok(iterations) = result {
                 return Ok(SolveStats::since(t0, t0, iterations, false));
@@ -202,8 +193,8 @@ impl BlockSolver for Cholesky {
         self.fill(a, fixed);
         self.factor()?;
         let t1 = Instant::now();
-        let Self { symbolic, l_values, mem, flat, rhs, .. } = self;
-        apply_factor(symbolic, l_values, mem, flat, rhs, x);
+        let Self { system, symbolic, l_values, mem, flat, .. } = self;
+        apply_factor(symbolic, l_values, mem, flat, system.rhs(), x);
         // The failed re-solve's iterations count, and their time is the factorisation's set-up.
         Ok(SolveStats::since(t0, t1, tried, true))
     }

@@ -212,56 +212,86 @@ impl std::ops::DerefMut for LinearSolver {
     }
 }
 
-/// The right-hand side with the fixed unknowns' columns moved over, `b' = b − A x_f` on free nodes and
-/// `b' = b` on fixed ones, and `x` with its fixed entries set to `b`'s: the system every iterative solver
-/// then solves with the fixed rows and columns replaced by the identity ([`apply_fixed`]).
-pub(crate) fn eliminate_fixed(
-    pattern: &BlockPattern,
-    a: &BlockMatrix,
-    fixed: &[bool],
-    b: &[Vec3],
-    x: &mut [Vec3],
-    out: &mut [Vec3],
-    scratch: &mut [Vec3],
-) {
-    let any = fixed.iter().any(|&f| f);
-    for k in 0..b.len() {
-        scratch[k] = if fixed[k] { b[k] } else { Vec3::ZERO };
-        if fixed[k] {
-            x[k] = b[k];
-        }
-    }
-    out.iter_mut().for_each(|v| *v = Vec3::ZERO);
-    if any {
-        a.mul_add(pattern, scratch, out);
-    }
-    for k in 0..b.len() {
-        out[k] = if fixed[k] { b[k] } else { b[k] - out[k] };
-    }
+/// The system every solver solves: `A` with the fixed unknowns eliminated symmetrically (their rows and
+/// columns replaced by the identity, their columns' products moved to the right-hand side), and the buffers
+/// of conjugate gradients on it. One per solver, kept between solves.
+pub(crate) struct Reduced {
+    pattern: BlockPattern,
+    rhs: Vec<Vec3>,
+    scratch: Vec<Vec3>,
+    work: cg::Work,
+    any_fixed: bool,
 }
 
-/// `out = A' x` for `A` with the fixed rows and columns replaced by the identity.
-pub(crate) fn apply_fixed(
-    pattern: &BlockPattern,
-    a: &BlockMatrix,
-    fixed: &[bool],
-    any_fixed: bool,
-    x: &[Vec3],
-    out: &mut [Vec3],
-    scratch: &mut [Vec3],
-) {
-    out.iter_mut().for_each(|v| *v = Vec3::ZERO);
-    if any_fixed {
-        for k in 0..x.len() {
-            scratch[k] = if fixed[k] { Vec3::ZERO } else { x[k] };
+impl Reduced {
+    /// Buffers for `pattern`.
+    pub(crate) fn new(pattern: &BlockPattern) -> Self {
+        let n = pattern.nodes();
+        Self {
+            pattern: pattern.clone(),
+            rhs: vec![Vec3::ZERO; n],
+            scratch: vec![Vec3::ZERO; n],
+            work: cg::Work::new(n),
+            any_fixed: false,
         }
-        a.mul_add(pattern, scratch, out);
-        for k in 0..x.len() {
+    }
+
+    /// The block pattern.
+    pub(crate) fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+
+    /// The reduced right-hand side of the last [`Reduced::eliminate`].
+    pub(crate) fn rhs(&self) -> &[Vec3] {
+        &self.rhs
+    }
+
+    /// `b' = b − A x_f` on free nodes and `b' = b` on fixed ones, and `x`'s fixed entries set to `b`'s.
+    pub(crate) fn eliminate(&mut self, a: &BlockMatrix, fixed: &[bool], b: &[Vec3], x: &mut [Vec3]) {
+        self.any_fixed = fixed.iter().any(|&f| f);
+        for k in 0..b.len() {
+            self.scratch[k] = if fixed[k] { b[k] } else { Vec3::ZERO };
             if fixed[k] {
-                out[k] = x[k];
+                x[k] = b[k];
             }
         }
-    } else {
-        a.mul_add(pattern, x, out);
+        self.rhs.iter_mut().for_each(|v| *v = Vec3::ZERO);
+        if self.any_fixed {
+            a.mul_add(&self.pattern, &self.scratch, &mut self.rhs);
+        }
+        for k in 0..b.len() {
+            self.rhs[k] = if fixed[k] { b[k] } else { b[k] - self.rhs[k] };
+        }
+    }
+
+    /// Conjugate gradients on the reduced system from `x` with `precondition`, after [`Reduced::eliminate`].
+    pub(crate) fn cg(
+        &mut self,
+        a: &BlockMatrix,
+        fixed: &[bool],
+        x: &mut [Vec3],
+        precondition: impl FnMut(&[Vec3], &mut [Vec3]),
+        tol: f64,
+        max_iter: usize,
+    ) -> Result<usize, LinearError> {
+        let Self { pattern, rhs, scratch, work, any_fixed } = self;
+        let any = *any_fixed;
+        let apply = |v: &[Vec3], out: &mut [Vec3]| {
+            out.iter_mut().for_each(|o| *o = Vec3::ZERO);
+            if any {
+                for k in 0..v.len() {
+                    scratch[k] = if fixed[k] { Vec3::ZERO } else { v[k] };
+                }
+                a.mul_add(pattern, scratch, out);
+                for k in 0..v.len() {
+                    if fixed[k] {
+                        out[k] = v[k];
+                    }
+                }
+            } else {
+                a.mul_add(pattern, v, out);
+            }
+        };
+        cg::solve(apply, precondition, rhs, x, tol, max_iter, work)
     }
 }

@@ -20,7 +20,7 @@
 
 use super::cholesky::Cholesky;
 use super::lines::LineSmoother;
-use super::{apply_fixed, cg, eliminate_fixed, BlockSolver, LinearError, Reuse, SolveStats, SolverKind};
+use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::grid::{Grid, Topology};
 use crate::math::{Mat3, Vec3};
 use crate::sparse::{BlockMatrix, BlockPattern};
@@ -110,16 +110,14 @@ struct Level {
 
 /// Multigrid-preconditioned conjugate gradients.
 pub struct Multigrid {
-    pattern: BlockPattern,
+    /// The finest level's system with the fixed unknowns eliminated, and conjugate gradients on it.
+    system: Reduced,
     grid: Grid,
     /// The finest level's smoother (and its matrix by rows), built at the first solve.
     fine: Option<LineSmoother>,
     coarse: Coarse,
     /// The fixed set the hierarchy was built for.
     built_fixed: Vec<bool>,
-    rhs: Vec<Vec3>,
-    scratch: Vec<Vec3>,
-    work: cg::Work,
 }
 
 /// The levels below the finest and the V-cycle's scratch.
@@ -146,14 +144,11 @@ impl Multigrid {
             )));
         }
         Ok(Self {
-            pattern: pattern.clone(),
+            system: Reduced::new(pattern),
             grid: *grid,
             fine: None,
             coarse: Coarse { levels: Vec::new(), coarsest: None, fine_r: vec![Vec3::ZERO; n], line_rhs: Vec::new() },
             built_fixed: Vec::new(),
-            rhs: vec![Vec3::ZERO; n],
-            scratch: vec![Vec3::ZERO; n],
-            work: cg::Work::new(n),
         })
     }
 
@@ -168,7 +163,7 @@ impl Multigrid {
         c.levels.clear();
         let (mut m, mut n) = (self.grid.m, self.grid.n);
         let topology = self.grid.topology;
-        self.fine = Some(LineSmoother::new(&self.pattern, m, n, topology, fixed));
+        self.fine = Some(LineSmoother::new(self.system.pattern(), m, n, topology, fixed));
         let mut free: Vec<bool> = fixed.iter().map(|&f| !f).collect();
         while m * n > Self::COARSEST_NODES {
             let t1 = Transfer1d::halve(m, topology[0]);
@@ -178,7 +173,7 @@ impl Multigrid {
             }
             let t1 = t1.unwrap_or_else(|| Transfer1d::identity(m));
             let t2 = t2.unwrap_or_else(|| Transfer1d::identity(n));
-            let fine = c.levels.last().map_or(&self.pattern, |l| &l.pattern);
+            let fine = c.levels.last().map_or(self.system.pattern(), |l| &l.pattern);
             let level = Level::new(fine, &free, m, n, &t1, &t2, topology);
             free = vec![true; level.pattern.nodes()];
             (m, n) = (t1.coarse, t2.coarse);
@@ -418,22 +413,20 @@ impl BlockSolver for Multigrid {
         if self.built_fixed != fixed || self.fine.is_none() {
             self.build(fixed)?;
         }
-        let Self { pattern, fine, coarse, rhs, scratch, work, .. } = self;
+        let Self { system, fine, coarse, .. } = self;
         let Some(fine) = fine.as_mut() else { unreachable!("built above") };
         fine.refill(a);
         coarse.refill(a)?;
-        eliminate_fixed(pattern, a, fixed, b, x, rhs, scratch);
+        system.eliminate(a, fixed, b, x);
         let t1 = Instant::now();
         let fine = &*fine;
-        let any = fixed.iter().any(|&f| f);
-        let iterations = cg::solve(
-            |v, out| apply_fixed(pattern, a, fixed, any, v, out, scratch),
-            |r, out| coarse.v_cycle(fine, r, out),
-            rhs,
+        let iterations = system.cg(
+            a,
+            fixed,
             x,
+            |r, out| coarse.v_cycle(fine, r, out),
             super::ITERATIVE_TOLERANCE,
             Self::MAX_ITERATIONS,
-            work,
         )?;
         Ok(SolveStats::since(t0, t1, iterations, true))
     }
