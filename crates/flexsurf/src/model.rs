@@ -185,6 +185,7 @@ impl ModelBuilder {
         let potential = Potential::new(n, terms, Pins::from_flags(self.pinned));
         Ok(Model {
             grid: self.grid,
+            panels: vec![Panel { grid: self.grid, offset: 0 }],
             rest: self.rest,
             fabric: self.fabric,
             stiffness: self.stiffness,
@@ -198,11 +199,44 @@ impl ModelBuilder {
     }
 }
 
+/// One panel of a model: a parametric grid over a contiguous range of the model's flat node vectors.
+///
+/// A model holds one or more panels (a sheet, the pieces of a garment). Panel `p`'s local node `k`
+/// (`Grid::index` order) is the model's node `offset + k`; the panels follow each other without gaps, so the
+/// model has `Σ grid.len()` nodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Panel {
+    /// The panel's parametric grid.
+    pub grid: Grid,
+    /// Index of the panel's first node in the model's node vectors.
+    pub offset: usize,
+}
+
+impl Panel {
+    /// The model's node indices of this panel.
+    pub fn nodes(&self) -> std::ops::Range<usize> {
+        self.offset..self.offset + self.grid.len()
+    }
+
+    /// The model's index of the panel's local node `k`.
+    #[inline]
+    pub fn global(&self, k: usize) -> usize {
+        self.offset + k
+    }
+
+    /// This panel's slice of a per-node vector of the model.
+    pub fn slice<'a, T>(&self, all: &'a [T]) -> &'a [T] {
+        &all[self.nodes()]
+    }
+}
+
 /// Everything that stays fixed during a run.
 #[derive(Debug, Clone)]
 pub struct Model {
-    /// The parametric grid.
+    /// The parametric grid of the first panel (single-panel models: the sheet's grid).
     pub grid: Grid,
+    /// The panels, in node order (one for a single sheet).
+    pub panels: Vec<Panel>,
     /// Rest shape (also the initial shape unless a scene says otherwise).
     pub rest: Vec<Vec3>,
     /// The fabric.
