@@ -60,22 +60,31 @@ fn model_error(field: &'static str, message: String) -> ModelError {
     ModelError { field, message }
 }
 
+/// One panel of a [`ModelBuilder`]: its grid, its rest shape (one position per node of the grid, in the grid's
+/// order) and its material frame and rest-shape options.
+#[derive(Debug, Clone)]
+pub struct PanelSpec {
+    /// The panel's parametric grid.
+    pub grid: Grid,
+    /// Rest shape, one position per node of the panel.
+    pub rest: Vec<Vec3>,
+    /// Warp direction and rest-shape options.
+    pub options: ElasticOptions,
+}
+
 /// Everything a [`Model`] is made of, filled in before [`ModelBuilder::build`] validates it and builds the
-/// potential. `pinned`, `loads` start empty-handed (no pins, zero loads) with one entry per node.
+/// potential. `pinned`, `loads` start empty-handed (no pins, zero loads) with one entry per node of the model
+/// (every panel's nodes, panel after panel).
 #[derive(Debug, Clone)]
 pub struct ModelBuilder {
-    /// The parametric grid.
-    pub grid: Grid,
-    /// Rest shape, one position per node.
-    pub rest: Vec<Vec3>,
+    /// The panels (one for a single sheet), in node order.
+    pub panels: Vec<PanelSpec>,
     /// The fabric.
     pub fabric: Fabric,
     /// Calibrated coefficients.
     pub stiffness: Stiffness,
     /// Which elastic model.
     pub kind: ModelKind,
-    /// Warp direction and rest-shape options.
-    pub options: ElasticOptions,
     /// Gravity (m/s²).
     pub gravity: Vec3,
     /// Obstacles.
@@ -93,7 +102,8 @@ pub struct ModelBuilder {
 }
 
 impl ModelBuilder {
-    /// A builder with no obstacles, pins, springs or loads; warp along `u1` (see [`ModelBuilder::options`]).
+    /// A builder of one panel `grid` with rest shape `rest` and no obstacles, pins, springs or loads; warp
+    /// along `u1` (see [`ModelBuilder::options`]).
     pub fn new(
         grid: Grid,
         rest: Vec<Vec3>,
@@ -104,12 +114,10 @@ impl ModelBuilder {
     ) -> Self {
         let n = grid.len();
         Self {
-            grid,
-            rest,
+            panels: vec![PanelSpec { grid, rest, options: ElasticOptions::default() }],
             fabric,
             stiffness,
             kind,
-            options: ElasticOptions::default(),
             gravity,
             obstacles: Vec::new(),
             contact: ContactParams {
@@ -125,21 +133,60 @@ impl ModelBuilder {
         }
     }
 
-    /// The same builder with explicit [`ElasticOptions`] (warp direction, flat pattern).
+    /// The same builder with explicit [`ElasticOptions`] (warp direction, flat pattern) for its last panel.
     pub fn options(mut self, options: ElasticOptions) -> Self {
-        self.options = options;
+        if let Some(p) = self.panels.last_mut() {
+            p.options = options;
+        }
         self
     }
 
+    /// The same builder with one more panel (its nodes follow the others'); `pinned` and `loads` grow by the
+    /// panel's nodes (not pinned, no load).
+    pub fn panel(mut self, grid: Grid, rest: Vec<Vec3>, options: ElasticOptions) -> Self {
+        let n = grid.len();
+        self.panels.push(PanelSpec { grid, rest, options });
+        self.pinned.extend(std::iter::repeat_n(false, n));
+        self.loads.extend(std::iter::repeat_n(Vec3::ZERO, n));
+        self
+    }
+
+    /// Number of nodes of every panel together.
+    pub fn nodes(&self) -> usize {
+        self.panels.iter().map(|p| p.grid.len()).sum()
+    }
+
+    /// The panels laid out over the flat node vectors.
+    fn layout(&self) -> Vec<Panel> {
+        let mut offset = 0;
+        self.panels
+            .iter()
+            .map(|p| {
+                let panel = Panel { grid: p.grid, offset };
+                offset += p.grid.len();
+                panel
+            })
+            .collect()
+    }
+
     fn validate(&self) -> Result<(), ModelError> {
-        let n = self.grid.len();
-        for (field, len) in [("rest", self.rest.len()), ("pinned", self.pinned.len()), ("loads", self.loads.len())] {
+        if self.panels.is_empty() {
+            return Err(model_error("panels", "a model needs at least one panel".into()));
+        }
+        for (p, panel) in self.panels.iter().enumerate() {
+            let (len, n) = (panel.rest.len(), panel.grid.len());
             if len != n {
-                return Err(model_error(field, format!("has {len} entries for a grid of {n} nodes")));
+                return Err(model_error("rest", format!("panel {p} has {len} rest positions for a grid of {n} nodes")));
+            }
+            if let Some(k) = panel.rest.iter().position(|p| !finite(*p)) {
+                return Err(model_error("rest", format!("node {k} of panel {p} is not finite")));
             }
         }
-        if let Some(k) = self.rest.iter().position(|p| !finite(*p)) {
-            return Err(model_error("rest", format!("node {k} is not finite")));
+        let n = self.nodes();
+        for (field, len) in [("pinned", self.pinned.len()), ("loads", self.loads.len())] {
+            if len != n {
+                return Err(model_error(field, format!("has {len} entries for a model of {n} nodes")));
+            }
         }
         if let Some(k) = self.loads.iter().position(|p| !finite(*p)) {
             return Err(model_error("loads", format!("node {k} is not finite")));
@@ -169,11 +216,16 @@ impl ModelBuilder {
     /// order (membrane, bending, gravity and loads; springs; contact; then `extra_terms` in their stages).
     pub fn build(self) -> Result<Model, ModelError> {
         self.validate()?;
-        let n = self.grid.len();
-        let area = rest_areas(&self.grid, &self.rest);
+        let n = self.nodes();
+        let panels = self.layout();
+        let area: Vec<f64> = self.panels.iter().flat_map(|p| rest_areas(&p.grid, &p.rest)).collect();
         let mass: Vec<f64> = area.iter().map(|a| a * self.fabric.density).collect();
         let damping = area.iter().map(|a| a * self.fabric.damping).collect();
-        let mut terms = elastic::terms(&self.grid, &self.rest, &self.stiffness, self.kind, &self.options);
+        let mut terms = Vec::new();
+        for (spec, panel) in self.panels.iter().zip(&panels) {
+            let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
+            terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, panel.offset));
+        }
         terms.push(Box::new(External::new(self.gravity, &mass, &self.loads)));
         if !self.springs.is_empty() {
             terms.push(Box::new(Springs::new(self.springs)));
@@ -183,10 +235,11 @@ impl ModelBuilder {
         }
         terms.extend(self.extra_terms);
         let potential = Potential::new(n, terms, Pins::from_flags(self.pinned));
+        let rest = self.panels.into_iter().flat_map(|p| p.rest).collect();
         Ok(Model {
-            grid: self.grid,
-            panels: vec![Panel { grid: self.grid, offset: 0 }],
-            rest: self.rest,
+            grid: panels[0].grid,
+            panels,
+            rest,
             fabric: self.fabric,
             stiffness: self.stiffness,
             kind: self.kind,
@@ -233,11 +286,11 @@ impl Panel {
 /// Everything that stays fixed during a run.
 #[derive(Debug, Clone)]
 pub struct Model {
-    /// The parametric grid of the first panel (single-panel models: the sheet's grid).
+    /// The first panel's grid (transitional: code that has not moved to [`Model::panels`] yet reads it).
     pub grid: Grid,
     /// The panels, in node order (one for a single sheet).
     pub panels: Vec<Panel>,
-    /// Rest shape (also the initial shape unless a scene says otherwise).
+    /// Rest shape of every panel (also the initial shape unless a scene says otherwise).
     pub rest: Vec<Vec3>,
     /// The fabric.
     pub fabric: Fabric,
@@ -258,6 +311,20 @@ pub struct Model {
 }
 
 impl Model {
+    /// Number of nodes of every panel together.
+    pub fn nodes(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// The grid of a model of one panel (a single sheet); `None` for a model of several panels. For the
+    /// features that are defined on one grid (the virtual textile tests, the multigrid solver today).
+    pub fn sheet_grid(&self) -> Option<&Grid> {
+        match self.panels.as_slice() {
+            [one] => Some(&one.grid),
+            _ => None,
+        }
+    }
+
     /// Total mass (kg).
     pub fn total_mass(&self) -> f64 {
         self.mass.iter().sum()
@@ -287,8 +354,8 @@ impl Model {
     /// The node's previous position is kept, so the next step sees the pin moving at
     /// `(position − x_prev)/Δt`; the step holds the node exactly where it was put.
     pub fn move_pin(&self, state: &mut State, node: usize, position: Vec3) -> Result<(), ModelError> {
-        if node >= self.grid.len() || node >= state.x.len() {
-            return Err(model_error("pinned", format!("node {node} is outside the grid of {} nodes", self.grid.len())));
+        if node >= self.nodes() || node >= state.x.len() {
+            return Err(model_error("pinned", format!("node {node} is outside the model of {} nodes", self.nodes())));
         }
         if !self.pinned()[node] {
             return Err(model_error("pinned", format!("node {node} is not pinned")));
@@ -324,23 +391,29 @@ impl Model {
         Energies { membrane: v.membrane, bending: v.bending }
     }
 
-    /// A length scale of the sheet (diagonal of the rest pattern), for bounds and tolerances.
+    /// A length scale of the sheet (diagonal of the rest pattern; the largest panel's), for bounds and
+    /// tolerances.
     pub fn length_scale(&self) -> f64 {
-        let l1 = self.grid.h1 * self.grid.spans(0) as f64;
-        let l2 = self.grid.h2 * self.grid.spans(1) as f64;
-        (l1 * l1 + l2 * l2).sqrt()
+        let diagonal = |g: &Grid| {
+            let l1 = g.h1 * g.spans(0) as f64;
+            let l2 = g.h2 * g.spans(1) as f64;
+            (l1 * l1 + l2 * l2).sqrt()
+        };
+        self.panels.iter().map(|p| diagonal(&p.grid)).fold(0.0, f64::max)
     }
 
-    /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges.
+    /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges of every panel.
     pub fn max_strain(&self, x: &[Vec3]) -> f64 {
-        let g = &self.grid;
         let mut worst: f64 = 0.0;
-        for (i, j) in g.cells() {
-            let c = g.cell(i, j);
-            for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
-                let l0 = (self.rest[b] - self.rest[a]).length();
-                let l = (x[b] - x[a]).length();
-                worst = worst.max((l / l0 - 1.0).abs());
+        for panel in &self.panels {
+            let g = &panel.grid;
+            for (i, j) in g.cells() {
+                let c = g.cell(i, j).map(|k| panel.global(k));
+                for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
+                    let l0 = (self.rest[b] - self.rest[a]).length();
+                    let l = (x[b] - x[a]).length();
+                    worst = worst.max((l / l0 - 1.0).abs());
+                }
             }
         }
         worst

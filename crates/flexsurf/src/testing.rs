@@ -54,7 +54,7 @@ pub fn value_gradient(
     motion: Option<Motion>,
     extra: Option<&dyn Term>,
 ) -> (f64, Vec<Vec3>) {
-    ws.cold();
+    potential.cold(ws);
     let v = potential.assemble(x, &potential.context(motion), extra, Want::GRADIENT, ws);
     (v.total, ws.grad.clone())
 }
@@ -70,7 +70,7 @@ pub fn hessians(
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let n = x.len();
     let mut ws = Workspace::new(potential);
-    ws.cold();
+    potential.cold(&mut ws);
     potential.assemble(x, &potential.context(motion), extra, Want { grad: false, hess: Some(op) }, &mut ws);
     let dense = ws.matrix.to_dense(potential.pattern());
     let eps = step(x);
@@ -111,7 +111,7 @@ pub fn check(
     let n = x.len();
     let mut ws = Workspace::new(potential);
     let (_, g) = value_gradient(potential, &mut ws, x, motion, extra);
-    ws.cold();
+    potential.cold(&mut ws);
     potential.assemble(x, &potential.context(motion), extra, Want { grad: false, hess: Some(op) }, &mut ws);
     let dense = ws.matrix.to_dense(potential.pattern());
     let fixed = potential.fixed();

@@ -70,7 +70,7 @@ fn terzopoulos_bending_is_not_a_gradient_and_statics_refuse_it() {
     let rest = g.flat_positions(0.0);
     let x = perturbed(&rest, 0.02, 3);
     let term = TerzopoulosBending(Bending::new(&g, &rest, &s));
-    assert!(!term.conservative());
+    assert!(!term.info().conservative);
     let report = check(&alone(g.len(), Box::new(term)), &x, None, None, Operator::Projected);
     assert!(report.gradient_error > 1e-2, "the Terzopoulos force looks like a gradient: {report:?}");
     let fabric = Fabric::paper_cotton();
@@ -227,7 +227,7 @@ fn the_step_system_matches_finite_differences() {
     b.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.003), normal: Vec3::Z });
     b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
     let model = b.build().unwrap();
-    let names: Vec<&str> = model.potential.terms().iter().map(|t| t.name()).collect();
+    let names: Vec<&str> = model.potential.terms().iter().map(|t| t.info().name).collect();
     assert_eq!(names, ["membrane", "bending", "gravity and loads", "springs", "penalty contact"]);
     let x_prev = perturbed(&rest, 0.002, 6);
     let x_t = perturbed(&rest, 0.002, 7);
@@ -396,7 +396,7 @@ struct OneFriction {
 
 impl Term for OneFriction {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "friction", stage: Stage::Contact, part: Part::Contact }
+        TermInfo::new("friction", Stage::Contact, Part::Contact)
     }
     fn evaluate(&self, y: &[Vec3], cx: &Context, _s: &mut Scratch, sink: &mut Sink) -> f64 {
         let u = self.lagged.tangential(y[0] - self.anchor);

@@ -50,7 +50,7 @@ fn tube(around: usize, down: usize) -> (Model, Vec<Vec3>) {
     let (f, s) = fabric();
     let (grid, rest) = flexsurf::testing::cylinder(around, down, 0.2, 0.5);
     let mut b = ModelBuilder::new(grid, rest.clone(), f, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81));
-    b.options = ElasticOptions { flat_pattern: true, ..Default::default() };
+    b.panels[0].options = ElasticOptions { flat_pattern: true, ..Default::default() };
     for k in 0..grid.len() {
         b.pinned[k] = grid.coords(k).1 == down - 1;
     }
@@ -73,7 +73,7 @@ fn polar(radial: usize, angular: usize) -> (Model, Vec<Vec3>) {
         })
         .collect();
     let mut b = ModelBuilder::new(grid, rest.clone(), f, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81));
-    b.options = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
+    b.panels[0].options = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
     for k in 0..grid.len() {
         b.pinned[k] = grid.coords(k).0 <= 1;
     }
@@ -101,7 +101,7 @@ fn system(model: &Model, x: &[Vec3]) -> (flexsurf::sparse::BlockMatrix, Vec<Vec3
 }
 
 fn solve(kind: SolverKind, model: &Model, a: &flexsurf::sparse::BlockMatrix, b: &[Vec3]) -> (Vec<Vec3>, usize) {
-    let mut solver = LinearSolver::new(kind, model.potential.pattern(), &model.grid).unwrap();
+    let mut solver = LinearSolver::new(kind, model.potential.pattern(), &model.panels).unwrap();
     let mut x = vec![Vec3::ZERO; b.len()];
     let stats = solver.solve(a, model.pinned(), b, &mut x, Reuse::Fresh).unwrap();
     (x, stats.iterations)

@@ -75,6 +75,16 @@ fn split(c: &[[f64; 3]; 3], aligned: bool) -> ([[f64; 2]; 2], [f64; 3]) {
 }
 
 impl Bending {
+    /// Moves every node index by `by`: the kernel of a panel whose nodes start at `by` in the model.
+    pub fn offset_nodes(&mut self, by: usize) {
+        for p in &mut self.points {
+            let len = p.support.len;
+            p.support.nodes[..len].iter_mut().for_each(|k| *k += by);
+        }
+    }
+}
+
+impl Bending {
     /// Builds the quadrature points of `grid` with rest shape `rest` and stiffness `s`, warp along `u1`.
     pub fn new(grid: &Grid, rest: &[Vec3], s: &Stiffness) -> Self {
         Self::with_warp_angle(grid, rest, s, 0.0)

@@ -111,6 +111,13 @@ impl Membrane {
 
 /// The kernel interface; the [`crate::potential::Term`] impl in `potential/elastic.rs` wraps it.
 impl Membrane {
+    /// Moves every node index by `by`: the kernel of a panel whose nodes start at `by` in the model.
+    pub fn offset_nodes(&mut self, by: usize) {
+        for c in &mut self.cells {
+            c.nodes = c.nodes.map(|k| k + by);
+        }
+    }
+
     /// The node pairs whose Hessian block this term touches.
     pub fn pairs(&self) -> Vec<(usize, usize)> {
         self.cells.iter().flat_map(|c| local_pairs(&c.nodes).collect::<Vec<_>>()).collect()

@@ -223,12 +223,12 @@ impl Stepper {
     /// Workspace for `model` with `params`; the symbolic factorisation happens here, once.
     pub fn new(model: &Model, params: &StepParams) -> Result<Self, StepError> {
         let pattern = model.potential.pattern();
-        let n = model.grid.len();
+        let n = model.nodes();
         Ok(Self {
             params: *params,
             bounds: params.bounds.unwrap_or_else(|| Bounds::for_model(model)),
             counters: Counters::default(),
-            solver: LinearSolver::new(params.solver, pattern, &model.grid)
+            solver: LinearSolver::new(params.solver, pattern, &model.panels)
                 .map_err(|cause| StepError::Linear { step: 0, cause })?,
             ws: Workspace::new(&model.potential),
             rhs: vec![Vec3::ZERO; n],
@@ -446,7 +446,7 @@ impl Stepper {
         force_scale: f64,
         t_assembly: &mut f64,
     ) -> Result<(f64, f64), StepError> {
-        let n = model.grid.len();
+        let n = model.nodes();
         let (mut tf, mut t_solve) = (0.0, 0.0);
         let mut model_error = 0.0;
         for iter in 0..self.params.newton_iterations.max(1) {
@@ -491,7 +491,7 @@ impl Stepper {
     fn advance(&mut self, model: &Model, state: &mut State, step: usize) -> Result<f64, StepError> {
         let idt = 1.0 / self.h;
         let mut worst_speed: f64 = 0.0;
-        for k in 0..model.grid.len() {
+        for k in 0..model.nodes() {
             worst_speed = worst_speed.max((self.y[k] - state.x[k]).length() * idt);
         }
         if worst_speed > self.bounds.max_speed {
@@ -599,12 +599,12 @@ fn left_behind(model: &Model, x: &[Vec3]) -> Option<f64> {
         return None;
     }
     let centre = x.iter().copied().sum::<Vec3>() / x.len() as f64;
-    // The nearest obstacle of any term, without collecting them (this runs every step).
+    // The nearest obstacle, without collecting them (this runs every step).
     let d = model
         .potential
-        .terms()
+        .find::<crate::potential::contact::PenaltyContact>()
+        .map_or(&[][..], |c| c.obstacles())
         .iter()
-        .flat_map(|t| t.obstacles())
         .map(|o| o.distance(centre).0.abs())
         .fold(f64::INFINITY, f64::min);
     (d.is_finite() && d > 100.0 * model.length_scale()).then_some(d)

@@ -7,17 +7,18 @@
 
 use super::linsolve::SolverWarm;
 use super::{Counters, Stepper};
+use crate::model::Model;
 use crate::potential::WarmState;
 
 impl Stepper {
-    /// The warm state of the stepper's workspace.
-    pub fn warm_state(&self) -> Result<WarmState, String> {
-        self.ws.warm_state()
+    /// The warm state of the stepper's workspace for `model` (the model it steps).
+    pub fn warm_state(&self, model: &Model) -> Result<WarmState, String> {
+        model.potential.warm_state(&self.ws)
     }
 
-    /// Restores a [`Stepper::warm_state`] and the counters of the stepper that saved it.
-    pub fn restore(&mut self, warm: &WarmState, counters: Counters) -> Result<(), String> {
-        self.ws.restore_warm_state(warm)?;
+    /// Restores a [`Stepper::warm_state`] of `model` and the counters of the stepper that saved it.
+    pub fn restore(&mut self, model: &Model, warm: &WarmState, counters: Counters) -> Result<(), String> {
+        model.potential.restore_warm_state(warm, &mut self.ws)?;
         self.counters = counters;
         Ok(())
     }

@@ -31,7 +31,7 @@ use super::linsolve::{LinearSolver, Reuse, SolverKind};
 use crate::energy::Operator;
 use crate::math::{diag, Vec3};
 use crate::model::Model;
-use crate::potential::{Part, StaticFriction, Want, Workspace};
+use crate::potential::{Part, Want, Workspace};
 use serde::Serialize;
 use thiserror::Error;
 
@@ -166,9 +166,6 @@ pub struct StaticSolver {
     ws: Workspace,
     /// Gradient of the load terms (load continuation).
     load_grad: Vec<Vec3>,
-    /// Quasi-static friction: the start of the solve and the lagged Coulomb limits.
-    anchor: Vec<Vec3>,
-    lagged: Vec<(usize, Vec3, f64)>,
     /// The right-hand side of a solve (the solution is written over the caller's vector).
     b: Vec<Vec3>,
 }
@@ -184,12 +181,10 @@ impl StaticSolver {
     pub fn new(model: &Model) -> Result<Self, StaticError> {
         let n = model.potential.fixed().len();
         Ok(Self {
-            solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern(), &model.grid)?,
+            solver: LinearSolver::new(SolverKind::Cholesky, model.potential.pattern(), &model.panels)?,
             ws: Workspace::new(&model.potential),
             b: vec![Vec3::ZERO; n],
             load_grad: vec![Vec3::ZERO; n],
-            anchor: Vec::new(),
-            lagged: Vec::new(),
         })
     }
 
@@ -197,7 +192,7 @@ impl StaticSolver {
     /// queries.
     pub fn potential(model: &Model, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
         let mut ws = Workspace::new(&model.potential);
-        ws.cold();
+        model.potential.cold(&mut ws);
         let want = if grad.is_some() { Want::GRADIENT } else { Want::VALUE };
         let values = model.potential.assemble(x, &model.potential.context(None), None, want, &mut ws);
         if let Some(g) = grad {
@@ -210,12 +205,8 @@ impl StaticSolver {
     /// `self.ws.grad`, matrix into `self.ws.matrix`), from cold contact queries. The load terms' Hessian is not
     /// scaled: gravity and constant loads are linear in `x` (zero Hessian).
     fn eval(&mut self, model: &Model, x: &[Vec3], lam: f64, want: Want) -> f64 {
-        self.ws.cold();
-        let mut cx = model.potential.context(None);
-        if !self.lagged.is_empty() {
-            let slip = model.potential.slip_speed() * SLIP_TIME;
-            cx.friction = Some(StaticFriction { anchor: &self.anchor, lagged: &self.lagged, slip });
-        }
+        model.potential.cold(&mut self.ws);
+        let cx = model.potential.context(None);
         let mut total = model.potential.assemble(x, &cx, None, want, &mut self.ws).total;
         if lam != 1.0 {
             let c = 1.0 - lam;
@@ -252,21 +243,12 @@ impl StaticSolver {
     /// forces of the contacts at `x`, then of the equilibrium found, until they agree to 1 % (at most
     /// [`FRICTION_LAGS`] solves); a sheet that friction can hold then has an equilibrium.
     pub fn solve(&mut self, model: &Model, x: &mut [Vec3], opts: &StaticOptions) -> Result<StaticReport, StaticError> {
-        self.anchor = x.to_vec();
-        self.lagged = if model.potential.slip_speed() > 0.0 { model.potential.coulomb(x) } else { Vec::new() };
+        let friction = model.potential.relag(x, true, SLIP_TIME, &mut self.ws);
         let mut report = self.solve_lagged(model, x, opts)?;
         for _ in 1..FRICTION_LAGS {
-            if self.lagged.is_empty() {
+            if !friction || !model.potential.relag(x, false, SLIP_TIME, &mut self.ws) {
                 break;
             }
-            let next = model.potential.coulomb(x);
-            let scale = self.lagged.iter().map(|l| l.2).fold(0.0, f64::max);
-            let same = next.len() == self.lagged.len()
-                && next.iter().zip(&self.lagged).all(|(a, b)| a.0 == b.0 && (a.2 - b.2).abs() <= 0.01 * scale);
-            if same {
-                break;
-            }
-            self.lagged = next;
             let again = self.solve_lagged(model, x, opts)?;
             report.iterations += again.iterations;
             report.residual = again.residual;

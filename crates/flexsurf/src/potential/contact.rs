@@ -8,7 +8,7 @@
 //! the obstacles' geometry lives in [`crate::contact`].
 
 use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
-use super::{Context, Part, Scratch, Stage, Term, TermInfo};
+use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::{closest_cached, first_hit, passes_inside, ContactCache, Obstacle};
 use crate::energy::Sink;
 use crate::math::{outer, Mat3, Vec3};
@@ -200,6 +200,19 @@ pub struct ContactScratch {
     lagged: Vec<Lagged>,
     /// Friction re-linearisations since the last assembly.
     relinearized: usize,
+    /// Quasi-static friction of a static solve (not part of a step's checkpoint).
+    #[serde(skip)]
+    statics: Option<StaticLag>,
+}
+
+/// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
+/// `anchor` (the configuration the solve started from) of each node in `lagged` (node, normal, `μλ`, from the
+/// last outer iteration), with the smoothing length `slip`.
+#[derive(Debug, Clone, Default)]
+struct StaticLag {
+    anchor: Vec<Vec3>,
+    lagged: Vec<(usize, Vec3, f64)>,
+    slip: f64,
 }
 
 impl PenaltyContact {
@@ -213,17 +226,26 @@ impl PenaltyContact {
         &self.params
     }
 
-    fn scratch<'s>(&self, scratch: &'s mut Scratch) -> &'s mut ContactScratch {
+    /// The obstacles.
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    fn fresh(&self) -> ContactScratch {
         let n = self.area.len();
-        let o = self.obstacles.len();
-        scratch.get_or(|| ContactScratch {
-            cache: ContactCache::new(o, n),
+        ContactScratch {
+            cache: ContactCache::new(self.obstacles.len(), n),
             contacts: Vec::new(),
             predicted: vec![Vec3::ZERO; n],
             has_contact: vec![false; n],
             lagged: Vec::new(),
             relinearized: 0,
-        })
+            statics: None,
+        }
+    }
+
+    fn scratch<'s>(&self, scratch: &'s mut Scratch) -> &'s mut ContactScratch {
+        scratch.get_or(|| self.fresh())
     }
 
     /// The active contacts held in `scratch`.
@@ -234,9 +256,106 @@ impl PenaltyContact {
 
 impl Term for PenaltyContact {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "penalty contact", stage: Stage::Contact, part: Part::Contact }
+        TermInfo::new("penalty contact", Stage::Contact, Part::Contact)
     }
 
+    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let s = self.scratch(scratch);
+        let mut total = 0.0;
+        for c in &s.contacts {
+            let e = c.energy();
+            sink.energy += e;
+            total += e;
+        }
+        for c in &s.contacts {
+            let k = c.node;
+            if let Some(g) = sink.grad.as_deref_mut() {
+                if !cx.fixed[k] {
+                    g[k] -= c.force_vector();
+                }
+            }
+            sink.add_block(cx.diag[k], k, k, c.stiffness_block());
+        }
+        match (cx.motion, &s.statics) {
+            (None, Some(f)) => total += static_friction(f, y, cx, sink),
+            (Some(m), _) => total += step_friction(&s.lagged, self.params.slip_speed * m.dt, y, m.x, cx, sink),
+            (None, None) => {}
+        }
+        total
+    }
+
+    fn active_set(&self) -> Option<&dyn ActiveSet> {
+        Some(self)
+    }
+
+    fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
+        match scratch.get::<ContactScratch>() {
+            Some(c) => postcard::to_stdvec(c).map(Some).map_err(|e| format!("cannot encode the contact state: {e}")),
+            None if scratch.0.is_none() => Ok(None),
+            None => Err("the contact term's scratch is of another kind".into()),
+        }
+    }
+
+    fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
+        match saved {
+            None => scratch.clear(),
+            Some(bytes) => {
+                let c: ContactScratch =
+                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the contact state: {e}"))?;
+                if c.predicted.len() != self.area.len() || c.has_contact.len() != self.area.len() {
+                    return Err(format!(
+                        "the saved contact state is for {} nodes, the model has {}",
+                        c.predicted.len(),
+                        self.area.len()
+                    ));
+                }
+                scratch.set(c);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Quasi-static friction: the smoothed law itself about the solve's start, for the lagged limits.
+fn static_friction(f: &StaticLag, y: &[Vec3], cx: &Context, sink: &mut Sink) -> f64 {
+    let mut total = 0.0;
+    for &(k, normal, limit) in &f.lagged {
+        if cx.fixed[k] {
+            continue;
+        }
+        let l = Lagged { node: k, limit, normal, at: Vec3::ZERO, majorant: false };
+        let law = FrictionLaw { limit, eps: f.slip };
+        let u = l.tangential(y[k] - f.anchor[k]);
+        let e = law.energy(u.length());
+        sink.energy += e;
+        total += e;
+        if let Some(g) = sink.grad.as_deref_mut() {
+            g[k] += law.gradient(u);
+        }
+        sink.add_block(cx.diag[k], k, k, law.hessian(u, l.projector()));
+    }
+    total
+}
+
+/// A step's friction: each lagged contact's model about its linearisation, the slip measured from `x`.
+fn step_friction(lagged: &[Lagged], eps: f64, y: &[Vec3], x: &[Vec3], cx: &Context, sink: &mut Sink) -> f64 {
+    let mut total = 0.0;
+    for l in lagged {
+        let k = l.node;
+        let law = FrictionLaw { limit: l.limit, eps };
+        let u = l.tangential(y[k] - x[k]);
+        let (e, g0, h0) = l.model(&law, u);
+        sink.energy += e;
+        total += e;
+        if let Some(g) = sink.grad.as_deref_mut() {
+            g[k] += g0;
+        }
+        sink.add_block(cx.diag[k], k, k, h0);
+    }
+    total
+}
+
+impl ActiveSet for PenaltyContact {
     /// Detects the contacts at `y`: nodes inside the contact layer and, in the first assembly of a step, nodes
     /// whose target `ŷ` is inside it. The first assembly of a step also lags the friction data: the normal
     /// force and normal of every touching contact, and the predicted tangential displacement `P (ŷ − x_t)`
@@ -289,59 +408,6 @@ impl Term for PenaltyContact {
             }
             None => s.lagged.clear(),
         }
-    }
-
-    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
-        let s = self.scratch(scratch);
-        let mut total = 0.0;
-        for c in &s.contacts {
-            let e = c.energy();
-            sink.energy += e;
-            total += e;
-        }
-        for c in &s.contacts {
-            let k = c.node;
-            if let Some(g) = sink.grad.as_deref_mut() {
-                if !cx.fixed[k] {
-                    g[k] -= c.force_vector();
-                }
-            }
-            sink.add_block(cx.diag[k], k, k, c.stiffness_block());
-        }
-        if let (None, Some(f)) = (cx.motion, cx.friction) {
-            // Quasi-static friction: the smoothed law itself about the solve's start, for the lagged limits.
-            for &(k, normal, limit) in f.lagged {
-                if cx.fixed[k] {
-                    continue;
-                }
-                let l = Lagged { node: k, limit, normal, at: Vec3::ZERO, majorant: false };
-                let law = FrictionLaw { limit, eps: f.slip };
-                let u = l.tangential(y[k] - f.anchor[k]);
-                let e = law.energy(u.length());
-                sink.energy += e;
-                total += e;
-                if let Some(g) = sink.grad.as_deref_mut() {
-                    g[k] += law.gradient(u);
-                }
-                sink.add_block(cx.diag[k], k, k, law.hessian(u, l.projector()));
-            }
-        }
-        if let Some(m) = cx.motion {
-            let eps = self.params.slip_speed * m.dt;
-            for l in &s.lagged {
-                let k = l.node;
-                let law = FrictionLaw { limit: l.limit, eps };
-                let u = l.tangential(y[k] - m.x[k]);
-                let (e, g0, h0) = l.model(&law, u);
-                sink.energy += e;
-                total += e;
-                if let Some(g) = sink.grad.as_deref_mut() {
-                    g[k] += g0;
-                }
-                sink.add_block(cx.diag[k], k, k, h0);
-            }
-        }
-        total
     }
 
     /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
@@ -468,10 +534,7 @@ impl Term for PenaltyContact {
     }
 
     fn active(&self, scratch: &Scratch) -> usize {
-        match scratch.0.as_ref().and_then(|b| b.downcast_ref::<ContactScratch>()) {
-            Some(s) => s.contacts.iter().filter(|c| c.force > 0.0).count(),
-            None => 0,
-        }
+        scratch.get::<ContactScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
     }
 
     /// Deepest penetration below any obstacle's surface (0 when none), in metres.
@@ -490,8 +553,32 @@ impl Term for PenaltyContact {
         worst
     }
 
-    fn obstacles(&self) -> &[Obstacle] {
-        &self.obstacles
+    fn forget(&self, scratch: &mut Scratch) {
+        let statics =
+            scratch.0.as_mut().and_then(|b| b.downcast_mut::<ContactScratch>()).and_then(|c| c.statics.take());
+        scratch.clear();
+        if statics.is_some() {
+            scratch.set(ContactScratch { statics, ..self.fresh() });
+        }
+    }
+
+    fn relag(&self, x: &[Vec3], start: bool, slip_time: f64, scratch: &mut Scratch) -> bool {
+        if start {
+            let lagged = if self.slip_speed() > 0.0 { self.coulomb(x) } else { Vec::new() };
+            let friction = !lagged.is_empty();
+            let lag = StaticLag { anchor: x.to_vec(), lagged, slip: self.slip_speed() * slip_time };
+            self.scratch(scratch).statics = friction.then_some(lag);
+            return friction;
+        }
+        let next = self.coulomb(x);
+        let Some(lag) = self.scratch(scratch).statics.as_mut().filter(|l| !l.lagged.is_empty()) else { return false };
+        let scale = lag.lagged.iter().map(|l| l.2).fold(0.0, f64::max);
+        let same = next.len() == lag.lagged.len()
+            && next.iter().zip(&lag.lagged).all(|(a, b)| a.0 == b.0 && (a.2 - b.2).abs() <= 0.01 * scale);
+        if !same {
+            lag.lagged = next;
+        }
+        !same
     }
 }
 

@@ -63,10 +63,27 @@ pub fn terms(
     kind: ModelKind,
     options: &ElasticOptions,
 ) -> Vec<Box<dyn Term>> {
-    let membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
+    panel_terms(grid, rest, stiffness, kind, options, 0)
+}
+
+/// The elastic terms of one panel of a model: [`terms`] on the panel's grid and rest shape (`rest` in the
+/// panel's own node order), acting on the model's nodes `offset..offset + grid.len()`.
+pub fn panel_terms(
+    grid: &Grid,
+    rest: &[Vec3],
+    stiffness: &Stiffness,
+    kind: ModelKind,
+    options: &ElasticOptions,
+    offset: usize,
+) -> Vec<Box<dyn Term>> {
+    let mut membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
     let mut bending = Bending::with_warp(grid, rest, stiffness, options.warp());
     if options.flat_pattern {
         bending.flatten_rest_curvature();
+    }
+    if offset > 0 {
+        membrane.offset_nodes(offset);
+        bending.offset_nodes(offset);
     }
     let bending: Box<dyn Term> = match kind {
         ModelKind::Tfs => Box::new(bending),
@@ -81,7 +98,7 @@ macro_rules! elastic_term {
     ($kernel:ty, $name:literal, $part:expr) => {
         impl Term for $kernel {
             fn info(&self) -> TermInfo {
-                TermInfo { name: $name, stage: Stage::Field, part: $part }
+                TermInfo::new($name, Stage::Field, $part)
             }
             fn pairs(&self) -> Vec<(usize, usize)> {
                 <$kernel>::pairs(self)
@@ -109,10 +126,7 @@ pub struct TerzopoulosBending(pub Bending);
 
 impl Term for TerzopoulosBending {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "terzopoulos bending", stage: Stage::Field, part: Part::Bending }
-    }
-    fn conservative(&self) -> bool {
-        false
+        TermInfo::new("terzopoulos bending", Stage::Field, Part::Bending).non_conservative()
     }
     fn pairs(&self) -> Vec<(usize, usize)> {
         self.0.pairs()

@@ -30,7 +30,7 @@ impl External {
 
 impl Term for External {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "gravity and loads", stage: Stage::Field, part: Part::Load }
+        TermInfo::new("gravity and loads", Stage::Field, Part::Load)
     }
     fn evaluate(&self, x: &[Vec3], _cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let v = -(0..x.len()).map(|k| self.force[k].dot(x[k])).sum::<f64>();

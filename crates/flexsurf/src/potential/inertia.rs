@@ -13,7 +13,7 @@ pub struct Inertia;
 
 impl Term for Inertia {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "inertia", stage: Stage::Inertia, part: Part::Inertia }
+        TermInfo::new("inertia", Stage::Inertia, Part::Inertia)
     }
     fn evaluate(&self, y: &[Vec3], cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let Some(motion) = cx.motion else { return 0.0 };

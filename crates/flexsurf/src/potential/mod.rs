@@ -70,12 +70,27 @@ impl Part {
 /// What a term is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TermInfo {
-    /// Short name for messages and tests.
+    /// Short name for messages, tests and the per-term energy records.
     pub name: &'static str,
     /// Where the term is evaluated.
     pub stage: Stage,
     /// Which energy its value counts as.
     pub part: Part,
+    /// False when the gradient is not the derivative of the value (the Terzopoulos force): the static solver
+    /// and line searches refuse such a potential.
+    pub conservative: bool,
+}
+
+impl TermInfo {
+    /// A conservative term.
+    pub const fn new(name: &'static str, stage: Stage, part: Part) -> Self {
+        Self { name, stage, part, conservative: true }
+    }
+
+    /// The same term, marked as not the gradient of its value.
+    pub const fn non_conservative(self) -> Self {
+        Self { conservative: false, ..self }
+    }
 }
 
 /// The motion a dynamic step starts from, in the form every scheme shares: the step minimises
@@ -121,21 +136,6 @@ pub struct Context<'a> {
     pub diag: &'a [u32],
     /// The step's motion (`None` in a static solve).
     pub motion: Option<Motion<'a>>,
-    /// Quasi-static friction of a static solve (`None` in a step, which lags its own).
-    pub friction: Option<StaticFriction<'a>>,
-}
-
-/// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
-/// `anchor` (the configuration the solve started from) of each node in `lagged` (node, normal, `μλ`, from the
-/// last outer iteration), with the smoothing length `slip`.
-#[derive(Debug, Clone, Copy)]
-pub struct StaticFriction<'a> {
-    /// Positions the displacement is measured from.
-    pub anchor: &'a [Vec3],
-    /// `(node, unit normal, μλ)` of each lagged contact.
-    pub lagged: &'a [(usize, Vec3, f64)],
-    /// Smoothing length `ε` (m).
-    pub slip: f64,
 }
 
 /// Per-run scratch of one term (a contact cache and its active set): created by the term on first use
@@ -197,41 +197,62 @@ impl Clone for Box<dyn Term> {
 ///
 /// `evaluate` adds the term's value to `sink.energy`, its gradient `∂/∂x` to `sink.grad` and the requested
 /// Hessian approximation ([`Operator`]) to `sink.hess`, all from one pass so the three cannot drift apart, and
-/// returns the term's value. A term that is not the gradient of its value says so ([`Term::conservative`]).
+/// returns the term's value. A term that is not the gradient of its value says so in its [`TermInfo`].
+///
+/// That is the whole contract. What only some terms have is an opt-in capability: an active set that a step
+/// refines ([`Term::active_set`], contact), and state that carries over between steps and so goes into
+/// checkpoints ([`Term::save`], [`Term::restore`]).
 pub trait Term: Send + Sync + Debug + TermClone {
-    /// What the term is: name, stage and energy part.
+    /// What the term is: name, stage, energy part, and whether it is conservative.
     fn info(&self) -> TermInfo;
-    /// Short name for messages and tests.
-    fn name(&self) -> &'static str {
-        self.info().name
-    }
-    /// Where the term is evaluated.
-    fn stage(&self) -> Stage {
-        self.info().stage
-    }
-    /// Which energy its value counts as.
-    fn part(&self) -> Part {
-        self.info().part
-    }
-    /// False when the gradient is not the derivative of the value (the Terzopoulos force): the static solver
-    /// and line searches refuse such a potential.
-    fn conservative(&self) -> bool {
-        true
-    }
     /// Node pairs whose Hessian block the term touches (its diagonal blocks are always in the pattern).
     fn pairs(&self) -> Vec<(usize, usize)> {
         Vec::new()
     }
     /// Precomputes block ids for a pattern that contains [`Term::pairs`].
     fn bind(&mut self, _pattern: &BlockPattern) {}
-    /// Finds the configuration-dependent support at `x` (contact detection) into `scratch`.
-    fn prepare(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) {}
     /// Adds value, gradient and Hessian at `x` into `sink`; returns the value.
     fn evaluate(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64;
-    /// After a solve proposing `x + delta`, updates the support (the contact active set); true if it changed.
-    fn refine(&self, _x: &[Vec3], _delta: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> bool {
-        false
+    /// Magnitude of the prescribed forces of this term for a sheet of size `length` (N), the scale of residual
+    /// tolerances; 0 for terms that only react.
+    fn load_scale(&self, _length: f64) -> f64 {
+        0.0
     }
+    /// The term's active set, for terms whose support depends on the configuration (contact).
+    fn active_set(&self) -> Option<&dyn ActiveSet> {
+        None
+    }
+    /// The part of `scratch` that carries over between steps, encoded for a checkpoint (`None`: nothing).
+    /// A term whose scratch changes later results must save it; the default refuses a non-empty scratch so
+    /// that a new term cannot be silently resumed cold.
+    fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
+        match scratch.0 {
+            None => Ok(None),
+            Some(_) => Err(format!("the term `{}` keeps a state it cannot save", self.info().name)),
+        }
+    }
+    /// Restores what [`Term::save`] wrote into `scratch`.
+    fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
+        match saved {
+            None => {
+                scratch.clear();
+                Ok(())
+            }
+            Some(_) => {
+                Err(format!("the checkpoint holds a state for the term `{}`, which keeps none", self.info().name))
+            }
+        }
+    }
+}
+
+/// The capability of a term whose support depends on the configuration (contact): it finds the support
+/// before an evaluation, refines it after a solve, measures how far its linear model is off, and carries
+/// Coulomb friction (lagged in a step, re-lagged by the static solver).
+pub trait ActiveSet {
+    /// Finds the configuration-dependent support at `x` (contact detection) into `scratch`.
+    fn prepare(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch);
+    /// After a solve proposing `x + delta`, updates the support; true if it changed.
+    fn refine(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, scratch: &mut Scratch) -> bool;
     /// How far the term at `x` is from the linear model of it that the last assembly solved with (a lagged
     /// or linearised law, friction), relative to the term's own force scale; 0 for terms whose model is their
     /// Newton linearisation. A step makes Newton corrections while this exceeds its tolerance.
@@ -240,8 +261,15 @@ pub trait Term: Send + Sync + Debug + TermClone {
     }
     /// A node whose straight path from `from` to `to` passed through an obstacle (continuous detection after a
     /// step); `None` when none did.
-    fn tunnelled(&self, _from: &[Vec3], _to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
-        None
+    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize>;
+    /// How many constraints are active in `scratch` (touching contacts).
+    fn active(&self, scratch: &Scratch) -> usize;
+    /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
+    fn violation(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64;
+    /// Forgets the warm start and the support (the next evaluation starts cold); what a static solve lagged
+    /// ([`ActiveSet::relag`]) is kept.
+    fn forget(&self, scratch: &mut Scratch) {
+        scratch.clear();
     }
     /// The slip speed `ε_v` of the term's friction (0 without friction).
     fn slip_speed(&self) -> f64 {
@@ -252,26 +280,13 @@ pub trait Term: Send + Sync + Debug + TermClone {
     fn coulomb(&self, _x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
         Vec::new()
     }
-    /// Magnitude of the prescribed forces of this term for a sheet of size `length` (N), the scale of residual
-    /// tolerances; 0 for terms that only react.
-    fn load_scale(&self, _length: f64) -> f64 {
-        0.0
-    }
-    /// How many constraints are active in `scratch` (touching contacts).
-    fn active(&self, _scratch: &Scratch) -> usize {
-        0
-    }
-    /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
-    fn violation(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
-        0.0
-    }
-    /// Obstacles the term acts with (for pictures and outputs).
-    fn obstacles(&self) -> &[Obstacle] {
-        &[]
-    }
-    /// Nodal springs of the term (for outputs).
-    fn springs(&self) -> &[springs::Spring] {
-        &[]
+    /// Quasi-static friction of a static solve (docs/model.md §9, §10.2): with `start`, anchors the tangential
+    /// displacement at `x` (the configuration the solve starts from) and lags the Coulomb limits there; else
+    /// re-lags them at the equilibrium `x` just found. Friction's smoothing length is the slip speed times
+    /// `slip_time`. True when the lagged limits changed (by more than 1 % of the largest; at the start: when
+    /// there is friction at all), so the static solver solves again.
+    fn relag(&self, _x: &[Vec3], _start: bool, _slip_time: f64, _scratch: &mut Scratch) -> bool {
+        false
     }
 }
 
@@ -381,12 +396,6 @@ impl Workspace {
             journal: Vec::new(),
         }
     }
-
-    /// Forgets every term's warm-start and active set.
-    pub fn cold(&mut self) {
-        self.scratch.iter_mut().for_each(Scratch::clear);
-        self.extra.clear();
-    }
 }
 
 /// The total potential: an ordered list of terms on one sparsity pattern, and the fixed nodes.
@@ -402,7 +411,7 @@ impl Potential {
     /// The potential of `terms` (evaluated in [`Stage`] order, stable within a stage) on `nodes` nodes with
     /// the fixed nodes `pins`; builds the pattern from every term's pairs and binds the terms to it.
     pub fn new(nodes: usize, mut terms: Vec<Box<dyn Term>>, pins: Pins) -> Self {
-        terms.sort_by_key(|t| t.stage());
+        terms.sort_by_key(|t| t.info().stage);
         let pattern = BlockPattern::from_pairs(nodes, terms.iter().flat_map(|t| t.pairs()));
         for t in &mut terms {
             t.bind(&pattern);
@@ -449,41 +458,68 @@ impl Potential {
 
     /// True when every term is the gradient of its value.
     pub fn conservative(&self) -> bool {
-        self.terms.iter().all(|t| t.conservative())
+        self.terms.iter().all(|t| t.info().conservative)
     }
 
     /// The first term that is not conservative.
     pub fn non_conservative(&self) -> Option<&'static str> {
-        self.terms.iter().find(|t| !t.conservative()).map(|t| t.name())
+        self.terms.iter().map(|t| t.info()).find(|i| !i.conservative).map(|i| i.name)
     }
 
     /// True when some term has an active set.
     pub fn has_active_set(&self) -> bool {
-        self.terms.iter().any(|t| t.stage() == Stage::Contact)
+        self.terms.iter().any(|t| t.active_set().is_some())
     }
 
-    /// Every obstacle of every term.
+    /// The terms with an active set, with their index in [`Potential::terms`].
+    fn active_sets(&self) -> impl Iterator<Item = (usize, &dyn ActiveSet)> + '_ {
+        self.terms.iter().enumerate().filter_map(|(t, term)| term.active_set().map(|a| (t, a)))
+    }
+
+    /// Every obstacle of the potential's obstacle contact.
     pub fn obstacles(&self) -> Vec<Obstacle> {
-        self.terms.iter().flat_map(|t| t.obstacles().iter().cloned()).collect()
+        self.find::<contact::PenaltyContact>().map(|c| c.obstacles().to_vec()).unwrap_or_default()
     }
 
-    /// Every spring of every term.
+    /// Every spring of the potential.
     pub fn springs(&self) -> Vec<springs::Spring> {
-        self.terms.iter().flat_map(|t| t.springs().iter().copied()).collect()
+        self.find::<springs::Springs>().map(|s| s.springs().to_vec()).unwrap_or_default()
     }
 
     /// Largest load scale of the terms of `stage` (all stages when `None`).
     pub fn load_scale(&self, stage: Option<Stage>, length: f64) -> f64 {
         self.terms
             .iter()
-            .filter(|t| stage.is_none_or(|s| t.stage() == s))
+            .filter(|t| stage.is_none_or(|s| t.info().stage == s))
             .map(|t| t.load_scale(length))
             .fold(0.0, f64::max)
     }
 
+    /// Forgets every term's warm start and active set (the next evaluation starts cold), keeping what a
+    /// static solve lagged ([`Potential::relag`]).
+    pub fn cold(&self, ws: &mut Workspace) {
+        for (t, term) in self.terms.iter().enumerate() {
+            match term.active_set() {
+                Some(a) => a.forget(&mut ws.scratch[t]),
+                None => ws.scratch[t].clear(),
+            }
+        }
+        ws.extra.clear();
+    }
+
+    /// Lags (`start`) or re-lags the quasi-static friction of every active set at `x` (see
+    /// [`ActiveSet::relag`]); true when the static solver must solve again.
+    pub fn relag(&self, x: &[Vec3], start: bool, slip_time: f64, ws: &mut Workspace) -> bool {
+        let mut changed = false;
+        for (t, a) in self.active_sets() {
+            changed |= a.relag(x, start, slip_time, &mut ws.scratch[t]);
+        }
+        changed
+    }
+
     /// The context of an evaluation with `motion` (`None`: static).
     pub fn context<'a>(&'a self, motion: Option<Motion<'a>>) -> Context<'a> {
-        Context { fixed: self.pins.flags(), diag: &self.diag, motion, friction: None }
+        Context { fixed: self.pins.flags(), diag: &self.diag, motion }
     }
 
     /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x`: the value of each
@@ -507,18 +543,19 @@ impl Potential {
         let mut extra_done = extra.is_none();
         let mut contact_started = false;
         for (t, term) in self.terms.iter().enumerate() {
-            if !extra_done && term.stage() > Stage::Inertia {
+            let info = term.info();
+            if !extra_done && info.stage > Stage::Inertia {
                 energy = ws.apply(extra, Slot::Extra, &pass, energy, &mut values);
                 extra_done = true;
             }
-            let t0 = (term.stage() == Stage::Contact).then(std::time::Instant::now);
-            if term.stage() == Stage::Contact {
-                if !contact_started {
-                    ws.journal.clear();
-                    ws.base_grad.copy_from_slice(&ws.grad);
-                    contact_started = true;
-                }
-                term.prepare(x, cx, &mut ws.scratch[t]);
+            let t0 = (info.stage == Stage::Contact).then(std::time::Instant::now);
+            if info.stage == Stage::Contact && !contact_started {
+                ws.journal.clear();
+                ws.base_grad.copy_from_slice(&ws.grad);
+                contact_started = true;
+            }
+            if let Some(a) = term.active_set() {
+                a.prepare(x, cx, &mut ws.scratch[t]);
             }
             energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             if let Some(t0) = t0 {
@@ -545,10 +582,8 @@ impl Potential {
 
     fn refine_untimed(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, want: Want, ws: &mut Workspace) -> bool {
         let mut changed = false;
-        for (t, term) in self.terms.iter().enumerate() {
-            if term.stage() == Stage::Contact {
-                changed |= term.refine(x, delta, cx, &mut ws.scratch[t]);
-            }
+        for (t, a) in self.active_sets() {
+            changed |= a.refine(x, delta, cx, &mut ws.scratch[t]);
         }
         if !changed {
             return false;
@@ -558,7 +593,7 @@ impl Potential {
         let mut energy = 0.0;
         let mut values = Values::default();
         for (t, term) in self.terms.iter().enumerate() {
-            if term.stage() == Stage::Contact {
+            if term.info().stage == Stage::Contact {
                 energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             }
         }
@@ -577,24 +612,24 @@ impl Potential {
 
     /// The first node any term reports as having passed through an obstacle between `from` and `to`.
     pub fn tunnelled(&self, from: &[Vec3], to: &[Vec3], ws: &mut Workspace) -> Option<usize> {
-        self.terms.iter().enumerate().find_map(|(t, term)| term.tunnelled(from, to, &mut ws.scratch[t]))
+        self.active_sets().find_map(|(t, a)| a.tunnelled(from, to, &mut ws.scratch[t]))
     }
 
     /// The largest slip speed `ε_v` of a term with friction (0 without friction).
     pub fn slip_speed(&self) -> f64 {
-        self.terms.iter().map(|t| t.slip_speed()).fold(0.0, f64::max)
+        self.active_sets().map(|(_, a)| a.slip_speed()).fold(0.0, f64::max)
     }
 
     /// Every term's [`Term::coulomb`] limits at `x`.
     pub fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
-        self.terms.iter().flat_map(|t| t.coulomb(x)).collect()
+        self.active_sets().flat_map(|(_, a)| a.coulomb(x)).collect()
     }
 
     /// Largest [`Term::model_error`] over every term at `x`.
     pub fn model_error(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
         let mut worst: f64 = 0.0;
-        for (t, term) in self.terms.iter().enumerate() {
-            worst = worst.max(term.model_error(x, cx, &mut ws.scratch[t]));
+        for (t, a) in self.active_sets() {
+            worst = worst.max(a.model_error(x, cx, &mut ws.scratch[t]));
         }
         worst
     }
@@ -602,8 +637,8 @@ impl Potential {
     /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.
     pub fn violation(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
         let mut worst: f64 = 0.0;
-        for (t, term) in self.terms.iter().enumerate() {
-            worst = worst.max(term.violation(x, cx, &mut ws.scratch[t]));
+        for (t, a) in self.active_sets() {
+            worst = worst.max(a.violation(x, cx, &mut ws.scratch[t]));
         }
         worst
     }
@@ -616,10 +651,13 @@ impl Potential {
         let mut values = Values::default();
         for term in &self.terms {
             let mut scratch = Scratch::default();
-            term.prepare(x, &cx, &mut scratch);
+            let active = term.active_set();
+            if let Some(a) = active {
+                a.prepare(x, &cx, &mut scratch);
+            }
             let v = term.evaluate(x, &cx, &mut scratch, sink);
-            values.add(term.part(), v);
-            values.contacts += term.active(&scratch);
+            values.add(term.info().part, v);
+            values.contacts += active.map_or(0, |a| a.active(&scratch));
         }
         values.total = sink.energy;
         values
@@ -629,8 +667,8 @@ impl Potential {
     pub fn violation_cold(&self, x: &[Vec3]) -> f64 {
         let cx = self.context(None);
         let mut worst: f64 = 0.0;
-        for term in &self.terms {
-            worst = worst.max(term.violation(x, &cx, &mut Scratch::default()));
+        for (_, a) in self.active_sets() {
+            worst = worst.max(a.violation(x, &cx, &mut Scratch::default()));
         }
         worst
     }
@@ -641,9 +679,9 @@ impl Potential {
         let cx = self.context(None);
         let mut values = Values::default();
         let mut sink = Sink { grad, hess: None, energy: 0.0, journal: None };
-        for term in self.terms.iter().filter(|t| which(t.part()) && t.stage() != Stage::Contact) {
+        for term in self.terms.iter().filter(|t| which(t.info().part) && t.info().stage != Stage::Contact) {
             let v = term.evaluate(x, &cx, &mut Scratch::default(), &mut sink);
-            values.add(term.part(), v);
+            values.add(term.info().part, v);
         }
         values.total = sink.energy;
         values
@@ -681,13 +719,14 @@ impl Workspace {
             Slot::Term(t) => &mut self.scratch[t],
             Slot::Extra => &mut self.extra,
         };
-        let journal = (term.stage() == Stage::Contact).then_some(&mut self.journal);
+        let info = term.info();
+        let journal = (info.stage == Stage::Contact).then_some(&mut self.journal);
         let grad = if pass.want.grad { Some(&mut self.grad[..]) } else { None };
         let hess = pass.want.hess.map(|op| (&mut self.matrix, op));
         let mut sink = Sink { grad, hess, energy, journal };
         let v = term.evaluate(pass.x, pass.cx, scratch, &mut sink);
-        values.add(term.part(), v);
-        values.contacts += term.active(scratch);
+        values.add(info.part, v);
+        values.contacts += term.active_set().map_or(0, |a| a.active(scratch));
         sink.energy
     }
 }

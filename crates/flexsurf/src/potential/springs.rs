@@ -40,9 +40,16 @@ impl Springs {
     }
 }
 
+impl Springs {
+    /// The springs.
+    pub fn springs(&self) -> &[Spring] {
+        &self.springs
+    }
+}
+
 impl Term for Springs {
     fn info(&self) -> TermInfo {
-        TermInfo { name: "springs", stage: Stage::Attachment, part: Part::Spring }
+        TermInfo::new("springs", Stage::Attachment, Part::Spring)
     }
     fn evaluate(&self, x: &[Vec3], cx: &Context, _scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let mut total = 0.0;
@@ -60,8 +67,5 @@ impl Term for Springs {
     /// A spring's force at a thousandth of the sheet's size.
     fn load_scale(&self, length: f64) -> f64 {
         self.springs.iter().map(|s| s.stiffness * length * 1e-3).fold(0.0, f64::max)
-    }
-    fn springs(&self) -> &[Spring] {
-        &self.springs
     }
 }

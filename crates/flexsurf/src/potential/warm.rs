@@ -5,73 +5,73 @@
 //! those of an uninterrupted run. Everything else in the workspace (gradient, matrix, journal) is overwritten by
 //! every assembly before it is read, and the linear solvers refactorise at the first solve of every step.
 //!
-//! A scratch of a kind this file does not know is an error (not a silent cold start): a new term with a
-//! scratch of its own adds its type to [`save`] and [`load`].
+//! Each term encodes and decodes its own scratch ([`super::Term::save`], [`super::Term::restore`]); a term
+//! that keeps a scratch it cannot save is an error at the checkpoint (not a silent cold start on resume).
 
-use super::contact::ContactScratch;
-use super::{Scratch, Workspace};
+use super::{Potential, Scratch, Workspace};
 use serde::{Deserialize, Serialize};
 
-/// The saved scratch of every term of a workspace (and of the extra term: inertia).
+/// The saved scratch of every term of a workspace, by term name, in evaluation order (the integrator's own
+/// term, inertia, keeps none).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WarmState {
-    terms: Vec<Saved>,
-    extra: Saved,
-}
-
-/// One term's saved scratch: none, or its kind and its bytes.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-enum Saved {
-    Empty,
-    Contact(Vec<u8>),
-}
-
-fn save(scratch: &Scratch) -> Result<Saved, String> {
-    let Some(b) = scratch.0.as_ref() else { return Ok(Saved::Empty) };
-    if let Some(c) = b.downcast_ref::<ContactScratch>() {
-        return postcard::to_stdvec(c).map(Saved::Contact).map_err(|e| format!("cannot encode the contact state: {e}"));
-    }
-    Err("a term keeps a warm state of a kind the checkpoint does not know".into())
-}
-
-fn load(saved: &Saved, scratch: &mut Scratch) -> Result<(), String> {
-    match saved {
-        Saved::Empty => scratch.clear(),
-        Saved::Contact(bytes) => {
-            let c: ContactScratch =
-                postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the contact state: {e}"))?;
-            scratch.0 = Some(Box::new(c));
-        }
-    }
-    Ok(())
+    terms: Vec<(String, Option<Vec<u8>>)>,
 }
 
 impl WarmState {
     /// The warm state of a workspace without terms (for tests of the checkpoint format).
     #[cfg(test)]
     pub(crate) fn empty() -> Self {
-        Self { terms: Vec::new(), extra: Saved::Empty }
+        Self { terms: Vec::new() }
     }
 }
 
-impl Workspace {
-    /// The warm state of every term, for a checkpoint.
-    pub fn warm_state(&self) -> Result<WarmState, String> {
-        Ok(WarmState { terms: self.scratch.iter().map(save).collect::<Result<_, _>>()?, extra: save(&self.extra)? })
+impl Potential {
+    /// The warm state of every term in `ws`, for a checkpoint.
+    pub fn warm_state(&self, ws: &Workspace) -> Result<WarmState, String> {
+        if ws.extra.0.is_some() {
+            return Err("the integrator's own term keeps a state the checkpoint does not know".into());
+        }
+        let terms = self
+            .terms
+            .iter()
+            .zip(&ws.scratch)
+            .map(|(term, scratch)| Ok((term.info().name.to_string(), term.save(scratch)?)))
+            .collect::<Result<_, String>>()?;
+        Ok(WarmState { terms })
     }
 
-    /// Restores a [`Workspace::warm_state`] of a workspace of the same potential.
-    pub fn restore_warm_state(&mut self, warm: &WarmState) -> Result<(), String> {
-        if warm.terms.len() != self.scratch.len() {
+    /// Restores a [`Potential::warm_state`] of the same potential into `ws`.
+    pub fn restore_warm_state(&self, warm: &WarmState, ws: &mut Workspace) -> Result<(), String> {
+        if warm.terms.len() != self.terms.len() {
             return Err(format!(
                 "the checkpoint has the warm state of {} terms, the model has {}",
                 warm.terms.len(),
-                self.scratch.len()
+                self.terms.len()
             ));
         }
-        for (saved, scratch) in warm.terms.iter().zip(self.scratch.iter_mut()) {
-            load(saved, scratch)?;
+        for ((term, scratch), (name, saved)) in self.terms.iter().zip(ws.scratch.iter_mut()).zip(&warm.terms) {
+            if term.info().name != name {
+                return Err(format!(
+                    "the checkpoint has the state of a term `{name}` where the model has `{}`",
+                    term.info().name
+                ));
+            }
+            term.restore(saved.as_deref(), scratch)?;
         }
-        load(&warm.extra, &mut self.extra)
+        ws.extra.clear();
+        Ok(())
+    }
+}
+
+impl Scratch {
+    /// The scratch as a `T`, if it holds one.
+    pub fn get<T: std::any::Any>(&self) -> Option<&T> {
+        self.0.as_ref().and_then(|b| b.downcast_ref::<T>())
+    }
+
+    /// Holds `value` from now on.
+    pub fn set<T: std::any::Any + Send>(&mut self, value: T) {
+        self.0 = Some(Box::new(value));
     }
 }

@@ -135,9 +135,14 @@ pub fn path_in(out: &Path) -> PathBuf {
 }
 
 /// The warm state of `stepper`, as a checkpoint needs it.
-pub fn stepper_state(stepper: &Stepper, path: &Path) -> Result<(WarmState, CountersSaved), RunError> {
-    let warm =
-        stepper.warm_state().map_err(|e| RunError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+pub fn stepper_state(
+    stepper: &Stepper,
+    model: &crate::model::Model,
+    path: &Path,
+) -> Result<(WarmState, CountersSaved), RunError> {
+    let warm = stepper
+        .warm_state(model)
+        .map_err(|e| RunError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     Ok((warm, stepper.counters.into()))
 }
 

@@ -290,7 +290,7 @@ pub fn run_scene_with(
             let mut total = sim::RunStats { steps: 0, wall_seconds: 0.0, max_penetration_seen: 0.0, max_contacts: 0 };
             if let Some(ck) = &resume {
                 stepper
-                    .restore(&ck.warm, ck.counters.into())
+                    .restore(model, &ck.warm, ck.counters.into())
                     .and_then(|()| stepper.restore_solver(&ck.solver))
                     .map_err(|e| RunError::Resume(format!("cannot restore the checkpoint: {e}")))?;
                 total = ck.stats.into();
@@ -331,7 +331,7 @@ pub fn run_scene_with(
                 }
                 let due = options.checkpoint_every.is_some_and(|e| e > 0 && state.step % e == 0);
                 if failure.is_none() && state.step < scene.steps && (interrupted || due) {
-                    let (warm, counters) = checkpoint::stepper_state(&stepper, &checkpoint::path_in(out))?;
+                    let (warm, counters) = checkpoint::stepper_state(&stepper, model, &checkpoint::path_in(out))?;
                     let ck = checkpoint::Checkpoint {
                         fingerprint: fp.clone(),
                         state: state.clone(),

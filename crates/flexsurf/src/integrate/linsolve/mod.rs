@@ -19,8 +19,8 @@ pub mod lines;
 pub mod multigrid;
 pub mod pcg;
 
-use crate::grid::Grid;
 use crate::math::Vec3;
+use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -97,11 +97,23 @@ impl SolverKind {
         }
     }
 
-    /// A solver of this kind for `pattern` on `grid` (its analysis done): the one table of the linear solvers.
-    pub fn solver(self, pattern: &BlockPattern, grid: &Grid) -> Result<Box<dyn BlockSolver>, LinearError> {
-        Ok(match self.resolve(pattern.nodes()) {
+    /// A solver of this kind for `pattern` on the model's `panels` (its analysis done): the one table of the
+    /// linear solvers. The multigrid hierarchy is built on one grid, so `auto` takes Cholesky for a model of
+    /// several panels and `multigrid` refuses one.
+    pub fn solver(self, pattern: &BlockPattern, panels: &[Panel]) -> Result<Box<dyn BlockSolver>, LinearError> {
+        let kind = match (self, self.resolve(pattern.nodes()), panels) {
+            (SolverKind::Auto, SolverKind::Multigrid, [_, _, ..]) => SolverKind::Cholesky,
+            (_, kind, _) => kind,
+        };
+        Ok(match kind {
             SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
-            SolverKind::Multigrid => Box::new(Multigrid::new(pattern, grid)?),
+            SolverKind::Multigrid => match panels {
+                [one] => Box::new(Multigrid::new(pattern, &one.grid)?),
+                _ => {
+                    let message = format!("the multigrid solver works on one panel; the model has {}", panels.len());
+                    return Err(LinearError::Symbolic(message));
+                }
+            },
             SolverKind::Pcg => Box::new(Pcg::new(pattern)),
         })
     }
@@ -192,9 +204,9 @@ pub struct LinearSolver {
 }
 
 impl LinearSolver {
-    /// Analyses `pattern` on `grid` for `kind`.
-    pub fn new(kind: SolverKind, pattern: &BlockPattern, grid: &Grid) -> Result<Self, LinearError> {
-        Ok(Self { solver: kind.solver(pattern, grid)? })
+    /// Analyses `pattern` on the model's `panels` for `kind`.
+    pub fn new(kind: SolverKind, pattern: &BlockPattern, panels: &[Panel]) -> Result<Self, LinearError> {
+        Ok(Self { solver: kind.solver(pattern, panels)? })
     }
 }
 

@@ -1,0 +1,142 @@
+//! Models of several panels (issue 18): panels that do not touch each other move as if each were alone.
+//! Two identical sheets side by side fall onto a floor with friction exactly as one sheet does (the second one
+//! translated); two different clamped sheets sag to the equilibria each has alone (static solve, tolerance);
+//! each panel's masses, pins and elastic terms act on its own node range.
+
+use flexsurf::contact::Obstacle;
+use flexsurf::grid::Grid;
+use flexsurf::integrate::statics::{StaticOptions, StaticSolver};
+use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::material::{Calibration, Fabric, Stiffness};
+use flexsurf::math::Vec3;
+use flexsurf::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
+use flexsurf::potential::contact::ContactParams;
+use flexsurf::state::State;
+
+const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
+
+fn cotton() -> (Fabric, Stiffness) {
+    let fabric = Fabric::paper_cotton();
+    let stiffness = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
+    (fabric, stiffness)
+}
+
+fn floor(builder: &mut ModelBuilder) {
+    builder.obstacles.push(Obstacle::Plane { point: Vec3::ZERO, normal: Vec3::Z });
+    builder.contact =
+        ContactParams { stiffness: 1e3, offset: 0.004, friction: 0.4, slip_speed: ContactParams::SLIP_SPEED };
+}
+
+fn shifted(x: &[Vec3], by: Vec3) -> Vec<Vec3> {
+    x.iter().map(|p| *p + by).collect()
+}
+
+/// A tilted 9×7 sheet of 0.4 × 0.3 m whose lowest corner is 2 cm above the floor, moving sideways.
+fn tilted_sheet() -> (Grid, Vec<Vec3>) {
+    let grid = Grid::sheet(9, 7, 0.4, 0.3).unwrap();
+    let rest: Vec<Vec3> = grid.flat_positions(0.0).iter().map(|p| Vec3::new(p.x, p.y, 0.1 + 0.2 * p.x)).collect();
+    (grid, rest)
+}
+
+fn drop(model: &Model, x: Vec<Vec3>, steps: usize) -> State {
+    let v = vec![Vec3::new(0.3, 0.1, 0.0); x.len()];
+    let mut state = flexsurf::integrate::start(model, x, v, 0.005).unwrap();
+    let mut stepper = Stepper::new(model, &StepParams::with_dt(0.005)).unwrap();
+    for _ in 0..steps {
+        stepper.step(model, &mut state).unwrap();
+    }
+    state
+}
+
+#[test]
+fn two_identical_sheets_fall_as_one_does() {
+    let (fabric, stiffness) = cotton();
+    let (grid, rest) = tilted_sheet();
+    let away = Vec3::new(2.0, -1.0, 0.0);
+    let mut one = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, G);
+    floor(&mut one);
+    let one = one.build().unwrap();
+    let mut two = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, G).panel(
+        grid,
+        shifted(&rest, away),
+        ElasticOptions::default(),
+    );
+    floor(&mut two);
+    let two = two.build().unwrap();
+    assert_eq!(two.panels.len(), 2);
+    assert_eq!(two.panels[1].offset, grid.len());
+    assert_eq!(two.nodes(), 2 * grid.len());
+    assert!((two.total_mass() - 2.0 * one.total_mass()).abs() < 1e-15 * one.total_mass());
+
+    let steps = 120;
+    let alone = drop(&one, rest.clone(), steps);
+    let mut both_start = rest.clone();
+    both_start.extend(shifted(&rest, away));
+    let both = drop(&two, both_start, steps);
+    // The sheet reached the floor and slid on it.
+    assert!(alone.x.iter().all(|p| p.z < 0.02), "the sheet did not land");
+    let n = grid.len();
+    let first = (0..n).map(|k| (both.x[k] - alone.x[k]).length()).fold(0.0, f64::max);
+    let second = (0..n).map(|k| (both.x[n + k] - away - alone.x[k]).length()).fold(0.0, f64::max);
+    assert!(first < 1e-9 && second < 1e-9, "panels differ from the sheet alone by {first:e} and {second:e} m");
+}
+
+/// A square sheet clamped along its edge u2 = 0, sagging under its weight.
+fn clamped(m: usize, side: f64, warp: f64, at: Vec3) -> (Grid, Vec<Vec3>, Vec<bool>, ElasticOptions) {
+    let grid = Grid::sheet(m, m, side, side).unwrap();
+    let rest = shifted(&grid.flat_positions(0.0), at);
+    let pinned = (0..grid.len()).map(|k| grid.coords(k).1 == 0).collect();
+    (grid, rest, pinned, ElasticOptions { warp_angle: warp, ..Default::default() })
+}
+
+fn equilibrium(model: &Model, x: &mut [Vec3]) {
+    let opts = StaticOptions { tolerance: 1e-11, ..StaticOptions::default() };
+    StaticSolver::new(model).unwrap().solve(model, x, &opts).unwrap();
+}
+
+#[test]
+fn two_different_clamped_sheets_sag_as_each_does_alone() {
+    let (fabric, stiffness) = cotton();
+    let a = clamped(9, 0.2, 0.0, Vec3::ZERO);
+    let b = clamped(7, 0.15, 0.5, Vec3::new(1.0, 0.0, 0.0));
+    let model = |parts: &[&(Grid, Vec<Vec3>, Vec<bool>, ElasticOptions)]| {
+        let (g, r, p, o) = parts[0];
+        let mut builder = ModelBuilder::new(*g, r.clone(), fabric, stiffness, ModelKind::Tfs, G).options(*o);
+        builder.pinned.clone_from(p);
+        for &(g, r, p, o) in &parts[1..] {
+            builder = builder.panel(*g, r.clone(), *o);
+            let n = builder.pinned.len();
+            builder.pinned[n - g.len()..].copy_from_slice(p);
+        }
+        builder.build().unwrap()
+    };
+    let (alone_a, alone_b, both) = (model(&[&a]), model(&[&b]), model(&[&a, &b]));
+    let (mut xa, mut xb) = (a.1.clone(), b.1.clone());
+    equilibrium(&alone_a, &mut xa);
+    equilibrium(&alone_b, &mut xb);
+    let mut x: Vec<Vec3> = a.1.iter().chain(&b.1).copied().collect();
+    equilibrium(&both, &mut x);
+    // Both sag by centimetres; the pinned edges stay put.
+    let sag = |x: &[Vec3]| x.iter().map(|p| -p.z).fold(0.0, f64::max);
+    assert!(sag(&xa) > 0.01 && sag(&xb) > 0.01, "sags {} and {} m", sag(&xa), sag(&xb));
+    let na = a.0.len();
+    let da = (0..na).map(|k| (x[k] - xa[k]).length()).fold(0.0, f64::max);
+    let db = (0..b.0.len()).map(|k| (x[na + k] - xb[k]).length()).fold(0.0, f64::max);
+    assert!(da < 1e-8 && db < 1e-8, "equilibria differ by {da:e} and {db:e} m");
+    // The pinned rows of the second panel are its own: its node 0 did not move.
+    assert_eq!(x[na], b.1[0]);
+}
+
+#[test]
+fn a_builder_with_a_wrong_rest_shape_names_the_panel() {
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(5, 5, 0.2, 0.2).unwrap();
+    let builder = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G).panel(
+        grid,
+        vec![Vec3::ZERO; 3],
+        ElasticOptions::default(),
+    );
+    let e = builder.build().unwrap_err();
+    assert_eq!(e.field, "rest");
+    assert!(e.message.contains("panel 1"), "{e}");
+}
