@@ -76,3 +76,18 @@ pub mod state;
 pub mod surface;
 #[cfg(feature = "testing")]
 pub mod testing;
+
+/// The types most programs use, in one import: `use flexsurf::prelude::*;`.
+pub mod prelude {
+    pub use crate::contact::Obstacle;
+    pub use crate::grid::{Grid, Topology};
+    pub use crate::integrate::linsolve::SolverKind;
+    pub use crate::integrate::statics::{StaticOptions, StaticSolver};
+    pub use crate::integrate::{Method, Scheme, StepParams, Stepper};
+    pub use crate::material::{Calibration, Fabric, Stiffness};
+    pub use crate::math::{Mat3, Vec3};
+    pub use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Panel, PanelSpec, Spring};
+    pub use crate::potential::contact::ContactParams;
+    pub use crate::potential::{ActiveSet, Context, Part, Potential, Scratch, Stage, Term, TermInfo};
+    pub use crate::state::State;
+}

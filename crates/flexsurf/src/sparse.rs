@@ -1,8 +1,16 @@
-//! Node-block sparse symmetric matrices. The pattern (which node pairs couple) is fixed once per grid from the
-//! stencils of every term; values are `3×3` blocks for node pairs `i ≤ j`, added in place through block ids
-//! that each term precomputes. [`BlockPattern::csc_upper`] gives the scalar upper-triangle layout the solver fills.
+//! Node-block sparse symmetric matrices. The static pattern (which node pairs couple through the stencils of
+//! the model's terms) is fixed once per model; values are `3×3` blocks for node pairs `i ≤ j`, added in place
+//! through block ids that each term precomputes. [`BlockPattern::csc_upper`] gives the scalar upper-triangle
+//! layout the solver fills.
+//!
+//! A step may also couple node pairs outside the static pattern (contact between two faces of the sheet): those
+//! go into the matrix's [`ExtraBlocks`], a set of off-diagonal blocks keyed by node pair that only grows during a
+//! run (its values are cleared with the matrix, its pairs kept), so a solver re-analyses its structure only
+//! when the set grows ([`ExtraBlocks::generation`]). Products include the extra blocks; with none, every
+//! operation is the static pattern's alone, in the same order.
 
 use crate::math::{Mat3, Vec3};
+use std::collections::HashMap;
 
 /// Block sparsity: for each column node `j`, the sorted row nodes `i ≤ j` it couples to (`j` itself last).
 #[derive(Debug, Clone)]
@@ -92,22 +100,75 @@ impl BlockPattern {
     }
 }
 
-/// Symmetric matrix stored as upper `3×3` node blocks on a [`BlockPattern`].
+/// Off-diagonal node-pair blocks outside the static pattern, in the order their pairs first appeared.
+#[derive(Debug, Clone, Default)]
+pub struct ExtraBlocks {
+    slots: HashMap<(usize, usize), usize>,
+    pairs: Vec<(usize, usize)>,
+    /// Block `s` holds rows of node `pairs[s].0`, columns of node `pairs[s].1` (`.0 < .1`).
+    pub blocks: Vec<Mat3>,
+}
+
+impl ExtraBlocks {
+    /// Adds `h` = ∂²/∂x_a∂x_b (`a ≠ b`) to the pair's block, creating it when the pair is new.
+    pub fn add(&mut self, a: usize, b: usize, h: Mat3) {
+        let (key, h) = if a < b { ((a, b), h) } else { ((b, a), h.transpose()) };
+        let slot = match self.slots.get(&key) {
+            Some(&s) => s,
+            None => {
+                self.slots.insert(key, self.pairs.len());
+                self.pairs.push(key);
+                self.blocks.push(Mat3::ZERO);
+                self.pairs.len() - 1
+            }
+        };
+        self.blocks[slot] += h;
+    }
+
+    /// The pairs `(i, j)`, `i < j`, in slot order.
+    pub fn pairs(&self) -> &[(usize, usize)] {
+        &self.pairs
+    }
+
+    /// How many pairs the set has ever held: a solver that analysed the structure at another generation
+    /// analyses it again.
+    pub fn generation(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// True when there are no extra pairs.
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    /// `y += A_extra x` (symmetric product).
+    pub fn mul_add(&self, x: &[Vec3], y: &mut [Vec3]) {
+        for (&(i, j), m) in self.pairs.iter().zip(&self.blocks) {
+            y[i] += *m * x[j];
+            y[j] += m.transpose() * x[i];
+        }
+    }
+}
+
+/// Symmetric matrix stored as upper `3×3` node blocks on a [`BlockPattern`], plus the step's [`ExtraBlocks`].
 #[derive(Debug, Clone)]
 pub struct BlockMatrix {
     /// Blocks, indexed by block id; block `(i, j)`, `i ≤ j`, holds rows of node `i`, columns of node `j`.
     pub blocks: Vec<Mat3>,
+    /// Blocks of node pairs outside the pattern.
+    pub extra: ExtraBlocks,
 }
 
 impl BlockMatrix {
     /// Zero matrix on a pattern.
     pub fn zeros(pattern: &BlockPattern) -> Self {
-        Self { blocks: vec![Mat3::ZERO; pattern.blocks()] }
+        Self { blocks: vec![Mat3::ZERO; pattern.blocks()], extra: ExtraBlocks::default() }
     }
 
-    /// Sets every block to zero.
+    /// Sets every block to zero (the extra pairs stay, with zero blocks).
     pub fn clear(&mut self) {
         self.blocks.fill(Mat3::ZERO);
+        self.extra.blocks.fill(Mat3::ZERO);
     }
 
     /// Adds local block `h` = ∂²/∂x_a∂x_b for global nodes `(a, b)` to block id `id`.
@@ -121,7 +182,7 @@ impl BlockMatrix {
         }
     }
 
-    /// `y += A x` (symmetric product).
+    /// `y += A x` (symmetric product), the extra blocks after the pattern's.
     pub fn mul_add(&self, pattern: &BlockPattern, x: &[Vec3], y: &mut [Vec3]) {
         for j in 0..pattern.n {
             for blk in pattern.col_start[j]..pattern.col_start[j + 1] {
@@ -133,6 +194,7 @@ impl BlockMatrix {
                 }
             }
         }
+        self.extra.mul_add(x, y);
     }
 
     /// Dense copy (tests and small diagnostics only).
@@ -149,6 +211,15 @@ impl BlockMatrix {
                         d[3 * i + a][3 * j + b] = v;
                         d[3 * j + b][3 * i + a] = v;
                     }
+                }
+            }
+        }
+        for (&(i, j), m) in self.extra.pairs().iter().zip(&self.extra.blocks) {
+            for a in 0..3 {
+                for b in 0..3 {
+                    let v = m.col(b)[a];
+                    d[3 * i + a][3 * j + b] += v;
+                    d[3 * j + b][3 * i + a] += v;
                 }
             }
         }

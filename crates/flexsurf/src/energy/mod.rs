@@ -71,6 +71,16 @@ impl<'a> Sink<'a> {
             h.add(id, a, b, m);
         }
     }
+
+    /// Adds `m` = ∂²/∂x_a∂x_b for a node pair `a ≠ b` that need not be in the static pattern (the step's
+    /// [`crate::sparse::ExtraBlocks`]: contact between faces). Does nothing without an operator. The contact
+    /// stage's extra blocks are restored from a copy, not the journal ([`crate::potential::Potential::refine`]).
+    #[inline]
+    pub fn add_pair(&mut self, a: usize, b: usize, m: Mat3) {
+        if let Some((h, _)) = self.hess.as_mut() {
+            h.extra.add(a, b, m);
+        }
+    }
 }
 
 /// Block ids for all local pairs `p ≤ q` of a support (row-major over the upper triangle).

@@ -379,6 +379,7 @@ pub struct Workspace {
     scratch: Vec<Scratch>,
     extra: Scratch,
     base_grad: Vec<Vec3>,
+    base_extra: Vec<Mat3>,
     journal: Vec<(u32, Mat3)>,
 }
 
@@ -393,6 +394,7 @@ impl Workspace {
             scratch: potential.terms.iter().map(|_| Scratch::default()).collect(),
             extra: Scratch::default(),
             base_grad: vec![Vec3::ZERO; n],
+            base_extra: Vec::new(),
             journal: Vec::new(),
         }
     }
@@ -552,6 +554,7 @@ impl Potential {
             if info.stage == Stage::Contact && !contact_started {
                 ws.journal.clear();
                 ws.base_grad.copy_from_slice(&ws.grad);
+                ws.base_extra.clone_from(&ws.matrix.extra.blocks);
                 contact_started = true;
             }
             if let Some(a) = term.active_set() {
@@ -608,6 +611,10 @@ impl Potential {
             ws.matrix.blocks[id as usize] = blk;
         }
         ws.journal.clear();
+        // Pairs the contact stage created stay (the set only grows), with the blocks they had before it: zero.
+        let extra = &mut ws.matrix.extra.blocks;
+        extra[..ws.base_extra.len()].copy_from_slice(&ws.base_extra);
+        extra[ws.base_extra.len()..].fill(Mat3::ZERO);
     }
 
     /// The first node any term reports as having passed through an obstacle between `from` and `to`.

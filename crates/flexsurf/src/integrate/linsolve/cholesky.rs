@@ -4,10 +4,13 @@
 //! gradients preconditioned by the existing factor and refactorises only if they do not converge within
 //! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
 //! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
+//!
+//! A matrix with extra blocks outside the static pattern ([`crate::sparse::ExtraBlocks`]) is factorised on the
+//! union of both, whose symbolic analysis is redone only when the extra set has grown since the last one.
 
 use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
-use crate::sparse::{BlockMatrix, BlockPattern};
+use crate::sparse::{BlockMatrix, BlockPattern, ExtraBlocks};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
@@ -17,9 +20,45 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use std::time::Instant;
 
+/// The union of the static pattern and the extra pairs of the generation it was analysed at, and where each
+/// of their blocks goes in it.
+struct Union {
+    generation: usize,
+    from_static: Vec<u32>,
+    from_extra: Vec<u32>,
+    matrix: BlockMatrix,
+}
+
+impl Union {
+    fn new(pattern: &BlockPattern, extra: &ExtraBlocks) -> (Self, BlockPattern) {
+        let cols = pattern.block_cols();
+        let static_pairs = pattern.block_rows().iter().copied().zip(cols.iter().copied());
+        let union =
+            BlockPattern::from_pairs(pattern.nodes(), static_pairs.clone().chain(extra.pairs().iter().copied()));
+        let from_static = static_pairs.map(|(i, j)| union.find(i, j) as u32).collect();
+        let from_extra = extra.pairs().iter().map(|&(i, j)| union.find(i, j) as u32).collect();
+        let matrix = BlockMatrix::zeros(&union);
+        (Self { generation: extra.generation(), from_static, from_extra, matrix }, union)
+    }
+
+    /// The static blocks and the extra blocks of `a`, summed into the union's blocks.
+    fn gather(&mut self, a: &BlockMatrix) {
+        let blocks = &mut self.matrix.blocks;
+        blocks.fill(crate::math::Mat3::ZERO);
+        for (&u, m) in self.from_static.iter().zip(&a.blocks) {
+            blocks[u as usize] += *m;
+        }
+        for (&u, m) in self.from_extra.iter().zip(&a.extra.blocks) {
+            blocks[u as usize] += *m;
+        }
+    }
+}
+
 /// `faer` sparse Cholesky with a fixed symbolic structure and a reused factor.
 pub struct Cholesky {
     system: Reduced,
+    /// The union structure when the matrix has extra blocks.
+    union: Option<Union>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     src: Vec<(u32, u8)>,
@@ -41,35 +80,49 @@ impl Cholesky {
 
     /// Symbolic analysis of the scalar upper triangle of `pattern`.
     pub fn new(pattern: &BlockPattern) -> Result<Self, LinearError> {
-        let (col_ptr, row_idx, src) = pattern.csc_upper();
-        let n = 3 * pattern.nodes();
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic =
-            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, CholeskySymbolicParams::default())
-                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let l_values = vec![0.0; symbolic.len_val()];
-        let values = vec![0.0; row_idx.len()];
+        let s = Structure::of(pattern)?;
         Ok(Self {
             system: Reduced::new(pattern),
-            col_ptr,
-            row_idx,
-            src,
-            values,
-            symbolic,
-            l_values,
-            mem: MemBuffer::new(req),
-            flat: vec![0.0; n],
+            union: None,
+            col_ptr: s.col_ptr,
+            row_idx: s.row_idx,
+            src: s.src,
+            values: s.values,
+            symbolic: s.symbolic,
+            l_values: s.l_values,
+            mem: s.mem,
+            flat: vec![0.0; 3 * pattern.nodes()],
             factored: false,
             no_fixed: Vec::new(),
         })
     }
 
-    /// Copies `a` into the scalar upper triangle with the fixed rows and columns replaced by the identity.
+    /// Re-analyses on the union of the static pattern and `a`'s extra pairs when they have grown since the last
+    /// analysis; true when it did.
+    fn follow_extra(&mut self, a: &BlockMatrix) -> Result<bool, LinearError> {
+        let analysed = self.union.as_ref().map_or(0, |u| u.generation);
+        if a.extra.generation() == analysed {
+            return Ok(false);
+        }
+        let (union, pattern) = Union::new(self.system.pattern(), &a.extra);
+        let s = Structure::of(&pattern)?;
+        (self.col_ptr, self.row_idx, self.src, self.values) = (s.col_ptr, s.row_idx, s.src, s.values);
+        (self.symbolic, self.l_values, self.mem) = (s.symbolic, s.l_values, s.mem);
+        self.factored = false;
+        self.union = Some(union);
+        Ok(true)
+    }
+
+    /// Copies `a` into the scalar upper triangle with the fixed rows and columns replaced by the identity
+    /// (through the union's blocks when the matrix has extra blocks).
     fn fill(&mut self, a: &BlockMatrix, fixed: &[bool]) {
+        let a = match self.union.as_mut() {
+            Some(u) => {
+                u.gather(a);
+                &u.matrix
+            }
+            None => a,
+        };
         let n = self.flat.len();
         for c in 0..n {
             for p in self.col_ptr[c]..self.col_ptr[c + 1] {
@@ -137,6 +190,35 @@ impl Cholesky {
     }
 }
 
+/// The scalar structure of a block pattern, its symbolic Cholesky factorisation (AMD ordering) and the
+/// buffers sized for it.
+struct Structure {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    src: Vec<(u32, u8)>,
+    values: Vec<f64>,
+    symbolic: SymbolicCholesky<usize>,
+    l_values: Vec<f64>,
+    mem: MemBuffer,
+}
+
+impl Structure {
+    fn of(pattern: &BlockPattern) -> Result<Self, LinearError> {
+        let (col_ptr, row_idx, src) = pattern.csc_upper();
+        let n = 3 * pattern.nodes();
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let symbolic =
+            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, CholeskySymbolicParams::default())
+                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let (l_values, values) = (vec![0.0; symbolic.len_val()], vec![0.0; row_idx.len()]);
+        Ok(Self { col_ptr, row_idx, src, values, symbolic, l_values, mem: MemBuffer::new(req) })
+    }
+}
+
 /// `out = (L Lᵀ)⁻¹ r` with the factor in `l_values`.
 fn apply_factor(
     symbolic: &SymbolicCholesky<usize>,
@@ -172,6 +254,7 @@ impl BlockSolver for Cholesky {
         reuse: Reuse,
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
+        let analysed = self.follow_extra(a)?;
         self.system.eliminate(a, fixed, b, x);
         let mut tried = 0;
         if reuse == Reuse::Nearby && self.factored {
@@ -186,7 +269,7 @@ impl BlockSolver for Cholesky {
                 Self::MAX_REUSE_ITERATIONS,
             );
             if let Ok(iterations) = result {
-                return Ok(SolveStats::since(t0, t0, iterations, false));
+                return Ok(SolveStats::since(t0, t0, iterations, false).analysed(analysed));
             }
             tried = Self::MAX_REUSE_ITERATIONS;
         }
@@ -196,7 +279,7 @@ impl BlockSolver for Cholesky {
         let Self { system, symbolic, l_values, mem, flat, .. } = self;
         apply_factor(symbolic, l_values, mem, flat, system.rhs(), x);
         // The failed re-solve's iterations count, and their time is the factorisation's set-up.
-        Ok(SolveStats::since(t0, t1, tried, true))
+        Ok(SolveStats::since(t0, t1, tried, true).analysed(analysed))
     }
 
     /// Non-zeros of the factor `L`.

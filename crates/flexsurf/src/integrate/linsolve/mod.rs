@@ -141,6 +141,8 @@ pub struct SolveStats {
     pub iterations: usize,
     /// True when the solve factorised the matrix (or rebuilt the hierarchy's coarsest factor).
     pub factorized: bool,
+    /// True when the solve redid the symbolic analysis (the step's extra block pairs grew).
+    pub analysed: bool,
 }
 
 impl SolveStats {
@@ -156,7 +158,13 @@ impl SolveStats {
             solve_seconds: setup_done.elapsed().as_secs_f64(),
             iterations,
             factorized,
+            analysed: false,
         }
+    }
+
+    /// The same statistics, marked as having redone the symbolic analysis when `analysed`.
+    pub fn analysed(self, analysed: bool) -> Self {
+        Self { analysed, ..self }
     }
 }
 
