@@ -269,82 +269,10 @@ impl Level {
     ) -> Self {
         let mc = t1.coarse;
         let nodes = mc * t2.coarse;
-        // Rows of P: the tensor product of the directions' parents.
-        let mut p_start = Vec::with_capacity(m * n + 1);
-        let mut p_node = Vec::new();
-        let mut p_weight = Vec::new();
-        p_start.push(0u32);
-        for j in 0..n {
-            for i in 0..m {
-                if free[i + m * j] {
-                    for &(ci, wi) in t1.parents(i) {
-                        for &(cj, wj) in t2.parents(j) {
-                            p_node.push((ci + mc * cj) as u32);
-                            p_weight.push(wi * wj);
-                        }
-                    }
-                }
-                p_start.push(p_node.len() as u32);
-            }
-        }
+        let (p_start, p_node, p_weight) = prolongation(free, m, n, t1, t2);
         let parents =
             |k: usize| (p_start[k] as usize..p_start[k + 1] as usize).map(|e| (p_node[e] as usize, p_weight[e]));
-        // Every (coarse block key, fine block and kind, weight), sorted: the pattern and the recipe. The key
-        // orders coarse blocks by column then row, the pattern's own block order; ties are ordered by the fine
-        // block, so the sums' order is fixed.
-        let rows = fine.block_rows();
-        let mut entries: Vec<(u64, u32, f32)> = Vec::new();
-        for j in 0..fine.nodes() {
-            let (s, e) = fine.column(j);
-            for blk in s..e {
-                let i = rows[blk];
-                for (ci, wi) in parents(i) {
-                    for (cj, wj) in parents(j) {
-                        let (lo, hi, kind) = if i == j {
-                            if ci > cj {
-                                continue;
-                            }
-                            (ci, cj, PLAIN)
-                        } else if ci < cj {
-                            (ci, cj, PLAIN)
-                        } else if ci > cj {
-                            (cj, ci, TRANSPOSED)
-                        } else {
-                            (ci, ci, SYMMETRIZED)
-                        };
-                        entries.push(((hi as u64) << 32 | lo as u64, (blk as u32) << 2 | kind, (wi * wj) as f32));
-                    }
-                }
-            }
-        }
-        entries.sort_unstable_by_key(|e| (e.0, e.1));
-        let split = |key: u64| ((key & 0xffff_ffff) as usize, (key >> 32) as usize);
-        let mut groups = Vec::new();
-        for (k, e) in entries.iter().enumerate() {
-            if k == 0 || e.0 != entries[k - 1].0 {
-                groups.push(k);
-            }
-        }
-        groups.push(entries.len());
-        let pattern = BlockPattern::from_pairs(nodes, groups[..groups.len() - 1].iter().map(|&g| split(entries[g].0)));
-        // Coarse nodes whose children are all fixed have a diagonal block from `from_pairs` and no entries.
-        let mut start = vec![0u32; pattern.blocks() + 1];
-        let mut range = vec![(0usize, 0usize); pattern.blocks()];
-        for g in groups.windows(2) {
-            let (lo, hi) = split(entries[g[0]].0);
-            range[pattern.find(lo, hi)] = (g[0], g[1]);
-        }
-        let mut entry = Vec::with_capacity(entries.len());
-        let mut weight = Vec::with_capacity(entries.len());
-        for (b, &(s, e)) in range.iter().enumerate() {
-            for x in &entries[s..e] {
-                entry.push(x.1);
-                weight.push(x.2);
-            }
-            start[b + 1] = entry.len() as u32;
-        }
-        drop(entries);
-        let recipe = Recipe { start, entry, weight };
+        let (pattern, recipe) = recipe(nodes, galerkin_entries(fine, parents));
         let smoother = LineSmoother::new(&pattern, mc, t2.coarse, topology, &vec![false; nodes]);
         Self {
             a: BlockMatrix::zeros(&pattern),
@@ -398,6 +326,96 @@ impl Level {
             }
         }
     }
+}
+
+/// The rows of `P` of a fine level of `m × n` nodes (`free`: the nodes that have one): the tensor product of
+/// the two directions' parents, as (row starts, coarse nodes, weights).
+fn prolongation(free: &[bool], m: usize, n: usize, t1: &Transfer1d, t2: &Transfer1d) -> (Vec<u32>, Vec<u32>, Vec<f64>) {
+    let mc = t1.coarse;
+    let mut p_start = Vec::with_capacity(m * n + 1);
+    let mut p_node = Vec::new();
+    let mut p_weight = Vec::new();
+    p_start.push(0u32);
+    for j in 0..n {
+        for i in 0..m {
+            if free[i + m * j] {
+                for &(ci, wi) in t1.parents(i) {
+                    for &(cj, wj) in t2.parents(j) {
+                        p_node.push((ci + mc * cj) as u32);
+                        p_weight.push(wi * wj);
+                    }
+                }
+            }
+            p_start.push(p_node.len() as u32);
+        }
+    }
+    (p_start, p_node, p_weight)
+}
+
+/// Every (coarse block key, fine block and kind, weight) of `Pᵀ A P`, sorted: the coarse pattern and the
+/// recipe. The key orders coarse blocks by column then row, the pattern's own block order; ties are ordered by
+/// the fine block, so the sums' order is fixed.
+fn galerkin_entries<I: Iterator<Item = (usize, f64)>>(
+    fine: &BlockPattern,
+    parents: impl Fn(usize) -> I,
+) -> Vec<(u64, u32, f32)> {
+    let rows = fine.block_rows();
+    let mut entries: Vec<(u64, u32, f32)> = Vec::new();
+    for j in 0..fine.nodes() {
+        let (s, e) = fine.column(j);
+        for blk in s..e {
+            let i = rows[blk];
+            for (ci, wi) in parents(i) {
+                for (cj, wj) in parents(j) {
+                    let (lo, hi, kind) = if i == j {
+                        if ci > cj {
+                            continue;
+                        }
+                        (ci, cj, PLAIN)
+                    } else if ci < cj {
+                        (ci, cj, PLAIN)
+                    } else if ci > cj {
+                        (cj, ci, TRANSPOSED)
+                    } else {
+                        (ci, ci, SYMMETRIZED)
+                    };
+                    entries.push(((hi as u64) << 32 | lo as u64, (blk as u32) << 2 | kind, (wi * wj) as f32));
+                }
+            }
+        }
+    }
+    entries.sort_unstable_by_key(|e| (e.0, e.1));
+    entries
+}
+
+/// The coarse pattern of `nodes` nodes and the recipe of its blocks from the sorted Galerkin `entries`.
+fn recipe(nodes: usize, entries: Vec<(u64, u32, f32)>) -> (BlockPattern, Recipe) {
+    let split = |key: u64| ((key & 0xffff_ffff) as usize, (key >> 32) as usize);
+    let mut groups = Vec::new();
+    for (k, e) in entries.iter().enumerate() {
+        if k == 0 || e.0 != entries[k - 1].0 {
+            groups.push(k);
+        }
+    }
+    groups.push(entries.len());
+    let pattern = BlockPattern::from_pairs(nodes, groups[..groups.len() - 1].iter().map(|&g| split(entries[g].0)));
+    // Coarse nodes whose children are all fixed have a diagonal block from `from_pairs` and no entries.
+    let mut start = vec![0u32; pattern.blocks() + 1];
+    let mut range = vec![(0usize, 0usize); pattern.blocks()];
+    for g in groups.windows(2) {
+        let (lo, hi) = split(entries[g[0]].0);
+        range[pattern.find(lo, hi)] = (g[0], g[1]);
+    }
+    let mut entry = Vec::with_capacity(entries.len());
+    let mut weight = Vec::with_capacity(entries.len());
+    for (b, &(s, e)) in range.iter().enumerate() {
+        for x in &entries[s..e] {
+            entry.push(x.1);
+            weight.push(x.2);
+        }
+        start[b + 1] = entry.len() as u32;
+    }
+    (pattern, Recipe { start, entry, weight })
 }
 
 impl BlockSolver for Multigrid {
