@@ -45,16 +45,77 @@ impl ContactParams {
     }
 }
 
-/// One node's contact, with the signed distance linearised about a reference point:
-/// `d(x) ≈ distance + normal·(x − reference)`.
+/// The sheet's side of a contact: up to four nodes with signed weights, whose combination `Σ wₖ x_{nodes[k]}`
+/// is the point whose distance the contact measures. A node against an obstacle is one node of weight 1; a
+/// point against a face of the sheet is the point minus the face's barycentric combination (four nodes), two
+/// edges the difference of their two points (four nodes).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Stencil {
+    /// Node indices (the first `len` are used).
+    pub nodes: [usize; 4],
+    /// Their weights.
+    pub weights: [f64; 4],
+    /// How many nodes.
+    pub len: u8,
+}
+
+impl Stencil {
+    /// One node of weight 1.
+    pub const fn node(k: usize) -> Self {
+        Self { nodes: [k, 0, 0, 0], weights: [1.0, 0.0, 0.0, 0.0], len: 1 }
+    }
+
+    /// Up to four nodes with their weights.
+    pub fn of(nodes: &[usize], weights: &[f64]) -> Self {
+        let mut s = Self { nodes: [0; 4], weights: [0.0; 4], len: nodes.len().min(4) as u8 };
+        for k in 0..s.len as usize {
+            s.nodes[k] = nodes[k];
+            s.weights[k] = weights[k];
+        }
+        s
+    }
+
+    /// The nodes and weights in use.
+    pub fn terms(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.nodes.iter().copied().zip(self.weights.iter().copied()).take(self.len as usize)
+    }
+
+    /// The first node (the node of a node's contact).
+    pub fn first(&self) -> usize {
+        self.nodes[0]
+    }
+
+    /// `Σ wₖ x_{nodes[k]}`.
+    pub fn point(&self, x: &[Vec3]) -> Vec3 {
+        let mut p = x[self.nodes[0]] * self.weights[0];
+        for (k, w) in self.terms().skip(1) {
+            p += x[k] * w;
+        }
+        p
+    }
+}
+
+/// What a contact is against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Other {
+    /// An obstacle (the deepest one at the point).
+    Obstacle,
+    /// The sheet itself or another panel (the stencil holds both sides).
+    Sheet,
+}
+
+/// One contact, whatever the other side is: the sheet's [`Stencil`], with the signed distance linearised
+/// about a reference point, `d(x) ≈ distance + normal·(Σ wₖ xₖ − reference)`.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
-    /// Node index.
-    pub node: usize,
+    /// The sheet's nodes and weights.
+    pub stencil: Stencil,
+    /// What the contact is against.
+    pub other: Other,
     /// Outward normal.
     pub normal: Vec3,
-    /// Penalty force magnitude at the node's current position, `c a (δ − d)` (N); negative for a contact
-    /// predicted from the node's motion that is not yet touching.
+    /// Penalty force magnitude at the current position, `c a (δ − d)` (N); negative for a contact predicted
+    /// from the motion that is not yet touching.
     pub force: f64,
     /// Stiffness `c a` along the normal (N/m).
     pub stiffness: f64,
@@ -65,26 +126,41 @@ pub struct Contact {
 }
 
 impl Contact {
-    /// Contact of `node` at position `x`, with the distance `d` and normal `n` evaluated at `reference`.
+    /// Contact of `node` at position `x` with an obstacle, the distance `d` and normal `n` evaluated at
+    /// `reference`.
     pub fn new(node: usize, x: Vec3, reference: Vec3, d: f64, n: Vec3, params: &ContactParams, area: f64) -> Self {
         let stiffness = params.stiffness * area;
         let force = stiffness * (params.offset - d - n.dot(x - reference));
-        Self { node, normal: n, force, stiffness, distance: d, reference }
+        Self {
+            stencil: Stencil::node(node),
+            other: Other::Obstacle,
+            normal: n,
+            force,
+            stiffness,
+            distance: d,
+            reference,
+        }
     }
 
-    /// Linearised signed distance at `x`.
+    /// The node of a node's contact (the stencil's first).
     #[inline]
-    pub fn gap(&self, x: Vec3) -> f64 {
-        self.distance + self.normal.dot(x - self.reference)
+    pub fn node(&self) -> usize {
+        self.stencil.first()
     }
 
-    /// Force vector on the node.
+    /// Linearised signed distance with the stencil's point at `p`.
+    #[inline]
+    pub fn gap(&self, p: Vec3) -> f64 {
+        self.distance + self.normal.dot(p - self.reference)
+    }
+
+    /// Force vector on the stencil's point (each node takes its weight's share).
     #[inline]
     pub fn force_vector(&self) -> Vec3 {
         self.normal * self.force
     }
 
-    /// Stiffness block `c a ν νᵀ`.
+    /// Stiffness block `c a ν νᵀ` of the stencil's point (node pair `(a, b)` takes `w_a w_b` of it).
     #[inline]
     pub fn stiffness_block(&self) -> Mat3 {
         outer(self.normal, self.normal) * self.stiffness
@@ -95,6 +171,36 @@ impl Contact {
     pub fn energy(&self) -> f64 {
         let f = self.force.max(0.0);
         0.5 * f * f / self.stiffness
+    }
+
+    /// Adds the contact's gradient and stiffness into `sink`: each stencil node's share of the force, the
+    /// diagonal blocks through the pattern, the blocks between the stencil's nodes as the step's extra pairs.
+    pub fn add_to(&self, cx: &Context, sink: &mut Sink) {
+        let (f, h) = (self.force_vector(), self.stiffness_block());
+        if self.stencil.len == 1 {
+            let k = self.node();
+            if let Some(g) = sink.grad.as_deref_mut() {
+                if !cx.fixed[k] {
+                    g[k] -= f;
+                }
+            }
+            sink.add_block(cx.diag[k], k, k, h);
+            return;
+        }
+        for (a, wa) in self.stencil.terms() {
+            if let Some(g) = sink.grad.as_deref_mut() {
+                if !cx.fixed[a] {
+                    g[a] -= f * wa;
+                }
+            }
+            for (b, wb) in self.stencil.terms() {
+                if a == b {
+                    sink.add_block(cx.diag[a], a, a, h * (wa * wb));
+                } else if a < b {
+                    sink.add_pair(a, b, h * (wa * wb));
+                }
+            }
+        }
     }
 }
 
@@ -268,13 +374,7 @@ impl Term for PenaltyContact {
             total += e;
         }
         for c in &s.contacts {
-            let k = c.node;
-            if let Some(g) = sink.grad.as_deref_mut() {
-                if !cx.fixed[k] {
-                    g[k] -= c.force_vector();
-                }
-            }
-            sink.add_block(cx.diag[k], k, k, c.stiffness_block());
+            c.add_to(cx, sink);
         }
         match (cx.motion, &s.statics) {
             (None, Some(f)) => total += static_friction(f, y, cx, sink),
@@ -375,8 +475,10 @@ impl ActiveSet for PenaltyContact {
                 s.lagged.clear();
                 if self.params.friction > 0.0 {
                     let eps = self.params.slip_speed * m.dt;
-                    for c in s.contacts.iter().filter(|c| c.force > 0.0 && !cx.fixed[c.node]) {
-                        let k = c.node;
+                    // Friction is lagged on node contacts (obstacles); a face contact's slip is relative.
+                    let nodes = s.contacts.iter().filter(|c| c.stencil.len == 1);
+                    for c in nodes.filter(|c| c.force > 0.0 && !cx.fixed[c.node()]) {
+                        let k = c.node();
                         let mut l = Lagged {
                             node: k,
                             limit: self.params.friction * c.force,
@@ -442,7 +544,7 @@ impl ActiveSet for PenaltyContact {
         let tolerance = MODEL_TOLERANCE * largest;
         let mut changed = false;
         s.contacts.retain(|c| {
-            let gap = c.gap(y[c.node] + delta[c.node]);
+            let gap = c.gap(c.stencil.point(y) + c.stencil.point(delta));
             let keep = gap < params.offset;
             if !keep && c.stiffness * (gap - params.offset) > tolerance {
                 changed = true;
@@ -451,7 +553,7 @@ impl ActiveSet for PenaltyContact {
         });
         s.has_contact.iter_mut().for_each(|f| *f = false);
         for c in &s.contacts {
-            s.has_contact[c.node] = true;
+            s.has_contact[c.node()] = true;
         }
         for k in 0..y.len() {
             if s.has_contact[k] || cx.fixed[k] {
@@ -471,7 +573,7 @@ impl ActiveSet for PenaltyContact {
                 s.contacts.push(c);
             }
         }
-        s.contacts.sort_by_key(|c| c.node);
+        s.contacts.sort_by_key(|c| c.node());
         // Friction whose linear model is off at the proposal is re-linearised there (at most
         // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
         if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {
@@ -530,7 +632,11 @@ impl ActiveSet for PenaltyContact {
         }
         let mut contacts = Vec::new();
         detect(&self.obstacles, &self.params, &self.area, x, &mut contacts);
-        contacts.iter().filter(|c| c.force > 0.0).map(|c| (c.node, c.normal, self.params.friction * c.force)).collect()
+        contacts
+            .iter()
+            .filter(|c| c.force > 0.0)
+            .map(|c| (c.node(), c.normal, self.params.friction * c.force))
+            .collect()
     }
 
     fn active(&self, scratch: &Scratch) -> usize {
