@@ -67,11 +67,10 @@ impl Stencil {
 
     /// Up to four nodes with their weights.
     pub fn of(nodes: &[usize], weights: &[f64]) -> Self {
-        let mut s = Self { nodes: [0; 4], weights: [0.0; 4], len: nodes.len().min(4) as u8 };
-        for k in 0..s.len as usize {
-            s.nodes[k] = nodes[k];
-            s.weights[k] = weights[k];
-        }
+        let len = nodes.len().min(weights.len()).min(4);
+        let mut s = Self { nodes: [0; 4], weights: [0.0; 4], len: len as u8 };
+        s.nodes[..len].copy_from_slice(&nodes[..len]);
+        s.weights[..len].copy_from_slice(&weights[..len]);
         s
     }
 
