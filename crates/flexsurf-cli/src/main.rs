@@ -4,6 +4,9 @@
 //! the top level of the command line and the dispatch; each command's arguments and implementation are in
 //! `commands/`.
 
+// No function over 80 lines (the threshold is `clippy.toml`'s).
+#![warn(clippy::too_many_lines)]
+
 // Output that ends quietly on a closed pipe (issue 11): these shadow the standard macros for every module
 // declared below them (macro_rules scoping), so the commands keep writing `println!`.
 macro_rules! println {

@@ -201,3 +201,28 @@ fn view_serve_answers_on_the_loopback_interface() {
     assert!(missing.starts_with("HTTP/1.1 404"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 22: `density = 70` (g/m² in the kg/m² key) was "ok"; `check` and `run` print a warning on stderr that
+/// names the key, the value and the usual range in both unit systems, and still answer.
+#[test]
+fn check_and_run_warn_about_a_unit_slip() {
+    let dir = flexsurf::testing::scratch("cli", "unit-slip");
+    let scene = dir.join("heavy.toml");
+    std::fs::write(
+        &scene,
+        "[sheet]\nsize = [1.0, 1.0]\nnodes = [5, 5]\n[time]\ndt = 0.01\nsteps = 2\n[output]\nimage_size = [32, 24]\n\
+         [material]\npreset = \"paper-cotton\"\ndensity = 70\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    for args in
+        [vec!["check", scene.to_str().unwrap()], vec!["run", scene.to_str().unwrap(), "--out", out.to_str().unwrap()]]
+    {
+        let (code, stdout, stderr) = flexsurf(&args);
+        assert_eq!(code, 0, "{args:?}: {stderr}");
+        assert!(stderr.contains("warning: ") && stderr.contains("`material.density`"), "{stderr}");
+        assert!(stderr.contains("70 kg/m²") && stderr.contains("mg/cm²"), "{stderr}");
+        assert!(!stdout.contains("warning"), "{stdout}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

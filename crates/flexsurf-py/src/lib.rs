@@ -133,7 +133,7 @@ impl PyScene {
     /// `True` for `integrator.kind = "static"` (a solve to equilibrium: use `flexsurf.run`).
     #[getter]
     fn is_static(&self) -> bool {
-        matches!(self.scene.method, Method::Static(_))
+        matches!(self.scene.method(), Method::Static(_))
     }
 
     /// Total mass of the sheet (kg).
@@ -168,7 +168,7 @@ fn run_into<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Vec<usize>, Bound<'py, PyAny>)> {
     let sc = Arc::clone(&scene.scene);
     let steps =
-        if matches!(sc.method, Method::Static(_)) { vec![0, 1] } else { output_steps(sc.steps, sc.output_every) };
+        if matches!(sc.method(), Method::Static(_)) { vec![0, 1] } else { output_steps(sc.steps, sc.output_every) };
     let (m, n) = (sc.model.grid.m, sc.model.grid.n);
     let result = py.detach(|| {
         let mut frames: Vec<f64> = Vec::with_capacity(steps.len() * m * n * 3);

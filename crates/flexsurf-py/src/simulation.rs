@@ -93,7 +93,7 @@ impl PySimulation {
     #[new]
     fn new(scene: &PyScene) -> PyResult<Self> {
         let sc = &scene.scene;
-        let params = match sc.method {
+        let params = match sc.method() {
             Method::Dynamic(p) => p,
             Method::Static(_) => {
                 return Err(PyValueError::new_err(

@@ -23,7 +23,7 @@ fn main() {
     model.obstacles.push(Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 });
     let c: f64 = std::env::var("C").ok().and_then(|v| v.parse().ok()).unwrap_or(1e4);
     let off: f64 = std::env::var("OFF").ok().and_then(|v| v.parse().ok()).unwrap_or(0.005);
-    model.contact = ContactParams { stiffness: c, offset: off, friction: 0.3, slip_speed: ContactParams::SLIP_SPEED };
+    model.contact = ContactParams { stiffness: c, offset: off, friction: 0.3, ..ContactParams::default() };
     let start: Vec<Vec3> = rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.35)).collect();
     let model = model.build().unwrap();
     let mut state = State::at_rest(start);

@@ -19,6 +19,7 @@ pub const BALL_DROP_TOML: &str = include_str!("../../../scenes/ball_drop.toml");
 /// What the benchmark runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Workload {
     /// The canonical ball drop from 5 cm above the ball.
     Drop,

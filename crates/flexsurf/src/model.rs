@@ -120,12 +120,7 @@ impl ModelBuilder {
             kind,
             gravity,
             obstacles: Vec::new(),
-            contact: ContactParams {
-                stiffness: 0.0,
-                offset: 0.0,
-                friction: 0.0,
-                slip_speed: ContactParams::SLIP_SPEED,
-            },
+            contact: ContactParams::default(),
             pinned: vec![false; n],
             springs: Vec::new(),
             loads: vec![Vec3::ZERO; n],
@@ -191,24 +186,29 @@ impl ModelBuilder {
         if let Some(k) = self.loads.iter().position(|p| !finite(*p)) {
             return Err(model_error("loads", format!("node {k} is not finite")));
         }
-        if !finite(self.gravity) {
-            return Err(model_error("gravity", "must be finite".into()));
-        }
+        // The sign rules of the range table (models built by hand, in scaled units, may leave its bounds).
+        use crate::scene::ranges::{self, Range};
+        let sign = |field: &'static str, range: &Range, v: f64| match range.sign_problem(v, true) {
+            Some(p) => Err(model_error(field, p)),
+            None => Ok(()),
+        };
+        self.gravity.to_array().iter().try_for_each(|&g| sign("gravity", &ranges::GRAVITY, g))?;
         for s in &self.springs {
-            if s.node >= n || !finite(s.target) || !(s.stiffness.is_finite() && s.stiffness > 0.0) {
+            if s.node >= n || !finite(s.target) {
                 return Err(model_error(
                     "springs",
-                    format!(
-                        "spring at node {} (target {}, k {}) is outside the grid or not finite",
-                        s.node, s.target, s.stiffness
-                    ),
+                    format!("spring at node {} (target {}) is outside the grid or not finite", s.node, s.target),
                 ));
             }
+            sign("springs", &ranges::SPRING_STIFFNESS, s.stiffness)?;
         }
         let c = &self.contact;
-        if ![c.stiffness, c.offset, c.friction].iter().all(|v| v.is_finite() && *v >= 0.0) {
-            return Err(model_error("contact", format!("{c:?}: every value must be finite and non-negative")));
+        if !self.obstacles.is_empty() {
+            sign("contact.stiffness", &ranges::CONTACT_STIFFNESS, c.stiffness)?;
+            sign("contact.slip_speed", &ranges::SLIP_SPEED, c.slip_speed)?;
         }
+        sign("contact.offset", &ranges::CONTACT_OFFSET, c.offset)?;
+        sign("contact.friction", &ranges::FRICTION, c.friction)?;
         Ok(())
     }
 

@@ -103,7 +103,7 @@ fn contact_term(obstacle: Obstacle, n: usize, offset: f64) -> PenaltyContact {
     let area: Vec<f64> = (0..n).map(|k| 0.002 + 1e-4 * k as f64).collect();
     PenaltyContact::new(
         vec![obstacle],
-        ContactParams { stiffness: 1e4, offset, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED },
+        ContactParams { stiffness: 1e4, offset, friction: 0.0, ..ContactParams::default() },
         area,
     )
 }
@@ -225,7 +225,7 @@ fn the_step_system_matches_finite_differences() {
     b.loads[3] = Vec3::new(0.0, 0.1, 0.0);
     b.springs.push(Spring { node: 5, target: Vec3::new(0.0, 0.0, 0.01), stiffness: 80.0 });
     b.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.003), normal: Vec3::Z });
-    b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
+    b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, ..ContactParams::default() };
     let model = b.build().unwrap();
     let names: Vec<&str> = model.potential.terms().iter().map(|t| t.info().name).collect();
     assert_eq!(names, ["membrane", "bending", "gravity and loads", "springs", "penalty contact"]);
@@ -270,7 +270,7 @@ fn the_stepper_uses_the_potential_assembly() {
     );
     b.pinned[0] = true;
     b.obstacles.push(Obstacle::Plane { point: Vec3::new(0.0, 0.0, -0.002), normal: Vec3::Z });
-    b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
+    b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, ..ContactParams::default() };
     let model: Model = b.build().unwrap();
     let zero = vec![Vec3::ZERO; rest.len()];
     let state = State {

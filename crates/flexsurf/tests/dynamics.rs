@@ -105,8 +105,7 @@ fn incline(theta: f64, mu: f64) -> (Model, Vec<Vec3>, Vec3) {
     let rest: Vec<Vec3> = grid.flat_positions(0.0).into_iter().map(|p| rotate(p) + normal * h).collect();
     let mut model = ModelBuilder::new(grid, rest.clone(), f, stiffness, ModelKind::Tfs, gravity);
     model.obstacles.push(Obstacle::Plane { point: Vec3::ZERO, normal });
-    model.contact =
-        ContactParams { stiffness: contact_stiffness, offset, friction: mu, slip_speed: ContactParams::SLIP_SPEED };
+    model.contact = ContactParams { stiffness: contact_stiffness, offset, friction: mu, ..ContactParams::default() };
     (model.build().unwrap(), rest, downhill)
 }
 

@@ -485,3 +485,50 @@ fn an_unusable_output_folder_is_an_error_not_a_panic() {
     assert!(e.contains("cannot write"), "{e}");
     let _ = repo();
 }
+
+// --- issue 22 ---------------------------------------------------------------------------------------------
+
+#[test]
+fn regression_body_file_units_and_material_file_numbers_were_echoed() {
+    let d = scratch("echo-values");
+    let body = "units = \"furlongs-SECRET\"\n";
+    std::fs::write(d.join("body.toml"), body).unwrap();
+    let e = err_text(&d, &format!("{SMALL}[[obstacle]]\nnurbs = {{ file = \"body.toml\" }}\n"));
+    assert!(e.contains("`obstacle[0].nurbs.file`") && e.contains("`units`"), "{e}");
+    assert!(!e.contains("SECRET") && !e.contains("furlongs"), "{e}");
+    // A bad number, and numbers that do not go together, in a material file: the file and the key, not the value.
+    for (text, key) in [
+        ("density = 0.1\ntensile_warp = 1000\ntensile_weft = 1000\nshear = -1234.5\nbending_warp = 1e-5\nbending_weft = 1e-5\n", "shear"),
+        ("density = 0.1\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\nbending_warp = 1e-5\nbending_weft = 1e-5\nbending_poisson = 1234.5\n", "bending_poisson"),
+        ("density = 0.1\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\nbending_warp = 1e-5\nbending_weft = 1e-5\npoisson = 123.45\n", "poisson"),
+        ("density = 1234.5e10\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\nbending_warp = 1e-5\nbending_weft = 1e-5\n", "density"),
+    ] {
+        std::fs::write(d.join("cloth.toml"), text).unwrap();
+        let e = err_text(&d, &format!("{SMALL}[material]\nfile = \"cloth.toml\"\n"));
+        assert!(e.contains("`material.file`") && e.contains("cloth.toml") && e.contains(&format!("`{key}`")), "{e}");
+        assert!(!e.contains("1234") && !e.contains("123.45"), "{e}");
+    }
+    // The scene's own values are still quoted.
+    let e = err_text(&d, &format!("{SMALL}[material]\npreset = \"paper-cotton\"\nshear = -1234.5\n"));
+    assert!(e.contains("`material.shear`") && e.contains("-1234.5"), "{e}");
+}
+
+/// `check --max-memory 1T` on a 2000² grid built the whole model (11 GB, 84 s) before answering; it answers
+/// from the sizes and the checked values (the model is not built) in a fraction of that.
+#[test]
+fn regression_check_max_memory_1t_on_a_2000_grid_took_11_gb_and_84_s() {
+    let d = scratch("check-2000");
+    let path = d.join("scene.toml");
+    let text = format!("{SMALL}[[obstacle]]\nsphere = {{ center = [0, 0, 0], radius = 0.3 }}\n")
+        .replace("nodes = [5, 5]", "nodes = [2000, 2000]");
+    std::fs::write(&path, text).unwrap();
+    let t = std::time::Instant::now();
+    let r = scene::check_with(&path, &Limits { max_memory: 1 << 40 }).unwrap();
+    assert_eq!(r.nodes, [2000, 2000]);
+    // The estimate (bytes per node: model 1500, matrix 50 blocks of 72) is at least 4e6 · 5100 = 20.4 GB.
+    assert!(r.estimate.total() >= 4_000_000 * 5100, "{:?}", r.estimate);
+    assert!(t.elapsed().as_secs_f64() < 20.0, "{:?}", t.elapsed());
+    // Without the raised limit the same scene is refused from its sizes alone.
+    let e = scene::check_with(&path, &Limits::default()).unwrap_err().to_string();
+    assert!(e.contains("`sheet.nodes`") && e.contains("--max-memory"), "{e}");
+}

@@ -422,8 +422,7 @@ fn ball_drop() -> (Model, State) {
     let rest = grid.flat_positions(0.0);
     let mut model = ModelBuilder::new(grid, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
     model.obstacles.push(Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 });
-    model.contact =
-        ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3, slip_speed: ContactParams::SLIP_SPEED };
+    model.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.3, ..ContactParams::default() };
     let start = rest.iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.35)).collect();
     (model.build().unwrap(), State::at_rest(start))
 }

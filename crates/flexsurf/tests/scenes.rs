@@ -58,7 +58,7 @@ fn ball_drop_builds_the_canonical_scene() {
     assert_eq!((g.m, g.n), (21, 21));
     assert!((g.h1 - 0.05).abs() < 1e-15 && (g.h2 - 0.05).abs() < 1e-15);
     assert_eq!((s.dt, s.steps, s.output_every), (0.01, 300, 100));
-    assert!(matches!(s.method, Method::Dynamic(p) if p.scheme == Scheme::Linearized && p.dt == 0.01));
+    assert!(matches!(s.method(), Method::Dynamic(p) if p.scheme == Scheme::Linearized && p.dt == 0.01));
     assert_eq!(s.model.kind, ModelKind::Tfs);
     assert_eq!(s.model.fabric, Fabric::paper_cotton());
     assert_eq!(s.model.obstacles(), vec![Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }]);
@@ -416,4 +416,56 @@ fn static_drape_over_the_ball() {
     assert!(f["max_penetration"].as_f64().unwrap() <= 0.005, "{f}");
     assert!(f["max_strain"].as_f64().unwrap() < 0.01, "{f}");
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// Issue 22: a unit slip (`density = 70`, g/m² typed into the kg/m² key) passed `check` silently. It is a
+/// warning naming the key, the value and the usual range in SI and KES units: 70 kg/m² is 7000 mg/cm²
+/// (1 mg/cm² = 1e-6 kg / 1e-4 m² = 0.01 kg/m²), and the usual 0.01 to 1.5 kg/m² are 1 to 150 mg/cm².
+#[test]
+fn density_70_warns_and_the_shipped_scenes_do_not() {
+    let d = scratch("warnings");
+    let path = d.join("heavy.toml");
+    std::fs::write(&path, format!("{MINIMAL}\n[material]\npreset = \"paper-cotton\"\ndensity = 70\n")).unwrap();
+    for warnings in
+        [scene::load(&path).unwrap().warnings, scene::check_with(&path, &Default::default()).unwrap().warnings]
+    {
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        let w = warnings[0].to_string();
+        assert_eq!(warnings[0].key, "material.density");
+        for part in
+            ["heavy.toml", "`material.density`", "70 kg/m²", "7000 mg/cm²", "0.01 to 1.5 kg/m²", "1 to 150 mg/cm²"]
+        {
+            assert!(w.contains(part), "{part}: {w}");
+        }
+    }
+    // In a material file the warning names the file and the key, not the value (values of other files are
+    // never quoted).
+    std::fs::write(d.join("heavy-cloth.toml"), "density = 70.5\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\nbending_warp = 1e-5\nbending_weft = 1e-5\n").unwrap();
+    std::fs::write(&path, format!("{MINIMAL}\n[material]\nfile = \"heavy-cloth.toml\"\n")).unwrap();
+    let warnings = scene::load(&path).unwrap().warnings;
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let w = warnings[0].to_string();
+    assert!(w.contains("heavy-cloth.toml") && w.contains("`density`") && !w.contains("70.5"), "{w}");
+    // The shipped scenes and materials are usual fabrics.
+    for dir in ["scenes", "materials"] {
+        for entry in std::fs::read_dir(repo().join(dir)).unwrap() {
+            let p = entry.unwrap().path();
+            let warnings = if dir == "scenes" {
+                scene::check_with(&p, &Default::default()).unwrap().warnings
+            } else {
+                load_material_file(&p).unwrap().warnings
+            };
+            assert!(warnings.is_empty(), "{}: {warnings:?}", p.display());
+        }
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `docs/scenes.md` lists every entry of the range table.
+#[test]
+fn every_range_table_key_is_documented() {
+    let doc = std::fs::read_to_string(repo().join("docs/scenes.md")).unwrap();
+    for r in flexsurf::scene::ranges::TABLE {
+        assert!(doc.contains(&format!("`{}`", r.key)), "docs/scenes.md does not list `{}`", r.key);
+    }
 }

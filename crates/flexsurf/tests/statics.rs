@@ -320,7 +320,7 @@ fn loose_sheet(z: f64, plane: Option<(f64, f64)>) -> (Model, Vec<Vec3>) {
     let mut b = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
     if let Some((c, offset)) = plane {
         b.obstacles.push(Obstacle::Plane { point: Vec3::ZERO, normal: Vec3::Z });
-        b.contact = ContactParams { stiffness: c, offset, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
+        b.contact = ContactParams { stiffness: c, offset, friction: 0.0, ..ContactParams::default() };
     }
     (b.build().unwrap(), rest)
 }

@@ -3,10 +3,9 @@
 //! work (solves and their causes, iterations, factorisations), the peak memory, and the growth exponent of the
 //! median step time, as a table or one JSON object.
 
-use super::shared::{print_json, SolverArg};
+use super::shared::print_json;
 use anyhow::{Context, Result};
-use clap::ValueEnum;
-use flexsurf::bench::{self, Workload};
+use flexsurf::bench::{self, BenchRow, Workload};
 use flexsurf::integrate::linsolve::SolverKind;
 
 /// The arguments of `flexsurf bench`.
@@ -23,11 +22,11 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3)]
     repeat: usize,
     /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step.
-    #[arg(long, value_enum, default_value_t = WorkloadArg::Drop)]
-    workload: WorkloadArg,
+    #[arg(long, value_enum, default_value_t = Workload::Drop)]
+    workload: Workload,
     /// The linear solver (`auto`: Cholesky on small grids, multigrid on large ones).
-    #[arg(long, value_enum, default_value_t = SolverArg::Auto)]
-    solver: SolverArg,
+    #[arg(long, value_enum, default_value_t = SolverKind::Auto)]
+    solver: SolverKind,
     /// Threads for the parallel assembly and solve (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -36,23 +35,12 @@ pub struct BenchArgs {
     json: bool,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum WorkloadArg {
-    Drop,
-    Touching,
-}
-
 /// `flexsurf bench`.
 pub fn execute(args: &BenchArgs) -> Result<()> {
     let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json } = args;
     if let Some(t) = threads {
         rayon::ThreadPoolBuilder::new().num_threads(t).build_global().context("setting the thread count")?;
     }
-    let workload = match workload {
-        WorkloadArg::Drop => Workload::Drop,
-        WorkloadArg::Touching => Workload::Touching,
-    };
-    let solver = SolverKind::from(solver);
     let mut rows = Vec::new();
     for &n in sizes {
         let steps = steps.unwrap_or(match (workload, n) {
@@ -84,6 +72,19 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             "threads": rayon::current_num_threads() });
         return print_json(&v);
     }
+    print_rows(&rows);
+    println!("(stage columns: mean ms per step; solves, re-solves, Newton corrections, iterations, factorisations: totals; {} threads)", rayon::current_num_threads());
+    if let Some(e) = exponent {
+        println!("median step time grows as nodes^{e:.2} over all sizes");
+    }
+    if let (Some(e), true) = (large_exponent, large.len() >= 2) {
+        println!("median step time grows as nodes^{e:.2} from 161x161 up");
+    }
+    Ok(())
+}
+
+/// The table of `rows`, one line per grid size.
+fn print_rows(rows: &[BenchRow]) {
     println!(
         "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8}",
         "grid",
@@ -102,7 +103,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
         "factors",
         "peak MB"
     );
-    for r in &rows {
+    for r in rows {
         let p = &r.per_step;
         println!(
             "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0}",
@@ -123,12 +124,4 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             r.peak_bytes as f64 / (1 << 20) as f64
         );
     }
-    println!("(stage columns: mean ms per step; solves, re-solves, Newton corrections, iterations, factorisations: totals; {} threads)", rayon::current_num_threads());
-    if let Some(e) = exponent {
-        println!("median step time grows as nodes^{e:.2} over all sizes");
-    }
-    if let (Some(e), true) = (large_exponent, large.len() >= 2) {
-        println!("median step time grows as nodes^{e:.2} from 161x161 up");
-    }
-    Ok(())
 }

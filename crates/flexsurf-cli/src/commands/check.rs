@@ -1,6 +1,9 @@
-//! `flexsurf check`: loads and builds a scene without running it and prints a one-line summary of it.
+//! `flexsurf check`: loads and checks a scene without building or running it, prints its warnings and a
+//! one-line summary of it.
 
+use super::shared::print_warnings;
 use anyhow::Result;
+use flexsurf::scene::budget::human;
 use std::path::PathBuf;
 
 /// The arguments of `flexsurf check`.
@@ -12,25 +15,25 @@ pub struct CheckArgs {
     limits: super::run::LimitArgs,
 }
 
-/// `flexsurf check`.
+/// `flexsurf check`: every value, file and size checked (warnings on stderr), without building the model.
 pub fn execute(args: &CheckArgs) -> Result<()> {
     let scene_path = &args.scene;
-    let scene = flexsurf::scene::load_with(scene_path, &args.limits.limits())?;
-    let g = &scene.model.grid;
+    let r = flexsurf::scene::check_with(scene_path, &args.limits.limits())?;
+    print_warnings(&r.warnings);
+    let [m, n] = r.nodes;
     println!(
-        "{}: ok — {} × {} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \
-         {} spring(s), material {}",
+        "{}: ok — {m} × {n} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \
+         {} spring(s), material {}, estimated memory {}",
         scene_path.display(),
-        g.m,
-        g.n,
-        scene.model.kind.name(),
-        scene.method.name(),
-        scene.dt,
-        scene.steps,
-        scene.model.obstacles().len(),
-        scene.model.potential.pins().count(),
-        scene.model.springs().len(),
-        scene.material,
+        r.model.name(),
+        r.method.name(),
+        r.dt,
+        r.steps,
+        r.obstacles,
+        r.pinned,
+        r.springs,
+        r.material,
+        human(r.estimate.total()),
     );
     Ok(())
 }

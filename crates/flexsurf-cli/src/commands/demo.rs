@@ -2,7 +2,7 @@
 //! models, each into `out/<model>`, and a side-by-side `out/comparison.png` (the paper's Fig. 1 vs Fig. 2, or
 //! its Fig. 3).
 
-use super::shared::{print_table, run_built};
+use super::shared::{print_table, print_warnings, run_built};
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use flexsurf::io::render;
@@ -56,6 +56,7 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
             spec.time.steps = s;
         }
         let scene = spec.build(file)?;
+        print_warnings(&scene.warnings);
         let dir = out.join(kind.name());
         eprintln!("running {what} with the {} model into {}", kind.name(), dir.display());
         // The demo's folders are its own: a new demo replaces the files an earlier one wrote there (exactly

@@ -1,9 +1,8 @@
 //! `flexsurf run`: loads a TOML scene, applies the command-line overrides, runs it into `--out` with a progress
 //! bar and prints the run table.
 
-use super::shared::{print_table, run_built, SolverArg};
+use super::shared::{print_table, print_warnings, run_built};
 use anyhow::{Context, Result};
-use clap::ValueEnum;
 use flexsurf::integrate::linsolve::SolverKind;
 use flexsurf::model::ModelKind;
 use flexsurf::runner::RunOptions;
@@ -65,71 +64,29 @@ impl LimitArgs {
 struct Overrides {
     /// Deformation model (overrides `[model] kind`).
     #[arg(long, value_enum)]
-    model: Option<ModelArg>,
+    model: Option<ModelKind>,
     /// Number of steps (overrides `[time] steps`).
     #[arg(long)]
     steps: Option<usize>,
     /// Time-stepping scheme (overrides `[integrator] kind`).
     #[arg(long, value_enum)]
-    integrator: Option<IntegratorArg>,
+    integrator: Option<IntegratorKind>,
     /// Linear solver (overrides `[integrator] solver`).
     #[arg(long, value_enum)]
-    solver: Option<SolverArg>,
+    solver: Option<SolverKind>,
     /// Mesh format of the frames (overrides `[output] format`).
     #[arg(long, value_enum)]
-    format: Option<FormatArg>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum ModelArg {
-    Tfs,
-    Terzopoulos,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum IntegratorArg {
-    Linearized,
-    Lagged,
-    Bdf2,
-    Static,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum FormatArg {
-    Obj,
-    Ply,
-    Gltf,
+    format: Option<FrameFormat>,
 }
 
 impl Overrides {
     fn apply(&self, spec: &mut SceneSpec) {
-        if let Some(m) = self.model {
-            spec.model.kind = match m {
-                ModelArg::Tfs => ModelKind::Tfs,
-                ModelArg::Terzopoulos => ModelKind::Terzopoulos,
-            };
-        }
-        if let Some(s) = self.steps {
-            spec.time.steps = s;
-        }
-        if let Some(i) = self.integrator {
-            spec.integrator.kind = match i {
-                IntegratorArg::Linearized => IntegratorKind::Linearized,
-                IntegratorArg::Lagged => IntegratorKind::Lagged,
-                IntegratorArg::Bdf2 => IntegratorKind::Bdf2,
-                IntegratorArg::Static => IntegratorKind::Static,
-            };
-        }
-        if let Some(s) = self.solver {
-            spec.integrator.solver = SolverKind::from(s);
-        }
-        if let Some(f) = self.format {
-            spec.output.format = match f {
-                FormatArg::Obj => FrameFormat::Obj,
-                FormatArg::Ply => FrameFormat::Ply,
-                FormatArg::Gltf => FrameFormat::Gltf,
-            };
-        }
+        let Overrides { model, steps, integrator, solver, format } = *self;
+        spec.model.kind = model.unwrap_or(spec.model.kind);
+        spec.time.steps = steps.unwrap_or(spec.time.steps);
+        spec.integrator.kind = integrator.unwrap_or(spec.integrator.kind);
+        spec.integrator.solver = solver.unwrap_or(spec.integrator.solver);
+        spec.output.format = format.unwrap_or(spec.output.format);
     }
 }
 
@@ -145,6 +102,7 @@ pub fn execute(args: &RunArgs) -> Result<()> {
         Ok(spec.build_with(scene_path, &limits)?)
     });
     let scene = built?;
+    print_warnings(&scene.warnings);
     let stop = crate::signals::install().context("installing the SIGINT/SIGTERM handlers")?;
     let options = RunOptions {
         overwrite: *overwrite,

@@ -4,7 +4,7 @@
 use crate::progress;
 use anyhow::{Context, Result};
 use flexsurf::runner::{self, RunOptions, RunOutput};
-use flexsurf::scene::Scene;
+use flexsurf::scene::{Scene, SceneWarning};
 use std::path::Path;
 
 /// Prints `value` as pretty JSON on stdout.
@@ -68,27 +68,9 @@ pub fn print_table(rows: &[(&str, &RunOutput)]) {
     }
 }
 
-/// The `--solver` values of `run` and `bench`: the step's linear solver (`flexsurf::integrate::linsolve`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum SolverArg {
-    /// Cholesky on small grids, multigrid on large ones.
-    Auto,
-    /// Sparse Cholesky.
-    Cholesky,
-    /// Multigrid-preconditioned conjugate gradients.
-    Multigrid,
-    /// Block-Jacobi conjugate gradients.
-    Pcg,
-}
-
-impl From<SolverArg> for flexsurf::integrate::linsolve::SolverKind {
-    fn from(s: SolverArg) -> Self {
-        use flexsurf::integrate::linsolve::SolverKind;
-        match s {
-            SolverArg::Auto => SolverKind::Auto,
-            SolverArg::Cholesky => SolverKind::Cholesky,
-            SolverArg::Multigrid => SolverKind::Multigrid,
-            SolverArg::Pcg => SolverKind::Pcg,
-        }
+/// Prints the warnings of a scene (values outside the usual range of fabrics) on stderr.
+pub fn print_warnings(warnings: &[SceneWarning]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
 }

@@ -94,8 +94,7 @@ mod tests {
         let mut b = ModelBuilder::new(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::ZERO);
         let cuboid = Cuboid { min: Vec3::new(-0.1, -0.1, -0.5), max: Vec3::new(0.1, 0.1, 0.001) };
         b.obstacles.push(Obstacle::Custom(Arc::new(cuboid)));
-        b.contact =
-            ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, slip_speed: ContactParams::SLIP_SPEED };
+        b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, ..ContactParams::default() };
         let model = b.build().unwrap();
         let centre = (0..rest.len()).min_by(|&i, &j| rest[i].length().total_cmp(&rest[j].length())).unwrap();
         let before = model.obstacles()[0].distance(rest[centre]).0;

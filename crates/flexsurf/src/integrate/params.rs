@@ -84,10 +84,15 @@ pub struct StepParams {
     pub bounds: Option<Bounds>,
 }
 
+impl StepParams {
+    /// The default time step Δt (s), also the scene format's `time.dt` default.
+    pub const DT: f64 = 0.01;
+}
+
 impl Default for StepParams {
     fn default() -> Self {
         Self {
-            dt: 0.01,
+            dt: Self::DT,
             scheme: Scheme::Linearized,
             solver: SolverKind::Auto,
             newton_iterations: 2,

@@ -28,6 +28,7 @@ pub enum MaterialError {
 /// How measured constants become energy coefficients.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Calibration {
     /// Physically consistent (docs/model.md §4): `M = Kκ`, shear resultant `Gγ`, Poisson coupling in `A12`.
     #[default]

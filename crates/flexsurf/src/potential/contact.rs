@@ -28,6 +28,13 @@ pub struct ContactParams {
     pub slip_speed: f64,
 }
 
+impl Default for ContactParams {
+    /// No contact force (stiffness, offset and friction 0) and the default slip speed.
+    fn default() -> Self {
+        Self { stiffness: 0.0, offset: 0.0, friction: 0.0, slip_speed: Self::SLIP_SPEED }
+    }
+}
+
 impl ContactParams {
     /// Default slip speed `ε_v` (m/s): a sheet held on a slope creeps at most 0.3 mm in 3 s.
     pub const SLIP_SPEED: f64 = 1e-4;

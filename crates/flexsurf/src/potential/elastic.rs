@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 /// Which deformation model computes the elastic force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ModelKind {
     /// The paper's model: the exact gradient of the discrete energy (default).
     #[default]

@@ -136,7 +136,7 @@ pub fn fingerprint(scene: &Scene) -> String {
             scene.dt.to_bits(),
             scene.steps,
             scene.output_every,
-            scene.method,
+            scene.method(),
             scene.calibration,
             scene.material,
             scene.output,
@@ -215,6 +215,7 @@ type Pictured = Vec<(usize, f64, Vec<crate::math::Vec3>)>;
 
 /// Runs `scene` into `out` as [`run_scene_observed`] does, with `options`: the output folder's manifest
 /// ([`manifest`]), periodic and on-stop checkpoints, resuming ([`checkpoint`]), and provenance in the summary.
+#[allow(clippy::too_many_lines)] // Until `runner/` is split by its owner (issue 18).
 pub fn run_scene_with(
     scene: &Scene,
     out: &Path,
@@ -223,7 +224,7 @@ pub fn run_scene_with(
 ) -> Result<RunOutput, RunError> {
     let model = &scene.model;
     let fp = fingerprint(scene);
-    let is_static = matches!(scene.method, Method::Static(_));
+    let is_static = matches!(scene.method(), Method::Static(_));
     if options.resume && is_static {
         return Err(RunError::Resume("a static solve has no checkpoint to resume from".into()));
     }
@@ -279,7 +280,7 @@ pub fn run_scene_with(
     let mut failure: Option<RunError> = None;
     let mut interrupted = false;
     let mut timings = Counters::default();
-    let (stats, static_report) = match scene.method {
+    let (stats, static_report) = match scene.method() {
         Method::Static(options) => {
             let (stats, report) = solve_static(model, &options, &mut state, &mut rec, &mut observe)?;
             energy.drain(&mut rec.csv)?;

@@ -57,7 +57,7 @@ impl Provenance {
                 calibration: format!("{:?}", scene.calibration).to_lowercase(),
                 constants_si: scene.model.fabric,
             },
-            solver: scene.method,
+            solver: scene.method(),
             resumed_from_step,
         }
     }

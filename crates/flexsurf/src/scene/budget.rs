@@ -1,11 +1,10 @@
-//! What a scene may ask for, checked before anything is built: the ranges of the physical values (values no
-//! physical scene has, like `dt = 1e308` or a sheet 1e18 m from the origin, are rejected with their key instead
-//! of producing NaN later), and the size of the run: node counts in checked arithmetic and an estimate of the
-//! memory it needs (model, step matrix, sparse factor, frames, pictures) against [`Limits::max_memory`], so a
-//! scene with `nodes = [4294967296, 21]` is an error naming `sheet.nodes`, not a 2 TB allocation. The ranges
-//! are listed in `docs/scenes.md` ("Validation ranges").
+//! The size of a run, checked before anything is read or built: steps and frames, node counts in checked
+//! arithmetic and an estimate of the memory it needs (model, step matrix, sparse factor, frames, pictures)
+//! from the sizes alone, against [`Limits::max_memory`], so a scene with `nodes = [4294967296, 21]` is an error
+//! naming `sheet.nodes`, not a 2 TB allocation. The values' ranges are the range table ([`super::ranges`]).
 
-use super::spec::{ObstacleSpec, SceneSpec};
+use super::ranges;
+use super::spec::SceneSpec;
 use super::validate::Validator;
 use super::SceneError;
 
@@ -25,145 +24,52 @@ impl Default for Limits {
     }
 }
 
-/// The ranges of the checked values: (low, high), both inclusive, in SI units. Beyond them a value is accepted
-/// by no physical scene, and the arithmetic of the model (squares of lengths, products of stiffness and
-/// area) would overflow or underflow.
-pub mod ranges {
-    /// Time step (s).
-    pub const DT: (f64, f64) = (1e-9, 10.0);
-    /// Steps of a run.
-    pub const STEPS: usize = 1_000_000_000;
-    /// Sheet sizes, garment girths and lengths, sphere radii (m).
-    pub const LENGTH: (f64, f64) = (1e-6, 1e4);
-    /// Largest coordinate of a position (centres, points, heights, axes; m).
-    pub const COORDINATE: f64 = 1e6;
-    /// Largest rotation angle (degrees).
-    pub const ANGLE: f64 = 36_000.0;
-    /// Largest gravity component (m/s²).
-    pub const GRAVITY: f64 = 1e4;
-    /// Contact stiffness (N/m³).
-    pub const CONTACT_STIFFNESS: (f64, f64) = (1e-6, 1e15);
-    /// Friction's slip speed (m/s).
-    pub const SLIP_SPEED: (f64, f64) = (1e-9, 1e3);
-    /// Initial speed (m/s): beyond sound in air no fabric is dropped.
-    pub const SPEED: f64 = 1e3;
-    /// Initial angular speed (rad/s).
-    pub const ANGULAR_SPEED: f64 = 1e4;
-    /// Largest contact offset (m).
-    pub const CONTACT_OFFSET: f64 = 1.0;
-    /// Largest friction coefficient.
-    pub const FRICTION: f64 = 100.0;
-    /// Spring stiffness (N/m).
-    pub const SPRING: (f64, f64) = (1e-9, 1e12);
-    /// Most nodes of a sheet or garment.
-    pub const NODES: usize = 100_000_000;
-    /// Most frames a run writes (`steps / output_every`).
-    pub const FRAMES: usize = 1_000_000;
-}
-
-/// Checks `value` (only when finite and positive: other values are left to the checks that say "must be
-/// positive" or "must be finite") against `(lo, hi)`.
-fn range(v: &Validator<'_>, key: &str, value: f64, (lo, hi): (f64, f64), unit: &str) -> Result<(), SceneError> {
-    if value.is_finite() && value > 0.0 && !(lo..=hi).contains(&value) {
-        return Err(v.bad(key, format!("{value} {unit} is outside the accepted range {lo:e} to {hi:e} {unit}")));
-    }
-    Ok(())
-}
-
-/// Checks that every finite component of `values` is at most `max` in magnitude.
-fn bounded(v: &Validator<'_>, key: &str, values: &[f64], max: f64, unit: &str) -> Result<(), SceneError> {
-    if let Some(bad) = values.iter().find(|x| x.is_finite() && x.abs() > max) {
-        return Err(v.bad(key, format!("{bad} {unit} is outside the accepted range ±{max:e} {unit}")));
-    }
-    Ok(())
-}
-
-/// Checks the ranges of the scene's values and its size (nodes, memory) against `limits`. Called by
-/// [`SceneSpec::build_with`] before anything is built.
-pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<(), SceneError> {
-    range(v, "time.dt", spec.time.dt, ranges::DT, "s")?;
-    v.require("time.steps", spec.time.steps <= ranges::STEPS, || {
-        format!("{} steps is more than the {} a run may take", spec.time.steps, ranges::STEPS)
+/// Checks the size of the run: the steps, the frames and the nodes (in checked arithmetic), and the estimate
+/// of its memory against `limits`. Called by [`SceneSpec::build_with`] before anything is read or built, from
+/// the sizes alone. Returns the frame cadence (`time.output_every`, default: the step count) and the estimate.
+pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<(usize, Estimate), SceneError> {
+    let steps = spec.time.steps;
+    v.at_least("time.steps", steps, 1)?;
+    v.require("time.steps", steps <= ranges::STEPS, || {
+        format!("{steps} steps is more than the {} a run may take", ranges::STEPS)
     })?;
+    let every = v.at_least("time.output_every", spec.time.output_every.unwrap_or(steps), 1)?;
     // The run lists its frames (in memory and in its manifest) before it starts.
-    let frames = spec.time.steps / spec.time.output_every.unwrap_or(spec.time.steps).max(1);
+    let frames = steps / every;
     v.require("time.output_every", frames <= ranges::FRAMES, || {
         format!(
-            "{frames} frames ({} steps, a frame every {} steps) is more than the {} a run may write",
-            spec.time.steps,
-            spec.time.output_every.unwrap_or(spec.time.steps).max(1),
+            "{frames} frames ({steps} steps, a frame every {every} steps) is more than the {} a run may write",
             ranges::FRAMES
         )
     })?;
-    bounded(v, "gravity", &spec.gravity, ranges::GRAVITY, "m/s²")?;
-    for (i, o) in spec.obstacles.iter().enumerate() {
-        match o {
-            ObstacleSpec::Sphere(s) => {
-                range(v, &format!("obstacle[{i}].sphere.radius"), s.radius, ranges::LENGTH, "m")?;
-                bounded(v, &format!("obstacle[{i}].sphere.center"), &s.center, ranges::COORDINATE, "m")?;
-            }
-            ObstacleSpec::Plane(p) => {
-                bounded(v, &format!("obstacle[{i}].plane.point"), &p.point, ranges::COORDINATE, "m")?;
-            }
-            ObstacleSpec::Nurbs(_) | ObstacleSpec::Mesh(_) => {}
-        }
-    }
-    if let Some(c) = spec.contact.stiffness {
-        range(v, "contact.stiffness", c, ranges::CONTACT_STIFFNESS, "N/m³")?;
-    }
-    range(v, "contact.slip_speed", spec.contact.slip_speed, ranges::SLIP_SPEED, "m/s")?;
-    bounded(v, "initial.velocity", &spec.initial.velocity, ranges::SPEED, "m/s")?;
-    bounded(v, "initial.angular_velocity", &spec.initial.angular_velocity, ranges::ANGULAR_SPEED, "rad/s")?;
-    bounded(v, "contact.offset", &[spec.contact.offset], ranges::CONTACT_OFFSET, "m")?;
-    bounded(v, "contact.friction", &[spec.contact.friction], ranges::FRICTION, "")?;
-    for (i, s) in spec.springs.iter().enumerate() {
-        range(v, &format!("spring[{i}].stiffness"), s.stiffness, ranges::SPRING, "N/m")?;
-        if let super::spec::SpringTarget::Point(p) = s.target {
-            bounded(v, &format!("spring[{i}].target"), &p, ranges::COORDINATE, "m")?;
-        }
-    }
-    let nodes = if let Some(s) = &spec.sheet {
-        for &l in &s.size {
-            range(v, "sheet.size", l, ranges::LENGTH, "m")?;
-        }
-        bounded(v, "sheet.center", &s.center, ranges::COORDINATE, "m")?;
-        bounded(v, "sheet.rotate_deg", &s.rotate_deg, ranges::ANGLE, "degrees")?;
-        Some(("sheet.nodes", s.nodes))
-    } else if let Some(g) = &spec.garment {
-        let gv = Validator::within(v.file(), "garment");
-        for (key, l) in [("waist_girth", g.waist_girth), ("hem_girth", g.hem_girth), ("length", g.length)] {
-            range(&gv, key, l, ranges::LENGTH, "m")?;
-        }
-        bounded(&gv, "waist_height", &[g.waist_height], ranges::COORDINATE, "m")?;
-        bounded(&gv, "axis", &g.axis, ranges::COORDINATE, "m")?;
-        range(&gv, "waist_springs", g.waist_springs, ranges::SPRING, "N/m")?;
-        Some(("garment.nodes", g.nodes))
-    } else {
-        None
+    let nodes = match (&spec.sheet, &spec.garment) {
+        (Some(s), _) => Some(("sheet.nodes", s.nodes)),
+        (None, Some(g)) => Some(("garment.nodes", g.nodes)),
+        (None, None) => None,
     };
-    if let Some((key, [m, n])) = nodes {
-        let total = m.checked_mul(n).filter(|&t| t <= ranges::NODES).ok_or_else(|| {
-            v.bad(key, format!("[{m}, {n}] is more than the {} nodes a sheet may have", ranges::NODES))
-        })?;
-        let e = estimate(total, m, n, spec);
-        if e.total() > limits.max_memory {
-            return Err(v.bad(
-                key,
-                format!(
-                    "[{m}, {n}] nodes need an estimated {} of memory ({}), more than the limit of {} (raise it \
-                     with --max-memory)",
-                    human(e.total()),
-                    e.breakdown(),
-                    human(limits.max_memory)
-                ),
-            ));
-        }
+    let Some((key, [m, n])) = nodes else { return Ok((every, Estimate::default())) };
+    let total = m
+        .checked_mul(n)
+        .filter(|&t| t <= ranges::NODES)
+        .ok_or_else(|| v.bad(key, format!("[{m}, {n}] is more than the {} nodes a sheet may have", ranges::NODES)))?;
+    let e = estimate(total, m, n, spec);
+    if e.total() > limits.max_memory {
+        return Err(v.bad(
+            key,
+            format!(
+                "[{m}, {n}] nodes need an estimated {} of memory ({}), more than the limit of {} (raise it \
+                 with --max-memory)",
+                human(e.total()),
+                e.breakdown(),
+                human(limits.max_memory)
+            ),
+        ));
     }
-    Ok(())
+    Ok((every, e))
 }
 
 /// The estimated memory of a run (bytes), by part.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Estimate {
     /// Positions, masses, rest geometry, per-node scratch of the terms.
     pub model: u64,

@@ -54,6 +54,21 @@ pub enum SceneError {
     },
 }
 
+/// A value that is valid but lies outside the usual range of fabrics (most often a unit slip): the file, the
+/// dotted key and what is unusual (the value, unless it comes from a file other than the scene, and the usual
+/// range in SI and KES-F units). A scene carries its warnings ([`super::Scene::warnings`]); front ends print
+/// them.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("{file}: `{key}`: {message}")]
+pub struct SceneWarning {
+    /// The file.
+    pub file: String,
+    /// Dotted key path.
+    pub key: String,
+    /// What is unusual.
+    pub message: String,
+}
+
 impl SceneError {
     pub(crate) fn io(file: &Path, source: std::io::Error) -> Self {
         SceneError::Io { file: file.display().to_string(), source }

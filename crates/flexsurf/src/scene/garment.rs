@@ -3,6 +3,7 @@
 //! onto the body) is [`crate::garment`]; this file maps its errors onto the table's keys. The waist row is held
 //! by springs (`waist_springs`) to its fitted initial positions.
 
+use super::ranges;
 use super::spec::Initial;
 use super::validate::Validator;
 use super::SceneError;
@@ -11,7 +12,6 @@ use crate::garment::{GarmentError, GarmentShape, SkirtPattern};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
-use std::path::Path;
 
 pub use crate::garment::WaistFit;
 
@@ -115,31 +115,27 @@ fn error_key(e: &GarmentError) -> &'static str {
 }
 
 impl GarmentSpec {
-    /// Checks the values and builds the grid, the rest cone and the fitted initial shape against `obstacles`
-    /// with contact offset `offset`. `file` names errors.
-    pub fn shape(&self, obstacles: &[Obstacle], offset: f64, file: &Path) -> Result<GarmentShape, SceneError> {
-        let v = Validator::within(file, "garment");
-        let waist_girth = v.positive_length("waist_girth", self.waist_girth)?;
-        let hem_girth = v.positive_length("hem_girth", self.hem_girth)?;
-        let length = v.positive_length("length", self.length)?;
-        let z = self.waist_height;
-        v.require("waist_height", z.is_finite(), || format!("{z} m must be finite"))?;
-        let axis = self.axis;
-        v.require("axis", axis.iter().all(|c| c.is_finite()), || format!("{axis:?} must be two finite numbers"))?;
-        let k = self.waist_springs;
-        v.require("waist_springs", k.is_finite() && k > 0.0, || format!("{k} N/m must be positive and finite"))?;
-        let built = match self.kind {
-            GarmentKind::Skirt => SkirtPattern {
-                waist_girth,
-                hem_girth,
-                length,
-                waist_height: z,
-                nodes: self.nodes,
-                axis,
-                waist_fit: self.waist_fit,
-            }
-            .shape(obstacles, offset),
+    /// Checks the values (with `v`, the scene's checker) and builds the grid, the rest cone and the fitted
+    /// initial shape against `obstacles` with contact offset `offset`.
+    pub(crate) fn shape(
+        &self,
+        v: &Validator<'_>,
+        obstacles: &[Obstacle],
+        offset: f64,
+    ) -> Result<GarmentShape, SceneError> {
+        let pattern = SkirtPattern {
+            waist_girth: v.number(&ranges::WAIST_GIRTH, "garment.waist_girth", self.waist_girth)?,
+            hem_girth: v.number(&ranges::HEM_GIRTH, "garment.hem_girth", self.hem_girth)?,
+            length: v.number(&ranges::GARMENT_LENGTH, "garment.length", self.length)?,
+            waist_height: v.number(&ranges::WAIST_HEIGHT, "garment.waist_height", self.waist_height)?,
+            nodes: self.nodes,
+            axis: v.numbers(&ranges::GARMENT_AXIS, "garment.axis", self.axis)?,
+            waist_fit: self.waist_fit,
         };
-        built.map_err(|e| v.bad(error_key(&e), e.to_string()))
+        v.number(&ranges::WAIST_SPRINGS, "garment.waist_springs", self.waist_springs)?;
+        let built = match self.kind {
+            GarmentKind::Skirt => pattern.shape(obstacles, offset),
+        };
+        built.map_err(|e| v.within("garment").bad(error_key(&e), e.to_string()))
     }
 }

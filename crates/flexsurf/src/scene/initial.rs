@@ -4,6 +4,7 @@
 //! writer's shortest round-trip numbers make them exact). Pinned nodes keep zero velocity.
 
 use super::error::SceneError;
+use super::ranges;
 use super::validate::Validator;
 use crate::contact::trimesh::parse_obj;
 use crate::grid::Grid;
@@ -42,8 +43,12 @@ impl InitialSpec {
     /// The checked velocities.
     pub(crate) fn condition(&self, v: &Validator<'_>) -> Result<InitialCondition, SceneError> {
         Ok(InitialCondition {
-            velocity: v.finite3("initial.velocity", self.velocity)?,
-            angular_velocity: v.finite3("initial.angular_velocity", self.angular_velocity)?,
+            velocity: Vec3::from_array(v.numbers(&ranges::VELOCITY, "initial.velocity", self.velocity)?),
+            angular_velocity: Vec3::from_array(v.numbers(
+                &ranges::ANGULAR_VELOCITY,
+                "initial.angular_velocity",
+                self.angular_velocity,
+            )?),
         })
     }
 

@@ -2,8 +2,9 @@
 //! preset, a file, or gives the constants inline, in SI or in native KES-F units. Inline constants override the
 //! preset's or the file's. Everything is converted to an SI [`Fabric`] here; the model never sees units.
 
-use super::error::{parse_toml, parse_toml_foreign, SceneError};
-use super::validate::Validator;
+use super::error::{parse_toml, parse_toml_foreign, SceneError, SceneWarning};
+use super::ranges::{self, Range};
+use super::validate::{Validator, Warnings};
 use crate::material::{units, Fabric};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -95,15 +96,26 @@ pub struct ResolvedMaterial {
     pub fabric: Fabric,
     /// Display name (the spec's `name`, else the preset's or the file's name).
     pub name: String,
+    /// The constants outside the usual range of fabrics (of this table and of the file it extends).
+    pub warnings: Vec<SceneWarning>,
 }
 
 type Setter = fn(&mut Fabric, f64);
-/// A key, its value as written, its conversion from KES units, and where it goes.
-type Field = (&'static str, Option<f64>, fn(f64) -> f64, Setter);
+/// A constant given in a table: its entry of the range table (which names its key), its value converted to SI,
+/// and where it goes.
+type Given = (&'static Range, f64, Setter);
+/// A key's entry, its value as written, its conversion from KES units, and where it goes.
+type Field = (&'static Range, Option<f64>, fn(f64) -> f64, Setter);
+
+/// The fabric a table extends, the material file it comes from, and its name (all `None` for neither).
+type Base = (Option<Fabric>, Option<PathBuf>, Option<String>);
+
+/// The keys a table without `preset` or `file` must give.
+const REQUIRED: [&str; 6] = ["density", "tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"];
 
 impl MaterialSpec {
-    /// The constants given in this table: (key, value converted to SI, setter).
-    fn given(&self) -> Vec<(&'static str, f64, Setter)> {
+    /// The constants given in this table: (entry, value converted to SI, setter).
+    fn given(&self) -> Vec<Given> {
         let kes = self.units == Units::Kes;
         let conv = |f: fn(f64) -> f64, v: f64| if kes { f(v) } else { v };
         let id = |v: f64| v;
@@ -111,81 +123,54 @@ impl MaterialSpec {
             return self.given_fast();
         }
         let fields: [Field; 10] = [
-            ("density", self.density, units::density_from_kes, |f, v| f.density = v),
-            ("damping", self.damping, id, |f, v| f.damping = v),
-            ("tensile_warp", self.tensile_warp, units::tension_from_kes, |f, v| f.tensile_warp = v),
-            ("tensile_weft", self.tensile_weft, units::tension_from_kes, |f, v| f.tensile_weft = v),
-            ("shear", self.shear, units::shear_from_kes, |f, v| f.shear = v),
-            ("bending_warp", self.bending_warp, units::bending_from_kes, |f, v| f.bending_warp = v),
-            ("bending_weft", self.bending_weft, units::bending_from_kes, |f, v| f.bending_weft = v),
-            ("poisson", self.poisson, id, |f, v| f.poisson = v),
-            ("bending_poisson", self.bending_poisson, id, |f, v| f.bending_poisson = v),
-            ("twist", self.twist, units::bending_from_kes, |f, v| f.twist = Some(v)),
+            (&ranges::DENSITY, self.density, units::density_from_kes, |f, v| f.density = v),
+            (&ranges::DAMPING, self.damping, id, |f, v| f.damping = v),
+            (&ranges::TENSILE_WARP, self.tensile_warp, units::tension_from_kes, |f, v| f.tensile_warp = v),
+            (&ranges::TENSILE_WEFT, self.tensile_weft, units::tension_from_kes, |f, v| f.tensile_weft = v),
+            (&ranges::SHEAR, self.shear, units::shear_from_kes, |f, v| f.shear = v),
+            (&ranges::BENDING_WARP, self.bending_warp, units::bending_from_kes, |f, v| f.bending_warp = v),
+            (&ranges::BENDING_WEFT, self.bending_weft, units::bending_from_kes, |f, v| f.bending_weft = v),
+            (&ranges::POISSON, self.poisson, id, |f, v| f.poisson = v),
+            (&ranges::BENDING_POISSON, self.bending_poisson, id, |f, v| f.bending_poisson = v),
+            (&ranges::TWIST, self.twist, units::bending_from_kes, |f, v| f.twist = Some(v)),
         ];
-        fields.into_iter().filter_map(|(k, v, c, s)| v.map(|v| (k, conv(c, v), s))).collect()
+        fields.into_iter().filter_map(|(r, v, c, s)| v.map(|v| (r, conv(c, v), s))).collect()
     }
 
     /// The constants given in FAST units, converted (bending lengths need the weight given in the same table;
     /// without it they are left out and [`MaterialSpec::resolve`] reports the missing weight).
-    fn given_fast(&self) -> Vec<(&'static str, f64, Setter)> {
-        let mut out: Vec<(&'static str, f64, Setter)> = Vec::new();
+    fn given_fast(&self) -> Vec<Given> {
         let w = self.density; // g/m²
-        if let Some(v) = self.density {
-            out.push(("density", units::density_from_fast(v), |f, v| f.density = v));
-        }
-        if let Some(v) = self.damping {
-            out.push(("damping", v, |f, v| f.damping = v));
-        }
-        if let Some(v) = self.tensile_warp {
-            out.push(("tensile_warp", units::tension_from_fast(v), |f, v| f.tensile_warp = v));
-        }
-        if let Some(v) = self.tensile_weft {
-            out.push(("tensile_weft", units::tension_from_fast(v), |f, v| f.tensile_weft = v));
-        }
-        if let Some(v) = self.shear {
-            out.push(("shear", units::shear_from_fast(v), |f, v| f.shear = v));
-        }
-        if let (Some(c), Some(w)) = (self.bending_warp, w) {
-            out.push(("bending_warp", units::bending_from_fast(c, w), |f, v| f.bending_warp = v));
-        }
-        if let (Some(c), Some(w)) = (self.bending_weft, w) {
-            out.push(("bending_weft", units::bending_from_fast(c, w), |f, v| f.bending_weft = v));
-        }
-        for (key, v, set) in [
-            ("poisson", self.poisson, (|f: &mut Fabric, v| f.poisson = v) as Setter),
-            ("bending_poisson", self.bending_poisson, |f, v| f.bending_poisson = v),
-            ("twist", self.twist, |f, v| f.twist = Some(v)),
-        ] {
-            if let Some(v) = v {
-                out.push((key, v, set));
-            }
-        }
-        out
+        let bending = |c: Option<f64>| c.zip(w).map(|(c, w)| units::bending_from_fast(c, w));
+        let fields: [(&'static Range, Option<f64>, Setter); 10] = [
+            (&ranges::DENSITY, self.density.map(units::density_from_fast), |f, v| f.density = v),
+            (&ranges::DAMPING, self.damping, |f, v| f.damping = v),
+            (&ranges::TENSILE_WARP, self.tensile_warp.map(units::tension_from_fast), |f, v| f.tensile_warp = v),
+            (&ranges::TENSILE_WEFT, self.tensile_weft.map(units::tension_from_fast), |f, v| f.tensile_weft = v),
+            (&ranges::SHEAR, self.shear.map(units::shear_from_fast), |f, v| f.shear = v),
+            (&ranges::BENDING_WARP, bending(self.bending_warp), |f, v| f.bending_warp = v),
+            (&ranges::BENDING_WEFT, bending(self.bending_weft), |f, v| f.bending_weft = v),
+            (&ranges::POISSON, self.poisson, |f, v| f.poisson = v),
+            (&ranges::BENDING_POISSON, self.bending_poisson, |f, v| f.bending_poisson = v),
+            (&ranges::TWIST, self.twist, |f, v| f.twist = Some(v)),
+        ];
+        fields.into_iter().filter_map(|(r, v, s)| v.map(|v| (r, v, s))).collect()
     }
 
     /// Resolves to SI constants. `file` is the file this table was read from (for relative paths and messages),
-    /// `prefix` the dotted key of the table in it (`material` in a scene, empty in a material file).
+    /// `prefix` the dotted key of the table in it (`material` in a scene, whose messages may quote its values;
+    /// empty in a material file, whose messages never do).
     pub fn resolve(&self, file: &Path, prefix: &str) -> Result<ResolvedMaterial, SceneError> {
-        let v = Validator::within(file, prefix);
-        let (base, base_file, base_name) = match (&self.preset, &self.file) {
-            (Some(_), Some(_)) => {
-                return Err(v.bad("file", "give either `preset` or `file`, not both".into()));
-            }
-            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string())),
-            (None, Some(rel)) => {
-                let path = relative_to(file, rel);
-                let m = load_material_file(&path).map_err(|e| match e {
-                    SceneError::Io { source, .. } => {
-                        v.bad("file", format!("cannot read material file {}: {source}", path.display()))
-                    }
-                    // An error inside the material file names it (and its key); this names the referencing
-                    // file and key around it.
-                    other => SceneError::referenced(file, v.key("file"), other),
-                })?;
-                (Some(m.fabric), Some(path), Some(m.name))
-            }
-            (None, None) => (None, None, None),
-        };
+        let warnings = Warnings::default();
+        let v = if prefix.is_empty() { Validator::foreign(file, &warnings) } else { Validator::new(file, &warnings) };
+        let mut m = self.resolve_with(&v.within(prefix))?;
+        m.warnings = warnings.into_inner();
+        Ok(m)
+    }
+
+    /// As [`MaterialSpec::resolve`] with the checker `v` of the table, which collects the warnings.
+    pub(crate) fn resolve_with(&self, v: &Validator<'_>) -> Result<ResolvedMaterial, SceneError> {
+        let (base, base_file, base_name) = self.base(v)?;
         if self.units == Units::Fast
             && self.density.is_none()
             && (self.bending_warp.is_some() || self.bending_weft.is_some())
@@ -197,16 +182,13 @@ impl MaterialSpec {
             ));
         }
         let given = self.given();
-        let fabric = match base {
-            Some(mut f) => {
-                for (_, v, set) in &given {
-                    set(&mut f, *v);
-                }
-                f
-            }
+        for (range, value, _) in &given {
+            v.number(range, range.key, *value)?;
+        }
+        let mut fabric = match base {
+            Some(f) => f,
             None => {
-                let required = ["density", "tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"];
-                if let Some(missing) = required.iter().find(|r| !given.iter().any(|(k, _, _)| k == *r)) {
+                if let Some(missing) = REQUIRED.iter().find(|r| !given.iter().any(|(g, _, _)| g.key == **r)) {
                     return Err(v.bad(
                         missing,
                         "missing value: give `preset`, `file`, or all of density, tensile_warp, tensile_weft, \
@@ -214,39 +196,61 @@ impl MaterialSpec {
                             .into(),
                     ));
                 }
-                let mut f =
-                    Fabric { damping: 0.0, poisson: 0.0, bending_poisson: 0.0, twist: None, ..Fabric::paper_cotton() };
-                for (_, v, set) in &given {
-                    set(&mut f, *v);
-                }
-                f
+                Fabric { damping: 0.0, poisson: 0.0, bending_poisson: 0.0, twist: None, ..Fabric::paper_cotton() }
             }
         };
-        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) =
-            fabric.validate().and_then(|()| fabric.check_ranges())
-        {
-            // Blame the table that set the value: this one if it gave the key, else the file it extends.
-            let here = given.iter().any(|(k, _, _)| *k == bad);
-            return Err(match (&base_file, here) {
-                (Some(bf), false) => {
-                    let inner = Validator::new(bf).bad(bad, format!("{value}: {what}"));
-                    SceneError::referenced(file, v.key("file"), inner)
+        for (_, value, set) in &given {
+            set(&mut fabric, *value);
+        }
+        // The constants together (Poisson's ratios against the stiffnesses): blame the table that set the value,
+        // this one if it gave the key, else the file it extends.
+        if let Err(crate::material::MaterialError::Invalid { key: bad, value, what }) = fabric.validate() {
+            let here = given.iter().any(|(g, _, _)| g.key == bad);
+            return Err(match &base_file {
+                Some(bf) if !here => {
+                    let inner = Validator::foreign(bf, &Warnings::default()).bad_value(bad, value, what);
+                    SceneError::referenced(v.file(), v.key("file"), inner)
                 }
-                _ => v.bad(bad, format!("{value}: {what}")),
+                _ => v.bad_value(bad, value, what),
             });
         }
         let name = self.name.clone().or(base_name).unwrap_or_else(|| "inline".to_string());
-        Ok(ResolvedMaterial { fabric, name })
+        Ok(ResolvedMaterial { fabric, name, warnings: Vec::new() })
+    }
+
+    /// The fabric this table extends (a preset's or a material file's), the file, and its name.
+    fn base(&self, v: &Validator<'_>) -> Result<Base, SceneError> {
+        Ok(match (&self.preset, &self.file) {
+            (Some(_), Some(_)) => {
+                return Err(v.bad("file", "give either `preset` or `file`, not both".into()));
+            }
+            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string())),
+            (None, Some(rel)) => {
+                let path = relative_to(v.file(), rel);
+                let m = load_material_file(&path).map_err(|e| match e {
+                    SceneError::Io { source, .. } => {
+                        v.bad("file", format!("cannot read material file {}: {source}", path.display()))
+                    }
+                    // An error inside the material file names it (and its key); this names the referencing
+                    // file and key around it.
+                    other => SceneError::referenced(v.file(), v.key("file"), other),
+                })?;
+                v.extend(m.warnings);
+                (Some(m.fabric), Some(path), Some(m.name))
+            }
+            (None, None) => (None, None, None),
+        })
     }
 }
 
-/// Reads and resolves a material file (`materials/*.toml`).
+/// Reads and resolves a material file (`materials/*.toml`). Its messages and warnings never quote its values.
 pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
     let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
     let spec: MaterialSpec = parse_toml_foreign(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
-        return Err(Validator::new(path).bad(k, "a material file gives constants; it cannot extend another".into()));
+        let message = "a material file gives constants; it cannot extend another".into();
+        return Err(Validator::foreign(path, &Warnings::default()).bad(k, message));
     }
     let mut m = spec.resolve(path, "")?;
     if spec.name.is_none() {

@@ -11,10 +11,14 @@
 //! - [`material`]: `[material]` and material files (presets, SI, KES-F and FAST units) resolved to SI constants.
 //! - [`initial`]: `[initial]`, the initial velocities and positions.
 //! - [`garment`]: `[garment]`, its check, and the call into [`crate::garment`], which builds the skirt.
+//! - `values.rs`: the check of every value of a scene (each key once), into the parts a model is built from.
 //! - `build.rs`: [`SceneSpec::build`], which checks every value and builds the [`Scene`] (model, initial state,
-//!   run settings).
+//!   run settings), and [`SceneSpec::check_with`], which checks without building the model.
+//! - [`ranges`]: the range table, one entry per numeric key: its sign rule, its hard bounds (an error beyond)
+//!   and, for the fabric's physical quantities, its usual range in SI and KES-F units (a [`SceneWarning`]
+//!   beyond).
 //! - `validate.rs`: the one value checker the other files share, so a check reads the same wherever it is made.
-//! - `error.rs`: [`SceneError`] and the TOML reader that locates parse errors.
+//! - `error.rs`: [`SceneError`], [`SceneWarning`] and the TOML reader that locates parse errors.
 //! - [`spans`]: the dotted key at a byte offset of TOML text, from the parser's spans, for those errors.
 //! - [`budget`]: the size and memory estimate checked before anything large is allocated.
 
@@ -24,13 +28,15 @@ mod error;
 pub mod garment;
 pub mod initial;
 pub mod material;
+pub mod ranges;
 pub mod spans;
 mod spec;
 mod validate;
+mod values;
 
 pub use budget::Limits;
-pub use build::Scene;
-pub use error::SceneError;
+pub use build::{Scene, SceneReport};
+pub use error::{SceneError, SceneWarning};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};
@@ -50,4 +56,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// As [`load`] with the resource `limits`.
 pub fn load_with(path: &Path, limits: &Limits) -> Result<Scene, SceneError> {
     SceneSpec::load(path)?.build_with(path, limits)
+}
+
+/// Reads, parses and checks the scene file at `path` with the resource `limits`, without building its model
+/// ([`SceneSpec::check_with`]).
+pub fn check_with(path: &Path, limits: &Limits) -> Result<SceneReport, SceneError> {
+    SceneSpec::load(path)?.check_with(path, limits)
 }

@@ -22,7 +22,7 @@ pub mod defaults {
     /// Gravity (m/s²).
     pub const GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
     /// Time step (s).
-    pub const DT: f64 = 0.01;
+    pub const DT: f64 = crate::integrate::StepParams::DT;
     /// Friction's slip speed `ε_v` (m/s).
     pub const SLIP_SPEED: f64 = crate::potential::contact::ContactParams::SLIP_SPEED;
     /// Contact offset `δ` (m).
@@ -152,6 +152,7 @@ fn default_dt() -> f64 {
 /// The time-stepping scheme.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum IntegratorKind {
     /// Linearised implicit step with `H⁺` (default).
     #[default]
@@ -372,6 +373,7 @@ fn default_target() -> SpringTarget {
 /// Mesh format of the frames.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FrameFormat {
     /// Wavefront OBJ with normals (default).
     #[default]

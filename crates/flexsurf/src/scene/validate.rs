@@ -1,32 +1,57 @@
 //! The one value checker of the scene format: a [`Validator`] knows the file (and the table, for a prefix of
 //! the dotted keys) and turns each failed check into a [`SceneError::Invalid`] with the same wording wherever the
 //! check is made: the scene's own tables (`build.rs`), `[material]` and material files (`material.rs`) and
-//! `[garment]` (`garment.rs`).
+//! `[garment]` (`garment.rs`). Numbers are checked against their entry of the range table
+//! ([`super::ranges`]): an error outside the hard bounds, a [`SceneWarning`] (collected, not printed)
+//! outside the usual range of fabrics.
 
-use super::error::SceneError;
+use super::error::{SceneError, SceneWarning};
+use super::ranges::Range;
 use super::spec::NamedSet;
 use crate::grid::Grid;
-use crate::math::Vec3;
+use std::cell::RefCell;
 use std::fmt::Display;
 use std::ops::RangeInclusive;
 use std::path::Path;
+
+/// Where the warnings of one scene (and the files it references) are collected.
+pub(crate) type Warnings = RefCell<Vec<SceneWarning>>;
 
 /// Checks values read from `file`; keys are given relative to the table `prefix` (empty: the top level).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Validator<'a> {
     file: &'a Path,
     prefix: &'a str,
+    /// Messages may quote the file's values (not for files other than the scene: material files).
+    echo: bool,
+    warnings: &'a Warnings,
 }
 
 impl<'a> Validator<'a> {
-    /// Checks the top level of `file`.
-    pub(crate) fn new(file: &'a Path) -> Self {
-        Self { file, prefix: "" }
+    /// Checks the top level of the scene file `file`, collecting warnings into `warnings`.
+    pub(crate) fn new(file: &'a Path, warnings: &'a Warnings) -> Self {
+        Self { file, prefix: "", echo: true, warnings }
     }
 
-    /// Checks the table `prefix` of `file` (`material`, `garment`; empty for the top level).
-    pub(crate) fn within(file: &'a Path, prefix: &'a str) -> Self {
-        Self { file, prefix }
+    /// Checks a file other than the scene (a material file): its messages never quote its values.
+    pub(crate) fn foreign(file: &'a Path, warnings: &'a Warnings) -> Self {
+        Self { file, prefix: "", echo: false, warnings }
+    }
+
+    /// The same checker for the table `prefix` of the file (`material`; empty for the top level).
+    pub(crate) fn within(&self, prefix: &'a str) -> Self {
+        Self { prefix, ..*self }
+    }
+
+    /// Records a warning about `key`.
+    pub(crate) fn warn(&self, key: &str, message: String) {
+        let file = self.file.display().to_string();
+        self.warnings.borrow_mut().push(SceneWarning { file, key: self.key(key), message });
+    }
+
+    /// Adds the warnings of a referenced file.
+    pub(crate) fn extend(&self, warnings: Vec<SceneWarning>) {
+        self.warnings.borrow_mut().extend(warnings);
     }
 
     /// The file checked.
@@ -48,6 +73,12 @@ impl<'a> Validator<'a> {
         SceneError::invalid(self.file, self.key(key), message)
     }
 
+    /// The error for `key` whose `value` is `what` (`must be positive`), quoting the value unless the file is
+    /// not the scene.
+    pub(crate) fn bad_value(&self, key: &str, value: f64, what: &str) -> SceneError {
+        self.bad(key, if self.echo { format!("{value}: {what}") } else { what.to_string() })
+    }
+
     /// `Ok` when `ok`, else the error for `key` with `message()`.
     pub(crate) fn require(&self, key: &str, ok: bool, message: impl FnOnce() -> String) -> Result<(), SceneError> {
         if ok {
@@ -57,39 +88,29 @@ impl<'a> Validator<'a> {
         }
     }
 
-    /// Three finite numbers.
-    pub(crate) fn finite3(&self, key: &str, v: [f64; 3]) -> Result<Vec3, SceneError> {
-        if v.iter().all(|c| c.is_finite()) {
-            Ok(Vec3::from_array(v))
-        } else {
-            Err(self.bad(key, format!("{v:?} must be three finite numbers")))
+    /// `value` of `key` checked against its entry `range` of the range table: an error when it breaks the
+    /// entry's sign rule or hard bounds, a warning when it lies outside the usual range of fabrics.
+    pub(crate) fn number(&self, range: &Range, key: &str, value: f64) -> Result<f64, SceneError> {
+        if let Some(problem) = range.problem(value, self.echo) {
+            return Err(self.bad(key, problem));
         }
+        if let Some(note) = range.unusual(value, self.echo) {
+            self.warn(key, note);
+        }
+        Ok(value)
     }
 
-    /// A positive finite number in `unit`.
-    pub(crate) fn positive(&self, key: &str, v: f64, unit: &str) -> Result<f64, SceneError> {
-        if !v.is_finite() {
-            Err(self.bad(key, format!("{v} {unit} must be a finite number")))
-        } else if v <= 0.0 {
-            Err(self.bad(key, format!("{v} {unit} must be positive")))
-        } else {
-            Ok(v)
+    /// As [`Validator::number`] for each component of `values` (positions, vectors, sizes).
+    pub(crate) fn numbers<const N: usize>(
+        &self,
+        range: &Range,
+        key: &str,
+        values: [f64; N],
+    ) -> Result<[f64; N], SceneError> {
+        for value in values {
+            self.number(range, key, value)?;
         }
-    }
-
-    /// A finite number, zero or more, in `unit`.
-    pub(crate) fn non_negative(&self, key: &str, v: f64, unit: &str) -> Result<f64, SceneError> {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(self.bad(key, format!("{v} {unit} must be finite and non-negative")))
-        }
-    }
-
-    /// A positive finite length in metres (the wording of `[garment]`).
-    pub(crate) fn positive_length(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        self.require(key, v.is_finite() && v > 0.0, || format!("{v} m must be a positive, finite length"))?;
-        Ok(v)
+        Ok(values)
     }
 
     /// A count of at least `min`.

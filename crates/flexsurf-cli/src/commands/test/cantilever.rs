@@ -4,7 +4,6 @@
 use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
-use clap::ValueEnum;
 use flexsurf::io::render;
 use flexsurf::lab::cantilever::{cantilever_with_hang, CantileverReport, Direction, Hang, Strip};
 use flexsurf::math::Vec3;
@@ -17,8 +16,8 @@ pub struct CantileverArgs {
     #[command(flatten)]
     fabric: FabricArgs,
     /// The strip's direction (bias: 45° to warp and weft).
-    #[arg(long, value_enum, default_value_t = DirectionArg::Warp)]
-    direction: DirectionArg,
+    #[arg(long, value_enum, default_value_t = Direction::Warp)]
+    direction: Direction,
     /// Overhang in metres (default: the Peirce length 2 (K/w)^(1/3) of the input). Several, comma-separated
     /// (`--overhang 0.04,0.06,0.08`), run a sweep and chart the chord angle against the overhang.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
@@ -31,29 +30,12 @@ pub struct CantileverArgs {
     out: Option<PathBuf>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum DirectionArg {
-    Warp,
-    Weft,
-    Bias,
-}
-
-impl From<DirectionArg> for Direction {
-    fn from(d: DirectionArg) -> Self {
-        match d {
-            DirectionArg::Warp => Self::Warp,
-            DirectionArg::Weft => Self::Weft,
-            DirectionArg::Bias => Self::Bias,
-        }
-    }
-}
-
 /// `flexsurf test cantilever`.
 pub fn execute(args: &CantileverArgs) -> Result<()> {
     let (fabric, name) = args.fabric.load()?;
     let calibration = args.fabric.calibration();
     let t = std::time::Instant::now();
-    let (direction, width) = (Direction::from(args.direction), args.width);
+    let (direction, width) = (args.direction, args.width);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cantilever"));
     for &l in &args.overhang {
         // A bench strip is centimetres long; beyond 10 m the elastica's arithmetic overflows (issue 11:
@@ -181,7 +163,7 @@ fn sweep(
     out: &Path,
 ) -> Result<()> {
     use flexsurf::runner::plots::{line_chart, Series};
-    let direction = Direction::from(args.direction);
+    let direction = args.direction;
     let strip = Strip { direction, width: args.width.unwrap_or(Strip::WIDTH) };
     let t = std::time::Instant::now();
     let mut reports = Vec::new();

@@ -8,7 +8,7 @@ pub mod cusick;
 pub mod kes;
 
 use anyhow::Result;
-use clap::{Subcommand, ValueEnum};
+use clap::Subcommand;
 use flexsurf::material::{Calibration, Fabric};
 use std::path::PathBuf;
 
@@ -31,26 +31,11 @@ pub struct FabricArgs {
     #[arg(long)]
     material: Option<PathBuf>,
     /// Calibration of the energy coefficients.
-    #[arg(long, value_enum, default_value_t = CalibrationArg::Kes)]
-    calibration: CalibrationArg,
+    #[arg(long, value_enum, default_value_t = Calibration::Kes)]
+    calibration: Calibration,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum CalibrationArg {
-    Kes,
-    Paper,
-}
-
-impl From<CalibrationArg> for Calibration {
-    fn from(c: CalibrationArg) -> Self {
-        match c {
-            CalibrationArg::Kes => Self::Kes,
-            CalibrationArg::Paper => Self::Paper,
-        }
-    }
 }
 
 impl FabricArgs {
@@ -67,7 +52,7 @@ impl FabricArgs {
 
     /// The chosen calibration.
     fn calibration(&self) -> Calibration {
-        self.calibration.into()
+        self.calibration
     }
 }
 

@@ -139,8 +139,9 @@ pub enum NurbsError {
         /// The scale factor given.
         scale: f64,
     },
-    /// Lengths in a file are not in metres.
-    #[error("units = {0:?}: only \"m\" (metres) is supported")]
+    /// Lengths in a file are not in metres (the value is kept for callers; the message does not quote it: the
+    /// values of a body file are never echoed).
+    #[error("`units`: only \"m\" (metres) is supported")]
     Units(String),
     /// A file could not be read.
     #[error("{file}: cannot read the file: {message}")]

@@ -58,10 +58,12 @@ pub enum LinearError {
 /// Which linear solver the step uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolverKind {
     /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above (the
     /// default; docs/performance.md).
     #[default]
+    #[cfg_attr(feature = "clap", value(help = "Cholesky on small grids, multigrid on large ones"))]
     Auto,
     /// Sparse Cholesky, its factor reused across steps as a preconditioner.
     Cholesky,

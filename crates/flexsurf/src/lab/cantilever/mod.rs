@@ -41,6 +41,7 @@ pub const PEIRCE_ANGLE: f64 = 41.5;
 /// Which way the strip is cut.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Direction {
     /// Along the warp (rigidity K1).
     Warp,

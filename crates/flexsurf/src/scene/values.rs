@@ -1,0 +1,323 @@
+//! Checking a scene's values: [`SceneSpec::checked`] checks every key of a parsed scene once, with one
+//! [`Validator`] and its entry of the range table (in the order the tables are listed in `docs/scenes.md`:
+//! time, obstacles, contact, material, gravity, sheet or garment, initial, pins, springs, output), and returns
+//! the [`Checked`] parts a model is built from: the files it names are read, the grid and the initial shape are
+//! made (a garment is fitted onto the obstacles), and the shape is checked to start outside the obstacles. The
+//! model itself (its elastic terms, the large allocation) is made by `build.rs`; `flexsurf check` stops here.
+
+use super::budget::{self, Estimate, Limits};
+use super::garment::GarmentSpec;
+use super::initial::InitialCondition;
+use super::material::relative_to;
+use super::ranges;
+use super::spec::{BuiltinBody, ObstacleSpec, SceneSpec, SheetSpec, SpringTarget};
+use super::validate::Validator;
+use super::SceneError;
+use crate::contact::nurbs::NurbsBody;
+use crate::contact::trimesh::TriMeshBody;
+use crate::contact::{mannequin, Obstacle};
+use crate::garment::GarmentShape;
+use crate::grid::{Grid, Topology};
+use crate::material::{Fabric, Stiffness};
+use crate::math::{Mat3, Vec3};
+use crate::potential::contact::ContactParams;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The checked sheet or garment, before the model is built.
+pub(crate) enum Body<'s> {
+    /// A `[sheet]`: its grid and its rest (and initial) positions.
+    Sheet { grid: Grid, rest: Vec<Vec3>, initial: Vec<Vec3> },
+    /// A `[garment]` and its built geometry.
+    Garment { spec: &'s GarmentSpec, shape: GarmentShape },
+}
+
+impl Body<'_> {
+    pub(crate) fn grid(&self) -> &Grid {
+        match self {
+            Body::Sheet { grid, .. } => grid,
+            Body::Garment { shape, .. } => &shape.grid,
+        }
+    }
+
+    /// The initial positions.
+    pub(crate) fn initial(&self) -> &[Vec3] {
+        match self {
+            Body::Sheet { initial, .. } => initial,
+            Body::Garment { shape, .. } => &shape.initial,
+        }
+    }
+
+    /// Replaces the initial positions (the rest shape stays).
+    fn set_initial(&mut self, x: Vec<Vec3>) {
+        match self {
+            Body::Sheet { initial, .. } => *initial = x,
+            Body::Garment { shape, .. } => shape.initial = x,
+        }
+    }
+}
+
+/// A checked `[[spring]]`: its nodes, its target point (`None`: each node's initial position), its stiffness.
+pub(crate) struct SpringSet {
+    pub(crate) nodes: Vec<usize>,
+    pub(crate) target: Option<Vec3>,
+    pub(crate) stiffness: f64,
+}
+
+/// Everything the model is built from, every value checked.
+pub(crate) struct Parts<'s> {
+    pub(crate) body: Body<'s>,
+    pub(crate) fabric: Fabric,
+    pub(crate) stiffness: Stiffness,
+    pub(crate) gravity: Vec3,
+    pub(crate) obstacles: Vec<Obstacle>,
+    pub(crate) contact: ContactParams,
+    pub(crate) pins: Vec<Vec<usize>>,
+    pub(crate) springs: Vec<SpringSet>,
+}
+
+/// A scene whose every value is checked: the parts of its model and its run settings.
+pub(crate) struct Checked<'s> {
+    pub(crate) parts: Parts<'s>,
+    pub(crate) dt: f64,
+    pub(crate) output_every: usize,
+    pub(crate) condition: InitialCondition,
+    pub(crate) material: String,
+    pub(crate) estimate: Estimate,
+}
+
+impl SceneSpec {
+    /// Checks every value (sizes and memory first, from the sizes alone: nothing large is allocated for a scene
+    /// that fails them) and returns the parts of the model.
+    pub(crate) fn checked(&self, v: &Validator<'_>, limits: &Limits) -> Result<Checked<'_>, SceneError> {
+        let (output_every, estimate) = budget::check(self, v, limits)?;
+        let dt = v.number(&ranges::DT, "time.dt", self.time.dt)?;
+        // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
+        let mut obstacles = Vec::with_capacity(self.obstacles.len());
+        for (i, o) in self.obstacles.iter().enumerate() {
+            obstacles.push(obstacle(v, i, o)?);
+        }
+        let material = self.material.resolve_with(&v.within("material"))?;
+        let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
+            .map_err(|e| v.bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
+        let gravity = Vec3::from_array(v.numbers(&ranges::GRAVITY, "gravity", self.gravity)?);
+        let contact = self.contact(v, material.fabric.density, gravity, !obstacles.is_empty())?;
+        // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
+        let mut body = self.body(v, &obstacles, contact.offset)?;
+        let condition = self.initial.condition(v)?;
+        if let Some(x) = self.initial.positions(v, body.grid(), self.output.coons_subdivisions)? {
+            body.set_initial(x);
+        }
+        starts_outside(v, &obstacles, contact.offset, &body)?;
+        let (pins, springs) = self.constraints(v, body.grid())?;
+        self.check_output(v)?;
+        let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
+        Ok(Checked { parts, dt, output_every, condition, material: material.name, estimate })
+    }
+
+    /// The checked `[contact]`; the default stiffness follows the fabric's `density` and `gravity`.
+    fn contact(&self, v: &Validator<'_>, density: f64, gravity: Vec3, any: bool) -> Result<ContactParams, SceneError> {
+        let c = &self.contact;
+        let offset = v.number(&ranges::CONTACT_OFFSET, "contact.offset", c.offset)?;
+        let stiffness = match c.stiffness {
+            Some(k) => v.number(&ranges::CONTACT_STIFFNESS, "contact.stiffness", k)?,
+            None if offset > 0.0 => ContactParams::default_stiffness(density, gravity, offset),
+            None if !any => 0.0,
+            None => {
+                return Err(v.bad(
+                    "contact.offset",
+                    "is 0, so the default contact stiffness (scaled by the fabric's weight over the offset) is \
+                     undefined: give a positive offset or an explicit contact.stiffness"
+                        .to_string(),
+                ))
+            }
+        };
+        Ok(ContactParams {
+            stiffness,
+            offset,
+            friction: v.number(&ranges::FRICTION, "contact.friction", c.friction)?,
+            slip_speed: v.number(&ranges::SLIP_SPEED, "contact.slip_speed", c.slip_speed)?,
+        })
+    }
+
+    /// The checked `[sheet]` or `[garment]` (exactly one is given); a garment is fitted onto `obstacles` with
+    /// contact offset `offset`.
+    fn body(&self, v: &Validator<'_>, obstacles: &[Obstacle], offset: f64) -> Result<Body<'_>, SceneError> {
+        match (&self.sheet, &self.garment) {
+            (Some(_), Some(_)) => {
+                Err(v.bad("garment", "give exactly one of `[sheet]` and `[garment]`, not both".into()))
+            }
+            (None, None) => {
+                Err(v.bad("sheet", "give exactly one of `[sheet]` and `[garment]`; neither is present".into()))
+            }
+            (Some(s), None) => {
+                let grid = sheet_grid(v, s)?;
+                let center = v.numbers(&ranges::SHEET_CENTER, "sheet.center", s.center)?;
+                let angles = v.numbers(&ranges::SHEET_ROTATE, "sheet.rotate_deg", s.rotate_deg)?;
+                let rest = initial_positions(&grid, Vec3::from_array(center), Vec3::from_array(angles));
+                Ok(Body::Sheet { grid, initial: rest.clone(), rest })
+            }
+            (None, Some(g)) => Ok(Body::Garment { spec: g, shape: g.shape(v, obstacles, offset)? }),
+        }
+    }
+
+    /// The checked `[[pin]]` node sets and `[[spring]]` tables on `grid`.
+    fn constraints(&self, v: &Validator<'_>, grid: &Grid) -> Result<(Vec<Vec<usize>>, Vec<SpringSet>), SceneError> {
+        let mut pins = Vec::with_capacity(self.pins.len());
+        for (i, pin) in self.pins.iter().enumerate() {
+            pins.push(v.node_set(grid, pin.set, &pin.nodes, &format!("pin[{i}]"))?);
+        }
+        let mut springs = Vec::with_capacity(self.springs.len());
+        for (i, sp) in self.springs.iter().enumerate() {
+            let key = format!("spring[{i}]");
+            let stiffness = v.number(&ranges::SPRING_STIFFNESS, &format!("{key}.stiffness"), sp.stiffness)?;
+            let target = match sp.target {
+                SpringTarget::Initial(_) => None,
+                SpringTarget::Point(p) => {
+                    Some(Vec3::from_array(v.numbers(&ranges::SPRING_TARGET, &format!("{key}.target"), p)?))
+                }
+            };
+            let nodes = v.node_set(grid, sp.set, &sp.nodes, &key)?;
+            springs.push(SpringSet { nodes, target, stiffness });
+        }
+        Ok((pins, springs))
+    }
+
+    /// Checks `[output]`.
+    fn check_output(&self, v: &Validator<'_>) -> Result<(), SceneError> {
+        v.in_range("output.coons_subdivisions", self.output.coons_subdivisions, 1..=64)?;
+        let [w, h] = self.output.image_size;
+        let side = 16..=8192;
+        v.require("output.image_size", side.contains(&w) && side.contains(&h), || {
+            format!("[{w}, {h}]: each side must be between 16 and 8192 pixels")
+        })
+    }
+}
+
+/// The sheet must not start inside an obstacle deeper than the contact offset (the penalty would throw it out
+/// violently, or hold it inside): an error naming the obstacle, the count and the deepest node.
+fn starts_outside(v: &Validator<'_>, obstacles: &[Obstacle], offset: f64, body: &Body<'_>) -> Result<(), SceneError> {
+    let x = body.initial();
+    for (i, o) in obstacles.iter().enumerate() {
+        let (mut count, mut deepest, mut at) = (0usize, 0.0_f64, 0usize);
+        for (k, p) in x.iter().enumerate() {
+            if let Some((d, _)) = o.distance_hinted(*p, &mut None, offset) {
+                if d < -offset {
+                    count += 1;
+                    if -d > deepest {
+                        (deepest, at) = (-d, k);
+                    }
+                }
+            }
+        }
+        if count > 0 {
+            let (a, b) = body.grid().coords(at);
+            return Err(v.bad(
+                &format!("obstacle[{i}]"),
+                format!(
+                    "{count} of the sheet's {} nodes start inside this obstacle, deeper than the contact offset \
+                     ({offset} m); the deepest, node [{a}, {b}], is {deepest:.4} m inside: move the sheet or the \
+                     obstacle",
+                    x.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The grid of a `[sheet]`.
+fn sheet_grid(v: &Validator<'_>, s: &SheetSpec) -> Result<Grid, SceneError> {
+    let [l1, l2] = v.numbers(&ranges::SHEET_SIZE, "sheet.size", s.size)?;
+    for (d, &count) in s.nodes.iter().enumerate() {
+        v.require("sheet.nodes", count >= 3, || {
+            format!("direction u{} has {count} nodes; at least 3 are needed", d + 1)
+        })?;
+    }
+    v.require("sheet.topology", s.topology != [Topology::Periodic; 2], || {
+        "both directions periodic (a torus) is not supported".into()
+    })?;
+    let [m, n] = s.nodes;
+    let spacing = |l: f64, count: usize, t: Topology| match t {
+        Topology::Free => l / (count - 1) as f64,
+        Topology::Periodic => l / count as f64,
+    };
+    Grid::new(m, n, spacing(l1, m, s.topology[0]), spacing(l2, n, s.topology[1]), s.topology)
+        .map_err(|e| v.bad("sheet.nodes", e.to_string()))
+}
+
+/// Builds obstacle `i`; body files are found relative to the scene file.
+fn obstacle(v: &Validator<'_>, i: usize, o: &ObstacleSpec) -> Result<Obstacle, SceneError> {
+    let key = |k: &str| format!("obstacle[{i}].{k}");
+    let point = |r: &ranges::Range, k: &str, p: [f64; 3]| v.numbers(r, &key(k), p).map(Vec3::from_array);
+    Ok(match o {
+        ObstacleSpec::Sphere(sp) => Obstacle::Sphere {
+            center: point(&ranges::SPHERE_CENTER, "sphere.center", sp.center)?,
+            radius: v.number(&ranges::SPHERE_RADIUS, &key("sphere.radius"), sp.radius)?,
+        },
+        ObstacleSpec::Plane(p) => {
+            let normal = point(&ranges::PLANE_NORMAL, "plane.normal", p.normal)?;
+            if normal.length() == 0.0 {
+                return Err(v.bad(&key("plane.normal"), "the normal must not be zero".into()));
+            }
+            Obstacle::Plane { point: point(&ranges::PLANE_POINT, "plane.point", p.point)?, normal: normal.normalize() }
+        }
+        ObstacleSpec::Nurbs(spec) => match (&spec.file, spec.builtin) {
+            (Some(_), Some(_)) | (None, None) => {
+                return Err(v.bad(
+                    &key("nurbs"),
+                    "give exactly one of `file` (a body file) and `builtin` (\"mannequin\")".into(),
+                ));
+            }
+            (None, Some(BuiltinBody::Mannequin)) => Obstacle::Nurbs(Arc::new(mannequin::generate())),
+            (Some(f), None) => {
+                let path = relative_to(v.file(), f);
+                let body =
+                    NurbsBody::from_file(&path).map_err(|e| v.bad(&key("nurbs.file"), naming(&path, e.to_string())))?;
+                Obstacle::Nurbs(Arc::new(body))
+            }
+        },
+        ObstacleSpec::Mesh(spec) => {
+            let path = relative_to(v.file(), &spec.file);
+            let body =
+                TriMeshBody::from_obj(&path).map_err(|e| v.bad(&key("mesh.file"), naming(&path, e.to_string())))?;
+            Obstacle::Mesh(Arc::new(body))
+        }
+    })
+}
+
+/// `message` about the body file `path`, prefixed with the path unless it already names it.
+fn naming(path: &Path, message: String) -> String {
+    let name = path.display().to_string();
+    if message.contains(&name) {
+        message
+    } else {
+        format!("{name}: {message}")
+    }
+}
+
+/// Initial (and rest) positions: a flat sheet rotated by `angles` (degrees, x then y then z) and centred at
+/// `center`, or a cylinder about the z axis when one direction is periodic.
+fn initial_positions(grid: &Grid, center: Vec3, angles: Vec3) -> Vec<Vec3> {
+    let rot = Mat3::from_rotation_z(angles.z.to_radians())
+        * Mat3::from_rotation_y(angles.y.to_radians())
+        * Mat3::from_rotation_x(angles.x.to_radians());
+    let local: Vec<Vec3> = if grid.periodic(0) || grid.periodic(1) {
+        // Periodic direction p wraps around z; the other direction q runs along z, centred.
+        let (p, q) = if grid.periodic(0) { (0, 1) } else { (1, 0) };
+        let circumference = grid.spacing(p) * grid.count(p) as f64;
+        let radius = circumference / std::f64::consts::TAU;
+        let height = grid.spacing(q) * (grid.count(q) - 1) as f64;
+        (0..grid.len())
+            .map(|k| {
+                let ij = grid.coords(k);
+                let (a, b) = if p == 0 { ij } else { (ij.1, ij.0) };
+                let theta = std::f64::consts::TAU * a as f64 / grid.count(p) as f64;
+                Vec3::new(radius * theta.cos(), radius * theta.sin(), b as f64 * grid.spacing(q) - 0.5 * height)
+            })
+            .collect()
+    } else {
+        grid.flat_positions(0.0)
+    };
+    local.into_iter().map(|p| rot * p + center).collect()
+}
