@@ -57,20 +57,26 @@
 // Index loops over small fixed-size stencil arrays mirror the formulas (Σ_ab Q_ab …) they implement.
 #![allow(clippy::needless_range_loop)]
 
+#[cfg(feature = "app")]
 pub mod bench;
 pub mod contact;
 pub mod energy;
 pub mod garment;
 pub mod grid;
 pub mod integrate;
+#[cfg(feature = "app")]
 pub mod io;
+#[cfg(feature = "app")]
 pub mod lab;
 pub mod material;
 pub mod math;
 pub mod model;
 pub mod ops;
 pub mod potential;
+pub mod ranges;
+#[cfg(feature = "app")]
 pub mod runner;
+#[cfg(feature = "app")]
 pub mod scene;
 pub mod sim;
 pub mod sparse;

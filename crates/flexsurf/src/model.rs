@@ -187,7 +187,7 @@ impl ModelBuilder {
             return Err(model_error("loads", format!("node {k} is not finite")));
         }
         // The sign rules of the range table (models built by hand, in scaled units, may leave its bounds).
-        use crate::scene::ranges::{self, Range};
+        use crate::ranges::{self, Range};
         let sign = |field: &'static str, range: &Range, v: f64| match range.sign_problem(v, true) {
             Some(p) => Err(model_error(field, p)),
             None => Ok(()),

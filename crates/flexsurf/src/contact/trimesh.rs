@@ -230,6 +230,7 @@ impl TriMeshBody {
     }
 
     /// Loads an OBJ file.
+    #[cfg(feature = "app")]
     pub fn from_obj(path: impl AsRef<Path>) -> Result<Self, TriMeshError> {
         let path = path.as_ref();
         let file = path.display().to_string();

@@ -7,7 +7,6 @@ use super::skirt::Cone;
 use super::GarmentError;
 use crate::contact::{self, Obstacle};
 use crate::math::Vec3;
-use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 
@@ -23,7 +22,8 @@ pub const MIN_WAIST_SAMPLES: usize = 256;
 const WAIST_BISECTIONS: usize = 32;
 
 /// How the waist row is placed on the body.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "app", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum WaistFit {
     /// The waist circle of the pattern; a node closer to the body than the contact offset moves radially outward

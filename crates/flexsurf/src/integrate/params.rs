@@ -8,7 +8,8 @@ use crate::model::Model;
 use serde::{Deserialize, Serialize};
 
 /// The time-stepping scheme of a dynamic integration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "app", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Scheme {
     /// Linearised implicit step with the positive semi-definite Hessian (default): unconditionally stable.

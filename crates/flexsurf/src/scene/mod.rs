@@ -28,7 +28,7 @@ mod error;
 pub mod garment;
 pub mod initial;
 pub mod material;
-pub mod ranges;
+pub use crate::ranges;
 pub mod spans;
 mod spec;
 mod validate;

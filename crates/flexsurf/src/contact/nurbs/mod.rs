@@ -50,6 +50,8 @@
 mod basis;
 mod body;
 mod error;
+// The body file format (TOML) is the application's.
+#[cfg(feature = "app")]
 mod format;
 mod patch;
 mod project;
