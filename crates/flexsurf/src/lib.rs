@@ -17,6 +17,12 @@
 //! textile tests (KES-F, cantilever, Cusick drape). `docs/design.md` says where a new term, obstacle, output
 //! format or solver goes.
 //!
+//! **Core and application.** The physics core (grid, ops, material, energy, contact geometry, potential,
+//! model, integrate, surface, garment fitting, the range table) builds on its own with
+//! `default-features = false`: it depends on no image, plotting, VTK, glTF or TOML crate. The default feature
+//! `app` adds the application on top: [`scene`], [`runner`], [`io`], [`lab`] and [`bench`]. [`prelude`] holds the
+//! types most programs use.
+//!
 //! ## A sheet dropped on a ball, from the library
 //!
 //! ```

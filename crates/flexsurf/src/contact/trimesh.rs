@@ -10,6 +10,7 @@ use crate::math::Vec3;
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::PointQueryWithLocation;
 use parry3d_f64::shape::{TriMesh as ParryTriMesh, TriMeshFlags};
+#[cfg(feature = "app")]
 use std::path::Path;
 use thiserror::Error;
 
