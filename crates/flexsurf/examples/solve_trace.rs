@@ -18,7 +18,7 @@ fn main() {
             let file = std::path::Path::new(&path);
             let text = std::fs::read_to_string(file).expect("scene file");
             let mut spec = flexsurf::scene::SceneSpec::from_toml(&text, file).expect("scene");
-            if let Some(sheet) = spec.sheet.as_mut() {
+            if let Some(sheet) = spec.sheet.as_mut().map(flexsurf::scene::Sheets::first_mut) {
                 sheet.nodes = [n, n];
             }
             spec.build(file).expect("scene")

@@ -36,7 +36,7 @@ pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
 pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
-    if let Some(sheet) = spec.sheet.as_mut() {
+    if let Some(sheet) = spec.sheet.as_mut().map(crate::scene::Sheets::first_mut) {
         sheet.nodes = [n, n];
         if workload == Workload::Touching {
             // The ball's radius is 0.3 m and the contact offset 5 mm: the centre node starts 0.1 mm inside the

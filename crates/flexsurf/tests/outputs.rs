@@ -18,7 +18,7 @@ fn scratch(tag: &str) -> PathBuf {
 fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
     let path = repo().join("scenes/ball_drop.toml");
     let mut spec = SceneSpec::load(&path).unwrap();
-    spec.sheet.as_mut().unwrap().nodes = [11, 11];
+    spec.sheet.as_mut().unwrap().first_mut().nodes = [11, 11];
     spec.time.steps = 60;
     spec.time.output_every = Some(15);
     spec.output.image_size = [160, 120];

@@ -26,7 +26,7 @@ fn scene(file: &str, steps: usize, every: usize, nodes: Option<[usize; 2]>) -> S
     spec.time.steps = steps;
     spec.time.output_every = Some(every);
     spec.output.image_size = [96, 72];
-    if let (Some(n), Some(sheet)) = (nodes, spec.sheet.as_mut()) {
+    if let (Some(n), Some(sheet)) = (nodes, spec.sheet.as_mut().map(flexsurf::scene::Sheets::first_mut)) {
         sheet.nodes = n;
     }
     spec.build(&path).unwrap()

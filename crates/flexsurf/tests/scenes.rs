@@ -261,7 +261,7 @@ fn listing(dir: &Path) -> Vec<String> {
 fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     let path = repo().join("scenes/ball_drop.toml");
     let mut spec = SceneSpec::load(&path).unwrap();
-    spec.sheet.as_mut().unwrap().nodes = [9, 9];
+    spec.sheet.as_mut().unwrap().first_mut().nodes = [9, 9];
     spec.time.steps = 20;
     spec.time.output_every = Some(8);
     spec.output.image_size = [64, 48];

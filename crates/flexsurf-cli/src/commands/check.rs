@@ -21,8 +21,9 @@ pub fn execute(args: &CheckArgs) -> Result<()> {
     let r = flexsurf::scene::check_with(scene_path, &args.limits.limits())?;
     print_warnings(&r.warnings);
     let [m, n] = r.nodes;
+    let sheets = if r.sheets > 1 { format!("{} sheets, the first of ", r.sheets) } else { String::new() };
     println!(
-        "{}: ok — {m} × {n} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \
+        "{}: ok — {sheets}{m} × {n} nodes, {} model, {} integrator, dt = {} s, {} steps, {} obstacle(s), {} pinned node(s), \
          {} spring(s), material {}, estimated memory {}",
         scene_path.display(),
         r.model.name(),

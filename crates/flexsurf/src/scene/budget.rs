@@ -42,14 +42,19 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
             ranges::FRAMES
         )
     })?;
-    let nodes = match (&spec.sheet, &spec.garment) {
-        (Some(s), _) => Some(("sheet.nodes", s.nodes)),
-        (None, Some(g)) => Some(("garment.nodes", g.nodes)),
-        (None, None) => None,
+    let sizes: Vec<(String, [usize; 2])> = match (&spec.sheet, &spec.garment) {
+        (Some(s), _) => s.list().iter().enumerate().map(|(i, sheet)| (s.key(i, "nodes"), sheet.nodes)).collect(),
+        (None, Some(g)) => vec![("garment.nodes".into(), g.nodes)],
+        (None, None) => Vec::new(),
     };
-    let Some((key, [m, n])) = nodes else { return Ok((every, Estimate::default())) };
-    let total = m
-        .checked_mul(n)
+    let Some((key, [m, n])) = sizes.iter().max_by_key(|(_, [m, n])| m.saturating_mul(*n)).cloned() else {
+        return Ok((every, Estimate::default()));
+    };
+    let key = key.as_str();
+    // Every sheet's nodes together, the largest sheet's sides for the factor's estimate.
+    let total = sizes
+        .iter()
+        .try_fold(0usize, |t, (_, [a, b])| a.checked_mul(*b).and_then(|ab| t.checked_add(ab)))
         .filter(|&t| t <= ranges::NODES)
         .ok_or_else(|| v.bad(key, format!("[{m}, {n}] is more than the {} nodes a sheet may have", ranges::NODES)))?;
     let e = estimate(total, m, n, spec);

@@ -52,8 +52,10 @@ pub struct Scene {
 /// What `flexsurf check` reports of a scene whose every value is checked (its model is not built).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneReport {
-    /// Grid nodes `[M, N]`.
+    /// Grid nodes `[M, N]` (of the first sheet when there are several).
     pub nodes: [usize; 2],
+    /// Sheets (panels).
+    pub sheets: usize,
     /// The deformation model.
     pub model: ModelKind,
     /// The run: the time-stepping scheme, or `static`.
@@ -146,15 +148,16 @@ impl SceneSpec {
         let warnings = Warnings::default();
         let v = Validator::new(scene_path, &warnings);
         let Checked { parts, dt, material, estimate, .. } = self.checked(&v, limits)?;
-        let grid = parts.body.grid();
-        let mut pinned = vec![false; grid.len()];
+        let grids = parts.body.grids();
+        let mut pinned = vec![false; parts.body.initial().len()];
         parts.pins.iter().flatten().for_each(|&k| pinned[k] = true);
         let waist = match &parts.body {
             Body::Garment { shape, .. } => shape.waist_nodes.len(),
-            Body::Sheet { .. } => 0,
+            Body::Sheets { .. } => 0,
         };
         Ok(SceneReport {
-            nodes: [grid.m, grid.n],
+            nodes: [grids[0].0.m, grids[0].0.n],
+            sheets: grids.len(),
             model: self.model.kind,
             method: self.integrator.kind.method(dt, self.integrator.solver),
             dt,
@@ -184,8 +187,13 @@ impl SceneSpec {
     ) -> Result<(Model, Vec<Vec3>, Option<GarmentInfo>), SceneError> {
         let Parts { body, fabric, stiffness, gravity, obstacles, contact, pins, springs } = parts;
         let (mut model, initial, garment) = match body {
-            Body::Sheet { grid, rest, initial } => {
-                let model = ModelBuilder::new(grid, rest, fabric, stiffness, self.model.kind, gravity);
+            Body::Sheets { sheets, initial } => {
+                let mut sheets = sheets.into_iter();
+                let Some((grid, rest)) = sheets.next() else { return Err(v.bad("sheet", "no sheet".into())) };
+                let mut model = ModelBuilder::new(grid, rest, fabric, stiffness, self.model.kind, gravity);
+                for (grid, rest) in sheets {
+                    model = model.panel(grid, rest, ElasticOptions::default());
+                }
                 (model, initial, None)
             }
             Body::Garment { spec: g, shape } => {

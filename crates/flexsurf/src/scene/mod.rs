@@ -42,7 +42,7 @@ pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};
 pub use spec::{
     defaults, BuiltinBody, ContactSpec, FrameFormat, Initial, IntegratorKind, IntegratorSpec, MeshSpec, ModelSpec,
-    NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, SphereSpec,
+    NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets, SphereSpec,
     SpringSpec, SpringTarget, TimeSpec,
 };
 

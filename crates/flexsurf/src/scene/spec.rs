@@ -53,9 +53,10 @@ pub struct SceneSpec {
     /// Gravity (m/s²), default `[0, 0, -9.81]`.
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 3],
-    /// The sheet: size, nodes, placement, topology. Exactly one of `sheet` and `garment` is given.
+    /// The sheet (`[sheet]`), or several (`[[sheet]]`, one panel each, in node order): size, nodes,
+    /// placement, topology. Exactly one of `sheet` and `garment` is given.
     #[serde(default)]
-    pub sheet: Option<SheetSpec>,
+    pub sheet: Option<Sheets>,
     /// A garment (a skirt) fitted onto the obstacles, in place of `sheet`.
     #[serde(default)]
     pub garment: Option<GarmentSpec>,
@@ -96,6 +97,64 @@ fn default_gravity() -> [f64; 3] {
 
 fn default_material() -> MaterialSpec {
     MaterialSpec { preset: Some(Preset::PaperCotton), ..MaterialSpec::default() }
+}
+
+/// `[sheet]`, one table, or `[[sheet]]`, an array of them (several sheets in one model, each its own panel).
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Sheets {
+    /// One `[sheet]` table.
+    One(SheetSpec),
+    /// `[[sheet]]` tables.
+    Many(Vec<SheetSpec>),
+}
+
+impl Sheets {
+    /// The sheets, in node order.
+    pub fn list(&self) -> &[SheetSpec] {
+        match self {
+            Sheets::One(s) => std::slice::from_ref(s),
+            Sheets::Many(v) => v,
+        }
+    }
+
+    /// The first sheet, to change (benchmarks and tests resize the shipped scenes).
+    pub fn first_mut(&mut self) -> &mut SheetSpec {
+        match self {
+            Sheets::One(s) => s,
+            Sheets::Many(v) => &mut v[0],
+        }
+    }
+
+    /// The key of `field` of sheet `i` in messages: `sheet.nodes` for a `[sheet]` table, `sheet[1].nodes` for
+    /// the second `[[sheet]]`.
+    pub fn key(&self, i: usize, field: &str) -> String {
+        match self {
+            Sheets::One(_) => format!("sheet.{field}"),
+            Sheets::Many(_) => format!("sheet[{i}].{field}"),
+        }
+    }
+}
+
+/// A table reads as one sheet, an array of tables as several; the inner errors keep their own keys and spans
+/// (an untagged enum would report only that no variant matched).
+impl<'de> Deserialize<'de> for Sheets {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Sheets;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a `[sheet]` table or `[[sheet]]` tables")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Sheets, A::Error> {
+                SheetSpec::deserialize(serde::de::value::MapAccessDeserializer::new(map)).map(Sheets::One)
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<Sheets, A::Error> {
+                Vec::deserialize(serde::de::value::SeqAccessDeserializer::new(seq)).map(Sheets::Many)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 /// The sheet: a rectangle of `size` metres with `nodes` grid nodes, centred at `center`.
@@ -319,10 +378,14 @@ pub enum NamedSet {
     All,
 }
 
-/// Nodes given by a named set and/or explicit `[i, j]` pairs (`i` along u1, `j` along u2, from 0).
+/// Nodes given by a named set and/or explicit `[i, j]` pairs (`i` along u1, `j` along u2, from 0), on the
+/// sheet `sheet` (default 0, the first; for `[[sheet]]` scenes).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NodeSetSpec {
+    /// Which sheet (from 0) of a `[[sheet]]` scene, default 0.
+    #[serde(default)]
+    pub sheet: usize,
     /// A named set.
     #[serde(default)]
     pub set: Option<NamedSet>,
@@ -353,6 +416,9 @@ pub enum SpringTarget {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SpringSpec {
+    /// Which sheet (from 0) of a `[[sheet]]` scene, default 0.
+    #[serde(default)]
+    pub sheet: usize,
     /// A named set.
     #[serde(default)]
     pub set: Option<NamedSet>,

@@ -10,7 +10,7 @@ use super::garment::GarmentSpec;
 use super::initial::InitialCondition;
 use super::material::relative_to;
 use super::ranges;
-use super::spec::{BuiltinBody, ObstacleSpec, SceneSpec, SheetSpec, SpringTarget};
+use super::spec::{BuiltinBody, ObstacleSpec, SceneSpec, SheetSpec, Sheets, SpringTarget};
 use super::validate::Validator;
 use super::SceneError;
 use crate::contact::nurbs::NurbsBody;
@@ -24,26 +24,44 @@ use crate::potential::contact::ContactParams;
 use std::path::Path;
 use std::sync::Arc;
 
-/// The checked sheet or garment, before the model is built.
+/// The checked sheet(s) or garment, before the model is built.
 pub(crate) enum Body<'s> {
-    /// A `[sheet]`: its grid and its rest (and initial) positions.
-    Sheet { grid: Grid, rest: Vec<Vec3>, initial: Vec<Vec3> },
+    /// `[sheet]` or `[[sheet]]`: each sheet's grid and rest positions, and the initial positions of all of them
+    /// (sheet after sheet).
+    Sheets { sheets: Vec<(Grid, Vec<Vec3>)>, initial: Vec<Vec3> },
     /// A `[garment]` and its built geometry.
     Garment { spec: &'s GarmentSpec, shape: GarmentShape },
 }
 
 impl Body<'_> {
-    pub(crate) fn grid(&self) -> &Grid {
-        match self {
-            Body::Sheet { grid, .. } => grid,
-            Body::Garment { shape, .. } => &shape.grid,
+    /// The grids of the panels, in node order, with the index of each one's first node.
+    pub(crate) fn grids(&self) -> Vec<(Grid, usize)> {
+        let mut offset = 0;
+        let grids: Vec<Grid> = match self {
+            Body::Sheets { sheets, .. } => sheets.iter().map(|(g, _)| *g).collect(),
+            Body::Garment { shape, .. } => vec![shape.grid],
+        };
+        grids
+            .into_iter()
+            .map(|g| {
+                offset += g.len();
+                (g, offset - g.len())
+            })
+            .collect()
+    }
+
+    /// The grid of a body of one panel; `None` for several sheets.
+    pub(crate) fn grid(&self) -> Option<Grid> {
+        match self.grids().as_slice() {
+            [(g, _)] => Some(*g),
+            _ => None,
         }
     }
 
     /// The initial positions.
     pub(crate) fn initial(&self) -> &[Vec3] {
         match self {
-            Body::Sheet { initial, .. } => initial,
+            Body::Sheets { initial, .. } => initial,
             Body::Garment { shape, .. } => &shape.initial,
         }
     }
@@ -51,7 +69,7 @@ impl Body<'_> {
     /// Replaces the initial positions (the rest shape stays).
     fn set_initial(&mut self, x: Vec<Vec3>) {
         match self {
-            Body::Sheet { initial, .. } => *initial = x,
+            Body::Sheets { initial, .. } => *initial = x,
             Body::Garment { shape, .. } => shape.initial = x,
         }
     }
@@ -105,11 +123,16 @@ impl SceneSpec {
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
         let mut body = self.body(v, &obstacles, contact.offset)?;
         let condition = self.initial.condition(v)?;
-        if let Some(x) = self.initial.positions(v, body.grid(), self.output.coons_subdivisions)? {
-            body.set_initial(x);
+        if self.initial.positions.is_some() {
+            let grid = body
+                .grid()
+                .ok_or_else(|| v.bad("initial.positions", "positions from a frame need a scene of one sheet".into()))?;
+            if let Some(x) = self.initial.positions(v, &grid, self.output.coons_subdivisions)? {
+                body.set_initial(x);
+            }
         }
         starts_outside(v, &obstacles, contact.offset, &body)?;
-        let (pins, springs) = self.constraints(v, body.grid())?;
+        let (pins, springs) = self.constraints(v, &body.grids())?;
         self.check_output(v)?;
         let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
         Ok(Checked { parts, dt, output_every, condition, material: material.name, estimate })
@@ -150,22 +173,41 @@ impl SceneSpec {
             (None, None) => {
                 Err(v.bad("sheet", "give exactly one of `[sheet]` and `[garment]`; neither is present".into()))
             }
-            (Some(s), None) => {
-                let grid = sheet_grid(v, s)?;
-                let center = v.numbers(&ranges::SHEET_CENTER, "sheet.center", s.center)?;
-                let angles = v.numbers(&ranges::SHEET_ROTATE, "sheet.rotate_deg", s.rotate_deg)?;
-                let rest = initial_positions(&grid, Vec3::from_array(center), Vec3::from_array(angles));
-                Ok(Body::Sheet { grid, initial: rest.clone(), rest })
+            (Some(list), None) => {
+                if list.list().is_empty() {
+                    return Err(v.bad("sheet", "`[[sheet]]` lists no sheet".into()));
+                }
+                let mut sheets = Vec::with_capacity(list.list().len());
+                for (i, s) in list.list().iter().enumerate() {
+                    let grid = sheet_grid(v, list, i, s)?;
+                    let center = v.numbers(&ranges::SHEET_CENTER, &list.key(i, "center"), s.center)?;
+                    let angles = v.numbers(&ranges::SHEET_ROTATE, &list.key(i, "rotate_deg"), s.rotate_deg)?;
+                    sheets.push((grid, initial_positions(&grid, Vec3::from_array(center), Vec3::from_array(angles))));
+                }
+                let initial = sheets.iter().flat_map(|(_, rest)| rest.iter().copied()).collect();
+                Ok(Body::Sheets { sheets, initial })
             }
             (None, Some(g)) => Ok(Body::Garment { spec: g, shape: g.shape(v, obstacles, offset)? }),
         }
     }
 
-    /// The checked `[[pin]]` node sets and `[[spring]]` tables on `grid`.
-    fn constraints(&self, v: &Validator<'_>, grid: &Grid) -> Result<(Vec<Vec<usize>>, Vec<SpringSet>), SceneError> {
+    /// The checked `[[pin]]` node sets and `[[spring]]` tables on the sheets' `grids` (with their first nodes).
+    fn constraints(
+        &self,
+        v: &Validator<'_>,
+        grids: &[(Grid, usize)],
+    ) -> Result<(Vec<Vec<usize>>, Vec<SpringSet>), SceneError> {
+        let on = |sheet: usize, key: &str| {
+            grids.get(sheet).copied().ok_or_else(|| {
+                v.bad(&format!("{key}.sheet"), format!("sheet {sheet} does not exist (the scene has {})", grids.len()))
+            })
+        };
         let mut pins = Vec::with_capacity(self.pins.len());
         for (i, pin) in self.pins.iter().enumerate() {
-            pins.push(v.node_set(grid, pin.set, &pin.nodes, &format!("pin[{i}]"))?);
+            let key = format!("pin[{i}]");
+            let (grid, offset) = on(pin.sheet, &key)?;
+            let nodes = v.node_set(&grid, pin.set, &pin.nodes, &key)?;
+            pins.push(nodes.into_iter().map(|k| k + offset).collect());
         }
         let mut springs = Vec::with_capacity(self.springs.len());
         for (i, sp) in self.springs.iter().enumerate() {
@@ -177,7 +219,8 @@ impl SceneSpec {
                     Some(Vec3::from_array(v.numbers(&ranges::SPRING_TARGET, &format!("{key}.target"), p)?))
                 }
             };
-            let nodes = v.node_set(grid, sp.set, &sp.nodes, &key)?;
+            let (grid, offset) = on(sp.sheet, &key)?;
+            let nodes = v.node_set(&grid, sp.set, &sp.nodes, &key)?.into_iter().map(|k| k + offset).collect();
             springs.push(SpringSet { nodes, target, stiffness });
         }
         Ok((pins, springs))
@@ -211,13 +254,17 @@ fn starts_outside(v: &Validator<'_>, obstacles: &[Obstacle], offset: f64, body: 
             }
         }
         if count > 0 {
-            let (a, b) = body.grid().coords(at);
+            let grids = body.grids();
+            let sheet = grids.iter().rposition(|&(_, first)| first <= at).unwrap_or(0);
+            let (grid, first) = grids[sheet];
+            let (a, b) = grid.coords(at - first);
+            let which = if grids.len() > 1 { format!(" of sheet {sheet}") } else { String::new() };
             return Err(v.bad(
                 &format!("obstacle[{i}]"),
                 format!(
                     "{count} of the sheet's {} nodes start inside this obstacle, deeper than the contact offset \
-                     ({offset} m); the deepest, node [{a}, {b}], is {deepest:.4} m inside: move the sheet or the \
-                     obstacle",
+                     ({offset} m); the deepest, node [{a}, {b}]{which}, is {deepest:.4} m inside: move the sheet or \
+                     the obstacle",
                     x.len()
                 ),
             ));
@@ -226,15 +273,15 @@ fn starts_outside(v: &Validator<'_>, obstacles: &[Obstacle], offset: f64, body: 
     Ok(())
 }
 
-/// The grid of a `[sheet]`.
-fn sheet_grid(v: &Validator<'_>, s: &SheetSpec) -> Result<Grid, SceneError> {
-    let [l1, l2] = v.numbers(&ranges::SHEET_SIZE, "sheet.size", s.size)?;
+/// The grid of sheet `i` of `list`.
+fn sheet_grid(v: &Validator<'_>, list: &Sheets, i: usize, s: &SheetSpec) -> Result<Grid, SceneError> {
+    let [l1, l2] = v.numbers(&ranges::SHEET_SIZE, &list.key(i, "size"), s.size)?;
     for (d, &count) in s.nodes.iter().enumerate() {
-        v.require("sheet.nodes", count >= 3, || {
+        v.require(&list.key(i, "nodes"), count >= 3, || {
             format!("direction u{} has {count} nodes; at least 3 are needed", d + 1)
         })?;
     }
-    v.require("sheet.topology", s.topology != [Topology::Periodic; 2], || {
+    v.require(&list.key(i, "topology"), s.topology != [Topology::Periodic; 2], || {
         "both directions periodic (a torus) is not supported".into()
     })?;
     let [m, n] = s.nodes;
@@ -243,7 +290,7 @@ fn sheet_grid(v: &Validator<'_>, s: &SheetSpec) -> Result<Grid, SceneError> {
         Topology::Periodic => l / count as f64,
     };
     Grid::new(m, n, spacing(l1, m, s.topology[0]), spacing(l2, n, s.topology[1]), s.topology)
-        .map_err(|e| v.bad("sheet.nodes", e.to_string()))
+        .map_err(|e| v.bad(&list.key(i, "nodes"), e.to_string()))
 }
 
 /// Builds obstacle `i`; body files are found relative to the scene file.
