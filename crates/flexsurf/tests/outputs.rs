@@ -2,8 +2,8 @@
 //! `gltf` crate (which validates the document), the VTK series through `vtkio`, the pictures through `image`,
 //! and `view.html`'s data.
 
-use flexsurf::io::viewer;
 use flexsurf::runner::run_scene;
+use flexsurf::runner::viewer;
 use flexsurf::scene::SceneSpec;
 use std::path::{Path, PathBuf};
 

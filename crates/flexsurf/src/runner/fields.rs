@@ -1,5 +1,6 @@
-//! Per-vertex fields of the display surface at an output step, for the animated glTF, the VTK series and the
-//! viewer: the Coons-tessellated positions and normals, the pattern coordinates (UVs in metres), and the node
+//! The display surface of a run and its per-vertex fields at an output step, for the frames, the pictures,
+//! the animated glTF, the VTK series and the viewer: every panel Coons-tessellated and merged into one mesh
+//! ([`display_mesh`], the panels' vertices one after the other in panel order), its positions and normals, the pattern coordinates (UVs in metres), and the node
 //! fields interpolated onto the display vertices: velocity, engineering strain and contact pressure.
 //!
 //! Node fields (on the simulation grid):
@@ -13,12 +14,13 @@
 //! values are the bilinear blend of the cell's four corner nodes, and its UV is `((ci + t1)·h1, (cj + t2)·h2)`,
 //! the pattern coordinates along warp (u1) and weft (u2).
 
-use crate::contact;
+use crate::contact::{self, Look};
 use crate::grid::Grid;
+use crate::io::render::{checkered_square, uv_sphere};
 use crate::math::Vec3;
 use crate::model::Model;
 use crate::state::State;
-use crate::surface::{CoonsSurface, TriMesh};
+use crate::surface::{Aabb, CoonsSurface, TriMesh};
 
 /// The display surface of one output step with its fields (single precision, as the files store them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -93,20 +95,22 @@ fn display_stencil(grid: &Grid, k: usize) -> Vec<([usize; 4], [f64; 4], [f64; 2]
     out
 }
 
-/// Largest `|ℓ/ℓ₀ − 1|` over the grid edges at each node.
+/// Largest `|ℓ/ℓ₀ − 1|` over the grid edges of its panel at each node.
 pub fn node_strain(model: &Model, x: &[Vec3]) -> Vec<f64> {
-    let g = &model.grid;
     let mut s = vec![0.0_f64; x.len()];
-    for (i, j) in g.cells() {
-        let c = g.cell(i, j);
-        for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
-            let l0 = (model.rest[b] - model.rest[a]).length();
-            if l0 <= 0.0 {
-                continue;
+    for p in &model.panels {
+        let g = &p.grid;
+        for (i, j) in g.cells() {
+            let c = g.cell(i, j).map(|k| p.global(k));
+            for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
+                let l0 = (model.rest[b] - model.rest[a]).length();
+                if l0 <= 0.0 {
+                    continue;
+                }
+                let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
+                s[a] = s[a].max(e);
+                s[b] = s[b].max(e);
             }
-            let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
-            s[a] = s[a].max(e);
-            s[b] = s[b].max(e);
         }
     }
     s
@@ -135,30 +139,84 @@ where
         .collect()
 }
 
+/// Node values of every panel blended onto the display vertices of [`display_mesh`] (`k` subdivisions).
+pub fn model_to_display<T>(model: &Model, k: usize, values: &[T]) -> Vec<T>
+where
+    T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+{
+    model.panels.iter().flat_map(|p| to_display(&p.grid, k, p.slice(values))).collect()
+}
+
+/// The display mesh of the node positions `x`: every panel of `model` Coons-tessellated with `k`
+/// subdivisions, merged in panel order (for one panel, its tessellation itself).
+pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+    let mut meshes = model.panels.iter().map(|p| CoonsSurface::new(&p.grid, p.slice(x)).tessellate(k));
+    let mut mesh = meshes.next().unwrap_or_default();
+    meshes.for_each(|m| mesh.append(&m));
+    mesh
+}
+
 /// The triangles and UVs shared by every frame of `grid` tessellated with `k` subdivisions.
-pub fn display_topology(grid: &Grid, k: usize) -> DisplayTopology {
+fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
     let uv = display_stencil(grid, k).into_iter().map(|(_, _, uv)| [uv[0] as f32, uv[1] as f32]).collect();
     // The triangles are those of any tessellation; take them from the flat pattern.
     let triangles = CoonsSurface::new(grid, &grid.flat_positions(0.0)).tessellate(k).triangles;
     DisplayTopology { triangles, uv }
 }
 
+/// The triangles and UVs shared by every frame of `model`'s display mesh with `k` subdivisions (the panels'
+/// in panel order).
+pub fn display_topology(model: &Model, k: usize) -> DisplayTopology {
+    let mut all = DisplayTopology { triangles: Vec::new(), uv: Vec::new() };
+    for p in &model.panels {
+        let base = all.uv.len() as u32;
+        let DisplayTopology { triangles, uv } = grid_topology(&p.grid, k);
+        all.triangles.extend(triangles.iter().map(|t| t.map(|v| v + base)));
+        all.uv.extend(uv);
+    }
+    all
+}
+
+/// Triangle meshes standing for the model's obstacles, for files and viewers: a sphere as a fine UV sphere, a
+/// plane as a square twice the size of `around` (the cloth's extent) centred under it, a mesh as itself.
+/// Returns (name, mesh, is a plane).
+pub fn obstacle_meshes(model: &Model, around: &Aabb) -> Vec<(String, TriMesh, bool)> {
+    let half = (around.size().x.max(around.size().y).max(around.size().z) * 1.5).max(0.5);
+    model
+        .obstacles()
+        .iter()
+        .filter_map(|o| o.look())
+        .enumerate()
+        .map(|(k, look)| match look {
+            Look::Sphere { center, radius } => {
+                (format!("obstacle_{k}_sphere"), uv_sphere(center, radius, 32, 64), false)
+            }
+            Look::Plane { point, normal } => {
+                let n = normal.try_normalize().unwrap_or(Vec3::Z);
+                let c = around.center();
+                let c = c - n * (c - point).dot(n);
+                (format!("obstacle_{k}_plane"), checkered_square(c, n, half, 1).0, true)
+            }
+            Look::Mesh(mesh) => (format!("obstacle_{k}_mesh"), mesh, false),
+        })
+        .collect()
+}
+
 fn f32x3(v: Vec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// The fields of `state` on `mesh`, its display surface with `k` subdivisions.
+/// The fields of `state` on `mesh`, its display mesh ([`display_mesh`]) with `k` subdivisions.
 pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> FrameFields {
-    let g = &model.grid;
-    let velocity = &state.v;
+    let scalars = |v: Vec<f64>| model_to_display(model, k, &v).into_iter().map(|s| s as f32).collect();
     FrameFields {
         step: state.step,
         time: state.time,
         positions: mesh.positions.iter().map(|&p| f32x3(p)).collect(),
         normals: mesh.normals.iter().map(|&n| f32x3(n.try_normalize().unwrap_or(Vec3::Z))).collect(),
-        velocity: to_display(g, k, velocity).into_iter().map(f32x3).collect(),
-        strain: to_display(g, k, &node_strain(model, &state.x)).into_iter().map(|s| s as f32).collect(),
-        pressure: to_display(g, k, &node_pressure(model, &state.x)).into_iter().map(|s| s as f32).collect(),
+        velocity: model_to_display(model, k, &state.v).into_iter().map(f32x3).collect(),
+        strain: scalars(node_strain(model, &state.x)),
+        pressure: scalars(node_pressure(model, &state.x)),
     }
 }
 
@@ -179,7 +237,7 @@ mod tests {
                 .collect();
             let k = 3;
             let mesh = CoonsSurface::new(&g, &x).tessellate(k);
-            let topo = display_topology(&g, k);
+            let topo = grid_topology(&g, k);
             assert_eq!(topo.uv.len(), mesh.vertex_count());
             assert_eq!(topo.triangles, mesh.triangles);
             // Blending the node positions gives the display vertex at the grid nodes exactly.

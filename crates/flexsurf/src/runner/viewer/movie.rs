@@ -7,8 +7,8 @@
 use super::ViewError;
 use crate::io::render::{self, annotate, Drawable, Picture};
 use crate::math::Vec3;
-use crate::runner::animation::GLB_FILE;
-use crate::runner::outputs::{CLOTH_COLOR, OBSTACLE_COLOR, PLANE_COLOR};
+use crate::runner::outputs::glb::GLB_FILE;
+use crate::runner::outputs::snapshots::{CLOTH_COLOR, OBSTACLE_COLOR, PLANE_COLOR};
 use crate::surface::{Aabb, TriMesh};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
