@@ -16,6 +16,11 @@ fn scratch(tag: &str) -> PathBuf {
 
 /// A short, coarse ball drop: 11 × 11 nodes, 60 steps, frames every 15 (steps 0, 15, 30, 45, 60).
 fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
+    run_scene(&short_ball_drop_scene(), out, |_| {}).unwrap()
+}
+
+/// The scene of [`short_ball_drop`].
+fn short_ball_drop_scene() -> Scene {
     let path = repo().join("scenes/ball_drop.toml");
     let mut spec = SceneSpec::load(&path).unwrap();
     spec.sheet.as_mut().unwrap().nodes = [11, 11];
@@ -23,8 +28,7 @@ fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
     spec.time.output_every = Some(15);
     spec.output.image_size = [160, 120];
     spec.output.coons_subdivisions = 2;
-    let scene = spec.build(&path).unwrap();
-    run_scene(&scene, out, |_| {}).unwrap()
+    spec.build(&path).unwrap()
 }
 
 #[test]
@@ -181,5 +185,87 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert!(g2.document.nodes().any(|n| n.name().is_some_and(|s| s.starts_with("obstacle_0"))));
     let html = std::fs::read_to_string(viewer::write_view(&d).unwrap()).unwrap();
     assert!(html.contains("\"in_progress\":true") && html.contains("\"summary\":null"));
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A test output: `dummy/steps.txt`, the output steps it saw with their display vertex counts, written at the
+/// end under the summary's step count.
+struct Dummy {
+    out: PathBuf,
+    lines: Vec<String>,
+}
+
+const DUMMY_FILE: &str = "dummy/steps.txt";
+
+impl Output for Dummy {
+    fn name(&self) -> &'static str {
+        "dummy"
+    }
+
+    fn files(&self) -> Vec<String> {
+        vec![DUMMY_FILE.to_string()]
+    }
+
+    fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
+        self.lines = OutputState::or_default(saved, self.name())?;
+        Ok(())
+    }
+
+    fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError> {
+        if let Some(mesh) = frame.mesh {
+            self.lines.push(format!("{} {}", frame.state.step, mesh.vertex_count()));
+        }
+        Ok(())
+    }
+
+    fn save(&self) -> Result<OutputState, RunError> {
+        OutputState::of(&self.lines)
+    }
+
+    fn finish(&mut self, summary: &Summary) -> Result<(), RunError> {
+        write_text(&self.out.join(DUMMY_FILE), &format!("steps {}\n{}\n", summary.steps, self.lines.join("\n")))
+    }
+}
+
+fn dummy(out: &Path) -> Vec<Box<dyn Output>> {
+    vec![Box::new(Dummy { out: out.to_path_buf(), lines: Vec::new() })]
+}
+
+#[test]
+fn an_added_output_claims_its_files_records_and_resumes() {
+    let s = short_ball_drop_scene();
+    let d = scratch("dummy");
+    let (whole, parts) = (d.join("whole"), d.join("parts"));
+    let options = RunOptions::default();
+    run_scene_with_outputs(&s, &whole, &options, dummy(&whole), |_| {}).unwrap();
+    // Frames every 15 of 60 steps; 10 cells × 2 subdivisions + 1 = 21 display vertices a side.
+    let expected = "steps 60\n0 441\n15 441\n30 441\n45 441\n60 441\n";
+    assert_eq!(std::fs::read_to_string(whole.join(DUMMY_FILE)).unwrap(), expected);
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(whole.join("manifest.json")).unwrap()).unwrap();
+    let files: Vec<&str> = manifest["files"].as_array().unwrap().iter().filter_map(|f| f.as_str()).collect();
+    assert!(files.contains(&DUMMY_FILE) && files.contains(&"energy.csv") && files.contains(&"animation.glb"));
+    assert_eq!(manifest["complete"], true);
+
+    // Stopped after step 20 (a checkpoint with the dummy's two lines so far), then resumed: the same file.
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let stopping = RunOptions { stop: Some(stop), ..Default::default() };
+    let o =
+        run_scene_with_outputs(&s, &parts, &stopping, dummy(&parts), |st| flag.store(st.step >= 20, Ordering::SeqCst))
+            .unwrap();
+    assert!(o.summary.interrupted && o.summary.steps == 20);
+    assert_eq!(std::fs::read_to_string(parts.join(DUMMY_FILE)).unwrap(), "steps 20\n0 441\n15 441\n");
+    let resume = RunOptions { resume: true, ..Default::default() };
+    run_scene_with_outputs(&s, &parts, &resume, dummy(&parts), |_| {}).unwrap();
+    assert_eq!(std::fs::read_to_string(parts.join(DUMMY_FILE)).unwrap(), expected);
+    flexsurf::testing::assert_same_outputs(&whole, &parts, "stopped at step 20 with an added output");
+
+    // A checkpoint without the state of an output of the resumed run is refused, naming the output.
+    let again = d.join("again");
+    let o = run_scene_with_outputs(&s, &again, &stopping, Vec::new(), |_| {}).unwrap();
+    assert!(o.summary.interrupted);
+    let e = run_scene_with_outputs(&s, &again, &resume, dummy(&again), |_| {}).unwrap_err().to_string();
+    assert!(e.contains("dummy"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
 }

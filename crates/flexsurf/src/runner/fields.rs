@@ -18,7 +18,7 @@ use crate::contact::{self, Look};
 use crate::grid::Grid;
 use crate::io::render::{checkered_square, uv_sphere};
 use crate::math::Vec3;
-use crate::model::Model;
+use crate::model::{Model, Panel};
 use crate::state::State;
 use crate::surface::{Aabb, CoonsSurface, TriMesh};
 
@@ -139,18 +139,18 @@ where
         .collect()
 }
 
-/// Node values of every panel blended onto the display vertices of [`display_mesh`] (`k` subdivisions).
-pub fn model_to_display<T>(model: &Model, k: usize, values: &[T]) -> Vec<T>
+/// Node values of every one of `panels` blended onto the display vertices of [`display_mesh`] (`k` subdivisions).
+pub fn panels_to_display<T>(panels: &[Panel], k: usize, values: &[T]) -> Vec<T>
 where
     T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
 {
-    model.panels.iter().flat_map(|p| to_display(&p.grid, k, p.slice(values))).collect()
+    panels.iter().flat_map(|p| to_display(&p.grid, k, p.slice(values))).collect()
 }
 
-/// The display mesh of the node positions `x`: every panel of `model` Coons-tessellated with `k`
+/// The display mesh of the node positions `x`: every one of `panels` Coons-tessellated with `k`
 /// subdivisions, merged in panel order (for one panel, its tessellation itself).
-pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
-    let mut meshes = model.panels.iter().map(|p| CoonsSurface::new(&p.grid, p.slice(x)).tessellate(k));
+pub fn display_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
+    let mut meshes = panels.iter().map(|p| CoonsSurface::new(&p.grid, p.slice(x)).tessellate(k));
     let mut mesh = meshes.next().unwrap_or_default();
     meshes.for_each(|m| mesh.append(&m));
     mesh
@@ -164,11 +164,11 @@ fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
     DisplayTopology { triangles, uv }
 }
 
-/// The triangles and UVs shared by every frame of `model`'s display mesh with `k` subdivisions (the panels'
-/// in panel order).
-pub fn display_topology(model: &Model, k: usize) -> DisplayTopology {
+/// The triangles and UVs shared by every frame of the display mesh of `panels` with `k` subdivisions (the
+/// panels' in panel order).
+pub fn display_topology(panels: &[Panel], k: usize) -> DisplayTopology {
     let mut all = DisplayTopology { triangles: Vec::new(), uv: Vec::new() };
-    for p in &model.panels {
+    for p in panels {
         let base = all.uv.len() as u32;
         let DisplayTopology { triangles, uv } = grid_topology(&p.grid, k);
         all.triangles.extend(triangles.iter().map(|t| t.map(|v| v + base)));
@@ -208,13 +208,14 @@ fn f32x3(v: Vec3) -> [f32; 3] {
 
 /// The fields of `state` on `mesh`, its display mesh ([`display_mesh`]) with `k` subdivisions.
 pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> FrameFields {
-    let scalars = |v: Vec<f64>| model_to_display(model, k, &v).into_iter().map(|s| s as f32).collect();
+    let panels = &model.panels;
+    let scalars = |v: Vec<f64>| panels_to_display(panels, k, &v).into_iter().map(|s| s as f32).collect();
     FrameFields {
         step: state.step,
         time: state.time,
         positions: mesh.positions.iter().map(|&p| f32x3(p)).collect(),
         normals: mesh.normals.iter().map(|&n| f32x3(n.try_normalize().unwrap_or(Vec3::Z))).collect(),
-        velocity: model_to_display(model, k, &state.v).into_iter().map(f32x3).collect(),
+        velocity: panels_to_display(panels, k, &state.v).into_iter().map(f32x3).collect(),
         strain: scalars(node_strain(model, &state.x)),
         pressure: scalars(node_pressure(model, &state.x)),
     }
@@ -254,5 +255,32 @@ mod tests {
             assert!((f64::from(topo.uv[1][0]) - 0.1 / 3.0).abs() < 1e-6);
             assert!((blended[1] - (x[0] * (2.0 / 3.0) + x[1] * (1.0 / 3.0))).length() < 1e-12);
         }
+    }
+
+    #[test]
+    fn panels_are_merged_in_order_and_one_panel_is_its_own_tessellation() {
+        let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 2, 0.2, 0.3).unwrap());
+        let panels = [Panel { grid: a, offset: 0 }, Panel { grid: b, offset: 9 }];
+        let x: Vec<Vec3> = (0..17).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
+        let k = 2;
+        // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 1 cells: 7 × 3.
+        let (na, nb) = (25, 21);
+        let mesh = display_mesh(&panels, &x, k);
+        assert_eq!(mesh.vertex_count(), na + nb);
+        assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 2));
+        let first = CoonsSurface::new(&a, &x[..9]).tessellate(k);
+        let second = CoonsSurface::new(&b, &x[9..]).tessellate(k);
+        assert_eq!(display_mesh(&panels[..1], &x[..9], k), first);
+        assert_eq!(mesh.positions[na..], second.positions[..]);
+        assert_eq!(mesh.triangles[first.triangles.len()], second.triangles[0].map(|v| v + na as u32));
+        let topo = display_topology(&panels, k);
+        assert_eq!((topo.uv.len(), &topo.triangles), (na + nb, &mesh.triangles));
+        // The second panel's pattern coordinates start at its own origin; a 0.2 m × 0.3 m sheet, its far corner at (0.2, 0.3) m.
+        assert_eq!(topo.uv[na], [0.0, 0.0]);
+        assert!((f64::from(topo.uv[na + nb - 1][0]) - 0.2).abs() < 1e-6);
+        assert!((f64::from(topo.uv[na + nb - 1][1]) - 0.3).abs() < 1e-6);
+        // Node values reach the display vertices panel by panel: the corner nodes keep theirs.
+        let blended = panels_to_display(&panels, k, &x);
+        assert!((blended[na] - x[9]).length() < 1e-12 && (blended[na + nb - 1] - x[16]).length() < 1e-12);
     }
 }

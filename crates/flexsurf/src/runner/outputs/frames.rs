@@ -57,7 +57,7 @@ impl Output for Frames<'_> {
     }
 
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
-        self.written = saved.map(|s| s.get(self.name())).transpose()?.unwrap_or_default();
+        self.written = OutputState::or_default(saved, self.name())?;
         Ok(())
     }
 

@@ -47,7 +47,7 @@ impl Output for GlbAnimation<'_> {
         // An earlier run's animation would stand for this one until it finishes (the viewer reads the VTK
         // series of a run in progress instead).
         remove_if_present(&self.out.join(GLB_FILE))?;
-        self.frames = saved.map(|s| s.get(self.name())).transpose()?.unwrap_or_default();
+        self.frames = OutputState::or_default(saved, self.name())?;
         Ok(())
     }
 
@@ -66,7 +66,7 @@ impl Output for GlbAnimation<'_> {
         if self.frames.is_empty() {
             return Ok(());
         }
-        let topology = display_topology(&self.scene.model, self.scene.output.coons_subdivisions.max(1));
+        let topology = display_topology(&self.scene.model.panels, self.scene.output.coons_subdivisions.max(1));
         let frames: Vec<GlbFrame<'_>> = self.frames.iter().map(FrameFields::glb).collect();
         let obstacles: Vec<GlbMesh> = scene_obstacles(self.scene)
             .into_iter()

@@ -78,6 +78,11 @@ impl OutputState {
         postcard::from_bytes(&self.0)
             .map_err(|e| RunError::Resume(format!("cannot restore the state of output `{name}`: {e}")))
     }
+
+    /// The value in `saved` (a resumed run) or the default (a fresh run), for the output `name`.
+    pub fn or_default<T: DeserializeOwned + Default>(saved: Option<&Self>, name: &str) -> Result<T, RunError> {
+        saved.map_or_else(|| Ok(T::default()), |s| s.get(name))
+    }
 }
 
 /// What the outputs of a run share: the scene, the folder and the output steps.
@@ -156,7 +161,8 @@ impl<'a> Outputs<'a> {
     pub fn record(&mut self, state: &State) -> Result<(), RunError> {
         let scene = self.cx.scene;
         let k = scene.output.coons_subdivisions;
-        let mesh = self.cx.steps.binary_search(&state.step).is_ok().then(|| display_mesh(&scene.model, &state.x, k));
+        let mesh =
+            self.cx.steps.binary_search(&state.step).is_ok().then(|| display_mesh(&scene.model.panels, &state.x, k));
         let frame = Frame { state, mesh: mesh.as_ref(), scene, fields: OnceCell::new() };
         self.list.iter_mut().try_for_each(|o| o.record(&frame))
     }

@@ -78,12 +78,12 @@ impl Output for Snapshots<'_> {
     }
 
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
-        self.pictured = saved.map(|s| s.get(self.name())).transpose()?.unwrap_or_default();
+        self.pictured = OutputState::or_default(saved, self.name())?;
         let (model, k) = (&self.scene.model, self.scene.output.coons_subdivisions);
         self.snapshots = self
             .pictured
             .iter()
-            .map(|(step, time, x)| Snapshot { step: *step, time: *time, mesh: display_mesh(model, x, k) })
+            .map(|(step, time, x)| Snapshot { step: *step, time: *time, mesh: display_mesh(&model.panels, x, k) })
             .collect();
         Ok(())
     }

@@ -43,7 +43,7 @@ pub struct VtkSeries<'a> {
 impl<'a> VtkSeries<'a> {
     /// The series of the run `cx`.
     pub fn new(cx: &Context<'a>) -> Self {
-        let topology = display_topology(&cx.scene.model, cx.scene.output.coons_subdivisions.max(1));
+        let topology = display_topology(&cx.scene.model.panels, cx.scene.output.coons_subdivisions.max(1));
         Self { scene: cx.scene, out: cx.out.clone(), steps: cx.steps.clone(), topology, pvd: Vec::new() }
     }
 
@@ -75,7 +75,7 @@ impl Output for VtkSeries<'_> {
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
         let dir = self.out.join(VTK_DIR);
         std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
-        self.pvd = saved.map(|s| s.get(self.name())).transpose()?.unwrap_or_default();
+        self.pvd = OutputState::or_default(saved, self.name())?;
         self.write_obstacles()
     }
 
