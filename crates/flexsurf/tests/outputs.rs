@@ -1,11 +1,15 @@
 //! The files a run writes for other tools, read back with independent readers: `animation.glb` through the
 //! `gltf` crate (which validates the document), the VTK series through `vtkio`, the pictures through `image`,
-//! and `view.html`'s data.
+//! and `view.html`'s data; and an output added to a run (the [`Output`] trait): its files claimed, its steps
+//! recorded, its state carried through a checkpoint.
 
-use flexsurf::runner::run_scene;
-use flexsurf::runner::viewer;
-use flexsurf::scene::SceneSpec;
+use flexsurf::runner::{
+    run_scene, run_scene_with_outputs, viewer, write_text, Frame, Output, OutputState, RunError, RunOptions, Summary,
+};
+use flexsurf::scene::{Scene, SceneSpec};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use flexsurf::testing::repo;
 
@@ -35,11 +39,21 @@ fn short_ball_drop_scene() -> Scene {
 fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     let d = scratch("ball");
     let out = short_ball_drop(&d);
+    let (bytes, last) = check_glb(&d, &out);
+    check_vtk(&d, &last);
+    check_pictures_and_viewer(&d, &bytes);
+    check_in_progress(&d, &last);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Display vertices of the short ball drop: 10 cells × 2 subdivisions + 1 = 21 a side.
+const NV: usize = 21 * 21;
+
+/// `animation.glb`, validated and read by the gltf crate; returns its bytes and the last frame's positions.
+fn check_glb(d: &Path, out: &flexsurf::runner::RunOutput) -> (Vec<u8>, Vec<[f32; 3]>) {
     let times: Vec<f64> = out.summary.frames.iter().map(|f| f.time).collect();
     assert_eq!(times.len(), 5);
-    // Display mesh: 10 cells × 2 subdivisions + 1 = 21 vertices a side.
-    let nv = 21 * 21;
-
+    let nv = NV;
     // ---- animation.glb, validated and read by the gltf crate.
     let bytes = std::fs::read(d.join("animation.glb")).unwrap();
     let gltf = gltf::Gltf::from_slice(&bytes).expect("a valid glTF binary");
@@ -106,7 +120,12 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert!(s4.iter().all(|&s| s >= 0.0) && s4.iter().any(|&s| s > 0.0));
     let max_strain = s4.iter().copied().fold(0.0f32, f32::max) as f64;
     assert!(max_strain <= out.summary.final_state.max_strain * (1.0 + 1e-5), "{max_strain}");
+    (bytes, last)
+}
 
+/// The VTK series, read by vtkio: the same last frame as the glb's.
+fn check_vtk(d: &Path, last: &[[f32; 3]]) {
+    let nv = NV;
     // ---- the VTK series, read by vtkio.
     let pvd = std::fs::read_to_string(d.join("animation.pvd")).unwrap();
     assert_eq!(pvd.matches("<DataSet ").count(), 5);
@@ -137,7 +156,10 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     }
     let obstacles = read("vtk/obstacles.vtu");
     assert!(obstacles.num_points() > 100);
+}
 
+/// The pictures, `view.html` and the GIF.
+fn check_pictures_and_viewer(d: &Path, bytes: &[u8]) {
     // ---- pictures: five snapshots in one row under a title; energy.png.
     let snaps = image::open(d.join("snapshots.png")).unwrap();
     assert_eq!(snaps.width(), 5 * 160);
@@ -145,14 +167,14 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert_eq!((energy.width(), energy.height()), (800, 480));
 
     // ---- view.html carries the glb and the summary, and refers to nothing outside itself.
-    let page = viewer::write_view(&d).unwrap();
+    let page = viewer::write_view(d).unwrap();
     let html = std::fs::read_to_string(&page).unwrap();
-    assert!(html.contains(&flexsurf::io::gltf::base64_encode(&bytes)));
+    assert!(html.contains(&flexsurf::io::gltf::base64_encode(bytes)));
     assert!(html.contains("\"scene\":\"ball_drop\""));
     assert!(!html.contains("<script src") && !html.contains("http://") && !html.contains("https://"));
 
     // ---- animation.gif from the glb: 0.6 s at 10 pictures a second, the cloth drawn, moving.
-    let gif = viewer::movie::write_gif(&d, 10.0, (160, 120)).unwrap();
+    let gif = viewer::movie::write_gif(d, 10.0, (160, 120)).unwrap();
     use image::AnimationDecoder;
     let dec = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&gif).unwrap())).unwrap();
     let frames: Vec<image::RgbaImage> = dec.into_frames().map(|f| f.unwrap().into_buffer()).collect();
@@ -162,12 +184,15 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     };
     assert!(cloth(&frames[0]) > 500, "{} cloth pixels", cloth(&frames[0]));
     assert_ne!(frames[0], frames[6]);
+}
 
+/// A run in progress: the viewer's animation rebuilt from the VTK series.
+fn check_in_progress(d: &Path, last: &[[f32; 3]]) {
     // ---- a run in progress (no animation.glb or summary.json yet): the viewer reads the VTK series, rebuilt
     // into the same animation, which the gltf crate validates.
     std::fs::remove_file(d.join("animation.glb")).unwrap();
     std::fs::remove_file(d.join("summary.json")).unwrap();
-    let (rebuilt, n) = viewer::series::glb_from_series(&d, &serde_json::json!({})).unwrap();
+    let (rebuilt, n) = viewer::series::glb_from_series(d, &serde_json::json!({})).unwrap();
     assert_eq!(n, 5);
     let g2 = gltf::Gltf::from_slice(&rebuilt).expect("a valid glTF binary from the series");
     let blob2 = g2.blob.as_deref().unwrap();
@@ -183,9 +208,8 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
         }
     }
     assert!(g2.document.nodes().any(|n| n.name().is_some_and(|s| s.starts_with("obstacle_0"))));
-    let html = std::fs::read_to_string(viewer::write_view(&d).unwrap()).unwrap();
+    let html = std::fs::read_to_string(viewer::write_view(d).unwrap()).unwrap();
     assert!(html.contains("\"in_progress\":true") && html.contains("\"summary\":null"));
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// A test output: `dummy/steps.txt`, the output steps it saw with their display vertex counts, written at the
