@@ -259,15 +259,15 @@ mod tests {
 
     #[test]
     fn panels_are_merged_in_order_and_one_panel_is_its_own_tessellation() {
-        let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 2, 0.2, 0.3).unwrap());
+        let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 3, 0.2, 0.3).unwrap());
         let panels = [Panel { grid: a, offset: 0 }, Panel { grid: b, offset: 9 }];
-        let x: Vec<Vec3> = (0..17).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
+        let x: Vec<Vec3> = (0..21).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
         let k = 2;
-        // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 1 cells: 7 × 3.
-        let (na, nb) = (25, 21);
+        // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 2 cells: 7 × 5.
+        let (na, nb) = (25, 35);
         let mesh = display_mesh(&panels, &x, k);
         assert_eq!(mesh.vertex_count(), na + nb);
-        assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 2));
+        assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 4));
         let first = CoonsSurface::new(&a, &x[..9]).tessellate(k);
         let second = CoonsSurface::new(&b, &x[9..]).tessellate(k);
         assert_eq!(display_mesh(&panels[..1], &x[..9], k), first);
@@ -281,6 +281,6 @@ mod tests {
         assert!((f64::from(topo.uv[na + nb - 1][1]) - 0.3).abs() < 1e-6);
         // Node values reach the display vertices panel by panel: the corner nodes keep theirs.
         let blended = panels_to_display(&panels, k, &x);
-        assert!((blended[na] - x[9]).length() < 1e-12 && (blended[na + nb - 1] - x[16]).length() < 1e-12);
+        assert!((blended[na] - x[9]).length() < 1e-12 && (blended[na + nb - 1] - x[20]).length() < 1e-12);
     }
 }
