@@ -1,11 +1,15 @@
 //! The files a run writes for other tools, read back with independent readers: `animation.glb` through the
 //! `gltf` crate (which validates the document), the VTK series through `vtkio`, the pictures through `image`,
-//! and `view.html`'s data.
+//! and `view.html`'s data; and an output added to a run (the [`Output`] trait): its files claimed, its steps
+//! recorded, its state carried through a checkpoint.
 
-use flexsurf::io::viewer;
-use flexsurf::runner::run_scene;
-use flexsurf::scene::SceneSpec;
+use flexsurf::runner::{
+    run_scene, run_scene_with_outputs, viewer, write_text, Frame, Output, OutputState, RunError, RunOptions, Summary,
+};
+use flexsurf::scene::{Scene, SceneSpec};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use flexsurf::testing::repo;
 
@@ -16,6 +20,11 @@ fn scratch(tag: &str) -> PathBuf {
 
 /// A short, coarse ball drop: 11 × 11 nodes, 60 steps, frames every 15 (steps 0, 15, 30, 45, 60).
 fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
+    run_scene(&short_ball_drop_scene(), out, |_| {}).unwrap()
+}
+
+/// The scene of [`short_ball_drop`].
+fn short_ball_drop_scene() -> Scene {
     let path = repo().join("scenes/ball_drop.toml");
     let mut spec = SceneSpec::load(&path).unwrap();
     spec.sheet.as_mut().unwrap().first_mut().nodes = [11, 11];
@@ -23,19 +32,28 @@ fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
     spec.time.output_every = Some(15);
     spec.output.image_size = [160, 120];
     spec.output.coons_subdivisions = 2;
-    let scene = spec.build(&path).unwrap();
-    run_scene(&scene, out, |_| {}).unwrap()
+    spec.build(&path).unwrap()
 }
 
 #[test]
 fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     let d = scratch("ball");
     let out = short_ball_drop(&d);
+    let (bytes, last) = check_glb(&d, &out);
+    check_vtk(&d, &last);
+    check_pictures_and_viewer(&d, &bytes);
+    check_in_progress(&d, &last);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Display vertices of the short ball drop: 10 cells × 2 subdivisions + 1 = 21 a side.
+const NV: usize = 21 * 21;
+
+/// `animation.glb`, validated and read by the gltf crate; returns its bytes and the last frame's positions.
+fn check_glb(d: &Path, out: &flexsurf::runner::RunOutput) -> (Vec<u8>, Vec<[f32; 3]>) {
     let times: Vec<f64> = out.summary.frames.iter().map(|f| f.time).collect();
     assert_eq!(times.len(), 5);
-    // Display mesh: 10 cells × 2 subdivisions + 1 = 21 vertices a side.
-    let nv = 21 * 21;
-
+    let nv = NV;
     // ---- animation.glb, validated and read by the gltf crate.
     let bytes = std::fs::read(d.join("animation.glb")).unwrap();
     let gltf = gltf::Gltf::from_slice(&bytes).expect("a valid glTF binary");
@@ -102,7 +120,12 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert!(s4.iter().all(|&s| s >= 0.0) && s4.iter().any(|&s| s > 0.0));
     let max_strain = s4.iter().copied().fold(0.0f32, f32::max) as f64;
     assert!(max_strain <= out.summary.final_state.max_strain * (1.0 + 1e-5), "{max_strain}");
+    (bytes, last)
+}
 
+/// The VTK series, read by vtkio: the same last frame as the glb's.
+fn check_vtk(d: &Path, last: &[[f32; 3]]) {
+    let nv = NV;
     // ---- the VTK series, read by vtkio.
     let pvd = std::fs::read_to_string(d.join("animation.pvd")).unwrap();
     assert_eq!(pvd.matches("<DataSet ").count(), 5);
@@ -133,7 +156,10 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     }
     let obstacles = read("vtk/obstacles.vtu");
     assert!(obstacles.num_points() > 100);
+}
 
+/// The pictures, `view.html` and the GIF.
+fn check_pictures_and_viewer(d: &Path, bytes: &[u8]) {
     // ---- pictures: five snapshots in one row under a title; energy.png.
     let snaps = image::open(d.join("snapshots.png")).unwrap();
     assert_eq!(snaps.width(), 5 * 160);
@@ -141,14 +167,14 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     assert_eq!((energy.width(), energy.height()), (800, 480));
 
     // ---- view.html carries the glb and the summary, and refers to nothing outside itself.
-    let page = viewer::write_view(&d).unwrap();
+    let page = viewer::write_view(d).unwrap();
     let html = std::fs::read_to_string(&page).unwrap();
-    assert!(html.contains(&flexsurf::io::gltf::base64_encode(&bytes)));
+    assert!(html.contains(&flexsurf::io::gltf::base64_encode(bytes)));
     assert!(html.contains("\"scene\":\"ball_drop\""));
     assert!(!html.contains("<script src") && !html.contains("http://") && !html.contains("https://"));
 
     // ---- animation.gif from the glb: 0.6 s at 10 pictures a second, the cloth drawn, moving.
-    let gif = viewer::movie::write_gif(&d, 10.0, (160, 120)).unwrap();
+    let gif = viewer::movie::write_gif(d, 10.0, (160, 120)).unwrap();
     use image::AnimationDecoder;
     let dec = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&gif).unwrap())).unwrap();
     let frames: Vec<image::RgbaImage> = dec.into_frames().map(|f| f.unwrap().into_buffer()).collect();
@@ -158,12 +184,15 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
     };
     assert!(cloth(&frames[0]) > 500, "{} cloth pixels", cloth(&frames[0]));
     assert_ne!(frames[0], frames[6]);
+}
 
+/// A run in progress: the viewer's animation rebuilt from the VTK series.
+fn check_in_progress(d: &Path, last: &[[f32; 3]]) {
     // ---- a run in progress (no animation.glb or summary.json yet): the viewer reads the VTK series, rebuilt
     // into the same animation, which the gltf crate validates.
     std::fs::remove_file(d.join("animation.glb")).unwrap();
     std::fs::remove_file(d.join("summary.json")).unwrap();
-    let (rebuilt, n) = viewer::series::glb_from_series(&d, &serde_json::json!({})).unwrap();
+    let (rebuilt, n) = viewer::series::glb_from_series(d, &serde_json::json!({})).unwrap();
     assert_eq!(n, 5);
     let g2 = gltf::Gltf::from_slice(&rebuilt).expect("a valid glTF binary from the series");
     let blob2 = g2.blob.as_deref().unwrap();
@@ -179,7 +208,88 @@ fn glb_vtk_pictures_and_viewer_of_a_ball_drop() {
         }
     }
     assert!(g2.document.nodes().any(|n| n.name().is_some_and(|s| s.starts_with("obstacle_0"))));
-    let html = std::fs::read_to_string(viewer::write_view(&d).unwrap()).unwrap();
+    let html = std::fs::read_to_string(viewer::write_view(d).unwrap()).unwrap();
     assert!(html.contains("\"in_progress\":true") && html.contains("\"summary\":null"));
+}
+
+/// A test output: `dummy/steps.txt`, the output steps it saw with their display vertex counts, written at the
+/// end under the summary's step count.
+struct Dummy {
+    out: PathBuf,
+    lines: Vec<String>,
+}
+
+const DUMMY_FILE: &str = "dummy/steps.txt";
+
+impl Output for Dummy {
+    fn name(&self) -> &'static str {
+        "dummy"
+    }
+
+    fn files(&self) -> Vec<String> {
+        vec![DUMMY_FILE.to_string()]
+    }
+
+    fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
+        self.lines = OutputState::or_default(saved, self.name())?;
+        Ok(())
+    }
+
+    fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError> {
+        if let Some(mesh) = frame.mesh {
+            self.lines.push(format!("{} {}", frame.state.step, mesh.vertex_count()));
+        }
+        Ok(())
+    }
+
+    fn save(&self) -> Result<OutputState, RunError> {
+        OutputState::of(&self.lines)
+    }
+
+    fn finish(&mut self, summary: &Summary) -> Result<(), RunError> {
+        write_text(&self.out.join(DUMMY_FILE), &format!("steps {}\n{}\n", summary.steps, self.lines.join("\n")))
+    }
+}
+
+fn dummy(out: &Path) -> Vec<Box<dyn Output>> {
+    vec![Box::new(Dummy { out: out.to_path_buf(), lines: Vec::new() })]
+}
+
+#[test]
+fn an_added_output_claims_its_files_records_and_resumes() {
+    let s = short_ball_drop_scene();
+    let d = scratch("dummy");
+    let (whole, parts) = (d.join("whole"), d.join("parts"));
+    let options = RunOptions::default();
+    run_scene_with_outputs(&s, &whole, &options, dummy(&whole), |_| {}).unwrap();
+    // Frames every 15 of 60 steps; 10 cells × 2 subdivisions + 1 = 21 display vertices a side.
+    let expected = "steps 60\n0 441\n15 441\n30 441\n45 441\n60 441\n";
+    assert_eq!(std::fs::read_to_string(whole.join(DUMMY_FILE)).unwrap(), expected);
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(whole.join("manifest.json")).unwrap()).unwrap();
+    let files: Vec<&str> = manifest["files"].as_array().unwrap().iter().filter_map(|f| f.as_str()).collect();
+    assert!(files.contains(&DUMMY_FILE) && files.contains(&"energy.csv") && files.contains(&"animation.glb"));
+    assert_eq!(manifest["complete"], true);
+
+    // Stopped after step 20 (a checkpoint with the dummy's two lines so far), then resumed: the same file.
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let stopping = RunOptions { stop: Some(stop), ..Default::default() };
+    let o =
+        run_scene_with_outputs(&s, &parts, &stopping, dummy(&parts), |st| flag.store(st.step >= 20, Ordering::SeqCst))
+            .unwrap();
+    assert!(o.summary.interrupted && o.summary.steps == 20);
+    assert_eq!(std::fs::read_to_string(parts.join(DUMMY_FILE)).unwrap(), "steps 20\n0 441\n15 441\n");
+    let resume = RunOptions { resume: true, ..Default::default() };
+    run_scene_with_outputs(&s, &parts, &resume, dummy(&parts), |_| {}).unwrap();
+    assert_eq!(std::fs::read_to_string(parts.join(DUMMY_FILE)).unwrap(), expected);
+    flexsurf::testing::assert_same_outputs(&whole, &parts, "stopped at step 20 with an added output");
+
+    // A checkpoint without the state of an output of the resumed run is refused, naming the output.
+    let again = d.join("again");
+    let o = run_scene_with_outputs(&s, &again, &stopping, Vec::new(), |_| {}).unwrap();
+    assert!(o.summary.interrupted);
+    let e = run_scene_with_outputs(&s, &again, &resume, dummy(&again), |_| {}).unwrap_err().to_string();
+    assert!(e.contains("dummy"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
 }

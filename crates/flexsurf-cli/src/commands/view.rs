@@ -1,8 +1,8 @@
 //! `flexsurf view`: writes `OUT_DIR/view.html`, the self-contained interactive viewer of a run folder
-//! (`flexsurf::io::viewer`), and says how to open it; `--gif` and `--mp4` add a movie of the run.
+//! (`flexsurf::runner::viewer`), and says how to open it; `--gif` and `--mp4` add a movie of the run.
 
 use anyhow::{bail, Context, Result};
-use flexsurf::io::viewer::{self, movie};
+use flexsurf::runner::viewer::{self, movie};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{Ipv4Addr, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};

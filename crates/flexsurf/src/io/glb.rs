@@ -177,11 +177,9 @@ fn key_times(frames: &[GlbFrame<'_>]) -> (Vec<f32>, bool) {
     }
 }
 
-/// The `.glb` bytes of `anim`.
-#[allow(clippy::too_many_lines)] // Until `io/` is split by its owner (issue 18).
-pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
-    check(anim)?;
-    let mut bin = Bin::default();
+/// The cloth's mesh: the first frame's positions and normals, the UVs and indices, and one morph target (the
+/// offsets from the first frame) per later frame. Returns the mesh and its number of targets.
+fn cloth_mesh(bin: &mut Bin, anim: &Animation<'_>) -> (Value, usize) {
     let first = &anim.frames[0];
     let base_pos = flat3(first.positions);
     let base_nrm = flat3(first.normals);
@@ -198,27 +196,39 @@ pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
         let n = bin.floats(&dn, 3, "VEC3", false, Some(ARRAY_BUFFER));
         targets.push(json!({ "POSITION": p, "NORMAL": n }));
     }
-    let mut frames_info = Vec::new();
+    let mut primitive = json!({
+        "attributes": { "POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": tex },
+        "indices": idx, "mode": 4, "material": 0
+    });
+    let mut mesh = json!({ "name": "cloth", "primitives": [] });
+    let count = targets.len();
+    if count > 0 {
+        primitive["targets"] = json!(targets);
+        mesh["weights"] = json!(vec![0.0; count]);
+        mesh["extras"] = json!({ "targetNames": anim.frames[1..].iter()
+            .map(|f| format!("step {}", f.step)).collect::<Vec<_>>() });
+    }
+    mesh["primitives"] = json!([primitive]);
+    (mesh, count)
+}
+
+/// Each frame's step, time and the accessors of its fields (`extras.flexsurf.frames`).
+fn frames_info(bin: &mut Bin, anim: &Animation<'_>) -> Vec<Value> {
+    let mut info = Vec::new();
     for f in anim.frames {
         let strain = bin.floats(f.strain, 1, "SCALAR", true, None);
         let pressure = bin.floats(f.pressure, 1, "SCALAR", true, None);
         let velocity = bin.floats(&flat3(f.velocity), 3, "VEC3", false, None);
-        frames_info.push(json!({ "step": f.step, "time": f.time, "strain": strain, "pressure": pressure,
-                                 "velocity": velocity }));
+        info.push(json!({ "step": f.step, "time": f.time, "strain": strain, "pressure": pressure,
+                          "velocity": velocity }));
     }
-    let mut cloth_primitive = json!({
-        "attributes": { "POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": tex },
-        "indices": idx, "mode": 4, "material": 0
-    });
-    let mut cloth_mesh = json!({ "name": "cloth", "primitives": [] });
-    if !targets.is_empty() {
-        cloth_primitive["targets"] = json!(targets);
-        cloth_mesh["weights"] = json!(vec![0.0; targets.len()]);
-        cloth_mesh["extras"] = json!({ "targetNames": anim.frames[1..].iter()
-            .map(|f| format!("step {}", f.step)).collect::<Vec<_>>() });
-    }
-    cloth_mesh["primitives"] = json!([cloth_primitive]);
-    let mut meshes = vec![cloth_mesh];
+    info
+}
+
+/// The document's nodes, meshes and materials: the root, the cloth (`cloth`, mesh 0) and one node per
+/// obstacle with a mesh and material of its own.
+fn scene_graph(bin: &mut Bin, anim: &Animation<'_>, cloth: Value) -> (Vec<Value>, Vec<Value>, Vec<Value>) {
+    let mut meshes = vec![cloth];
     let mut materials = vec![material("cloth", anim.cloth_color)];
     let mut nodes = vec![
         json!({ "name": "flexsurf", "rotation": [-std::f64::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2],
@@ -244,20 +254,56 @@ pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
         nodes.push(json!({ "name": o.name, "mesh": meshes.len() - 1 }));
     }
     nodes[0]["children"] = json!((1..nodes.len()).collect::<Vec<_>>());
-    let mut animations = Vec::new();
-    let (times, simulated) = key_times(anim.frames);
-    if !targets.is_empty() {
-        let nt = targets.len();
-        let weights: Vec<f32> =
-            (0..anim.frames.len()).flat_map(|k| (0..nt).map(move |t| if t + 1 == k { 1.0 } else { 0.0 })).collect();
-        let input = bin.floats(&times, 1, "SCALAR", true, None);
-        let output = bin.floats(&weights, 1, "SCALAR", false, None);
-        animations.push(json!({
-            "name": "simulation",
-            "samplers": [ { "input": input, "output": output, "interpolation": "LINEAR" } ],
-            "channels": [ { "sampler": 0, "target": { "node": 1, "path": "weights" } } ]
-        }));
+    (nodes, meshes, materials)
+}
+
+/// The animation of the cloth's `targets` morph weights: frame `k` is target `k − 1` alone, sampled at the
+/// frames' times ([`key_times`]); none without targets.
+fn weights_animation(bin: &mut Bin, frames: &[GlbFrame<'_>], targets: usize) -> Option<Value> {
+    if targets == 0 {
+        return None;
     }
+    let weights: Vec<f32> =
+        (0..frames.len()).flat_map(|k| (0..targets).map(move |t| if t + 1 == k { 1.0 } else { 0.0 })).collect();
+    let input = bin.floats(&key_times(frames).0, 1, "SCALAR", true, None);
+    let output = bin.floats(&weights, 1, "SCALAR", false, None);
+    Some(json!({
+        "name": "simulation",
+        "samplers": [ { "input": input, "output": output, "interpolation": "LINEAR" } ],
+        "channels": [ { "sampler": 0, "target": { "node": 1, "path": "weights" } } ]
+    }))
+}
+
+/// The binary container: header, the JSON chunk (padded with spaces) and the BIN chunk.
+fn container(doc: &Value, bin: &[u8]) -> io::Result<Vec<u8>> {
+    let mut text = serde_json::to_vec(doc).map_err(io::Error::other)?;
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let total =
+        u32::try_from(total).map_err(|_| invalid(format!("a .glb is limited to 4 GiB; this one is {total} bytes")))?;
+    let mut out = Vec::with_capacity(total as usize);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&total.to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    Ok(out)
+}
+
+/// The `.glb` bytes of `anim`.
+pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
+    check(anim)?;
+    let mut bin = Bin::default();
+    let (cloth, targets) = cloth_mesh(&mut bin, anim);
+    let frames = frames_info(&mut bin, anim);
+    let (nodes, meshes, materials) = scene_graph(&mut bin, anim, cloth);
+    let animation = weights_animation(&mut bin, anim.frames, targets);
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": "flexsurf" },
         "scene": 0,
@@ -271,34 +317,17 @@ pub fn glb_bytes(anim: &Animation<'_>) -> io::Result<Vec<u8>> {
         "extras": { "flexsurf": {
             "cloth_node": 1,
             "up": "z",
-            "animation_times_are_simulated": simulated,
+            "animation_times_are_simulated": key_times(anim.frames).1,
             "units": { "position": "m", "uv": "m (pattern: warp, weft)", "strain": "1", "pressure": "Pa",
                        "velocity": "m/s" },
-            "frames": frames_info,
+            "frames": frames,
             "info": anim.info,
         } }
     });
-    if !animations.is_empty() {
-        doc["animations"] = json!(animations);
+    if let Some(a) = animation {
+        doc["animations"] = json!([a]);
     }
-    let mut text = serde_json::to_vec(&doc).map_err(io::Error::other)?;
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let total = 12 + 8 + text.len() + 8 + bin.data.len();
-    let total =
-        u32::try_from(total).map_err(|_| invalid(format!("a .glb is limited to 4 GiB; this one is {total} bytes")))?;
-    let mut out = Vec::with_capacity(total as usize);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&total.to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(&(bin.data.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin.data);
-    Ok(out)
+    container(&doc, &bin.data)
 }
 
 /// Writes `anim` as a `.glb` at `path`, atomically.

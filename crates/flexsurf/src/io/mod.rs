@@ -16,7 +16,6 @@ pub mod input;
 pub mod obj;
 pub mod ply;
 pub mod render;
-pub mod viewer;
 pub mod vtk;
 
 pub use atomic::{write_atomic, write_atomic_with};

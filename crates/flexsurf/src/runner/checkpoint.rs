@@ -1,10 +1,11 @@
 //! Checkpoints: `checkpoint.bin` in the output folder holds everything a run needs to go on exactly as if it
 //! had not stopped: the whole [`State`] (serialised generically, so fields added to it are included), the
 //! stepper's warm state (the contact term's closest-point cache and active set, [`WarmState`], the linear
-//! solver's starting guess and kept factor, [`SolverWarm`]) and counters, the
-//! run's statistics so far, the frames written, the node positions of the steps pictured so far, and the length
-//! of `energy.csv` at that step. A resumed run truncates `energy.csv` to that length, restores all this and
-//! continues; its outputs are byte-identical to an uninterrupted run's (tests/resume.rs).
+//! solver's starting guess and kept factor, [`SolverWarm`]) and counters, the run's statistics so far, and the
+//! state of every output by its name ([`super::outputs::Output::save`]: the frames written, the length of
+//! `energy.csv`, the positions of the steps pictured, the animation's frames…). A resumed run restores all
+//! this (`energy.csv` truncated to its length at the checkpoint) and continues; its outputs are byte-identical
+//! to an uninterrupted run's (tests/resume.rs).
 //!
 //! The file is written atomically (temporary file, then rename), so a kill leaves the previous checkpoint or
 //! the new one. Layout: the magic line `flexsurf-checkpoint\n`, the format version (u32, little-endian), the
@@ -12,11 +13,11 @@
 //! state holds non-finite values a text format cannot: the contact cache starts at −∞). A checkpoint of another
 //! version, with a wrong checksum, or of another run (its fingerprint) is refused with a message saying which.
 
+use super::outputs::OutputState;
 use super::RunError;
 use crate::integrate::linsolve::SolverWarm;
 use crate::integrate::{Counters, Stepper};
 use crate::io::atomic;
-use crate::math::Vec3;
 use crate::potential::WarmState;
 use crate::sim::RunStats;
 use crate::state::State;
@@ -29,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -48,14 +49,8 @@ pub struct Checkpoint {
     pub solver: SolverWarm,
     /// The run's statistics so far.
     pub stats: StatsSaved,
-    /// Frames written so far: (step, time, file).
-    pub frames: Vec<(usize, f64, String)>,
-    /// Pictured steps so far: (step, time, node positions).
-    pub pictured: Vec<(usize, f64, Vec<Vec3>)>,
-    /// The display fields of the frames so far (for `animation.glb`).
-    pub animation: Vec<super::fields::FrameFields>,
-    /// Length of `energy.csv` after this step's row (bytes).
-    pub energy_bytes: u64,
+    /// The state of every output, by its name.
+    pub outputs: Vec<(String, OutputState)>,
 }
 
 /// [`Counters`] as saved.
@@ -202,6 +197,7 @@ pub fn read(out: &Path, fingerprint: &str) -> Result<Checkpoint, RunError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
 
     fn sample() -> Checkpoint {
         Checkpoint {
@@ -211,10 +207,7 @@ mod tests {
             counters: Counters::default().into(),
             solver: SolverWarm::default(),
             stats: StatsSaved { steps: 3, wall_seconds: 0.5, max_penetration_seen: 1e-3, max_contacts: 2 },
-            frames: vec![(0, 0.0, "frames/frame_00000.obj".into())],
-            pictured: vec![(0, 0.0, vec![Vec3::X])],
-            animation: Vec::new(),
-            energy_bytes: 99,
+            outputs: vec![("energy".into(), OutputState::of(&99u64).unwrap())],
         }
     }
 

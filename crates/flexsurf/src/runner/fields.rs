@@ -1,5 +1,6 @@
-//! Per-vertex fields of the display surface at an output step, for the animated glTF, the VTK series and the
-//! viewer: the Coons-tessellated positions and normals, the pattern coordinates (UVs in metres), and the node
+//! The display surface of a run and its per-vertex fields at an output step, for the frames, the pictures,
+//! the animated glTF, the VTK series and the viewer: every panel Coons-tessellated and merged into one mesh
+//! ([`display_mesh`], the panels' vertices one after the other in panel order), its positions and normals, the pattern coordinates (UVs in metres), and the node
 //! fields interpolated onto the display vertices: velocity, engineering strain and contact pressure.
 //!
 //! Node fields (on the simulation grid):
@@ -13,12 +14,13 @@
 //! values are the bilinear blend of the cell's four corner nodes, and its UV is `((ci + t1)·h1, (cj + t2)·h2)`,
 //! the pattern coordinates along warp (u1) and weft (u2).
 
-use crate::contact;
+use crate::contact::{self, Look};
 use crate::grid::Grid;
+use crate::io::render::{checkered_square, uv_sphere};
 use crate::math::Vec3;
-use crate::model::Model;
+use crate::model::{Model, Panel};
 use crate::state::State;
-use crate::surface::{CoonsSurface, TriMesh};
+use crate::surface::{Aabb, CoonsSurface, TriMesh};
 
 /// The display surface of one output step with its fields (single precision, as the files store them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -93,20 +95,22 @@ fn display_stencil(grid: &Grid, k: usize) -> Vec<([usize; 4], [f64; 4], [f64; 2]
     out
 }
 
-/// Largest `|ℓ/ℓ₀ − 1|` over the grid edges at each node.
+/// Largest `|ℓ/ℓ₀ − 1|` over the grid edges of its panel at each node.
 pub fn node_strain(model: &Model, x: &[Vec3]) -> Vec<f64> {
-    let g = &model.grid;
     let mut s = vec![0.0_f64; x.len()];
-    for (i, j) in g.cells() {
-        let c = g.cell(i, j);
-        for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
-            let l0 = (model.rest[b] - model.rest[a]).length();
-            if l0 <= 0.0 {
-                continue;
+    for p in &model.panels {
+        let g = &p.grid;
+        for (i, j) in g.cells() {
+            let c = g.cell(i, j).map(|k| p.global(k));
+            for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
+                let l0 = (model.rest[b] - model.rest[a]).length();
+                if l0 <= 0.0 {
+                    continue;
+                }
+                let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
+                s[a] = s[a].max(e);
+                s[b] = s[b].max(e);
             }
-            let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
-            s[a] = s[a].max(e);
-            s[b] = s[b].max(e);
         }
     }
     s
@@ -135,30 +139,85 @@ where
         .collect()
 }
 
+/// Node values of every one of `panels` blended onto the display vertices of [`display_mesh`] (`k` subdivisions).
+pub fn panels_to_display<T>(panels: &[Panel], k: usize, values: &[T]) -> Vec<T>
+where
+    T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+{
+    panels.iter().flat_map(|p| to_display(&p.grid, k, p.slice(values))).collect()
+}
+
+/// The display mesh of the node positions `x`: every one of `panels` Coons-tessellated with `k`
+/// subdivisions, merged in panel order (for one panel, its tessellation itself).
+pub fn display_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
+    let mut meshes = panels.iter().map(|p| CoonsSurface::new(&p.grid, p.slice(x)).tessellate(k));
+    let mut mesh = meshes.next().unwrap_or_default();
+    meshes.for_each(|m| mesh.append(&m));
+    mesh
+}
+
 /// The triangles and UVs shared by every frame of `grid` tessellated with `k` subdivisions.
-pub fn display_topology(grid: &Grid, k: usize) -> DisplayTopology {
+fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
     let uv = display_stencil(grid, k).into_iter().map(|(_, _, uv)| [uv[0] as f32, uv[1] as f32]).collect();
     // The triangles are those of any tessellation; take them from the flat pattern.
     let triangles = CoonsSurface::new(grid, &grid.flat_positions(0.0)).tessellate(k).triangles;
     DisplayTopology { triangles, uv }
 }
 
+/// The triangles and UVs shared by every frame of the display mesh of `panels` with `k` subdivisions (the
+/// panels' in panel order).
+pub fn display_topology(panels: &[Panel], k: usize) -> DisplayTopology {
+    let mut all = DisplayTopology { triangles: Vec::new(), uv: Vec::new() };
+    for p in panels {
+        let base = all.uv.len() as u32;
+        let DisplayTopology { triangles, uv } = grid_topology(&p.grid, k);
+        all.triangles.extend(triangles.iter().map(|t| t.map(|v| v + base)));
+        all.uv.extend(uv);
+    }
+    all
+}
+
+/// Triangle meshes standing for the model's obstacles, for files and viewers: a sphere as a fine UV sphere, a
+/// plane as a square twice the size of `around` (the cloth's extent) centred under it, a mesh as itself.
+/// Returns (name, mesh, is a plane).
+pub fn obstacle_meshes(model: &Model, around: &Aabb) -> Vec<(String, TriMesh, bool)> {
+    let half = (around.size().x.max(around.size().y).max(around.size().z) * 1.5).max(0.5);
+    model
+        .obstacles()
+        .iter()
+        .filter_map(|o| o.look())
+        .enumerate()
+        .map(|(k, look)| match look {
+            Look::Sphere { center, radius } => {
+                (format!("obstacle_{k}_sphere"), uv_sphere(center, radius, 32, 64), false)
+            }
+            Look::Plane { point, normal } => {
+                let n = normal.try_normalize().unwrap_or(Vec3::Z);
+                let c = around.center();
+                let c = c - n * (c - point).dot(n);
+                (format!("obstacle_{k}_plane"), checkered_square(c, n, half, 1).0, true)
+            }
+            Look::Mesh(mesh) => (format!("obstacle_{k}_mesh"), mesh, false),
+        })
+        .collect()
+}
+
 fn f32x3(v: Vec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// The fields of `state` on `mesh`, its display surface with `k` subdivisions.
+/// The fields of `state` on `mesh`, its display mesh ([`display_mesh`]) with `k` subdivisions.
 pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> FrameFields {
-    let g = &model.grid;
-    let velocity = &state.v;
+    let panels = &model.panels;
+    let scalars = |v: Vec<f64>| panels_to_display(panels, k, &v).into_iter().map(|s| s as f32).collect();
     FrameFields {
         step: state.step,
         time: state.time,
         positions: mesh.positions.iter().map(|&p| f32x3(p)).collect(),
         normals: mesh.normals.iter().map(|&n| f32x3(n.try_normalize().unwrap_or(Vec3::Z))).collect(),
-        velocity: to_display(g, k, velocity).into_iter().map(f32x3).collect(),
-        strain: to_display(g, k, &node_strain(model, &state.x)).into_iter().map(|s| s as f32).collect(),
-        pressure: to_display(g, k, &node_pressure(model, &state.x)).into_iter().map(|s| s as f32).collect(),
+        velocity: panels_to_display(panels, k, &state.v).into_iter().map(f32x3).collect(),
+        strain: scalars(node_strain(model, &state.x)),
+        pressure: scalars(node_pressure(model, &state.x)),
     }
 }
 
@@ -179,7 +238,7 @@ mod tests {
                 .collect();
             let k = 3;
             let mesh = CoonsSurface::new(&g, &x).tessellate(k);
-            let topo = display_topology(&g, k);
+            let topo = grid_topology(&g, k);
             assert_eq!(topo.uv.len(), mesh.vertex_count());
             assert_eq!(topo.triangles, mesh.triangles);
             // Blending the node positions gives the display vertex at the grid nodes exactly.
@@ -196,5 +255,32 @@ mod tests {
             assert!((f64::from(topo.uv[1][0]) - 0.1 / 3.0).abs() < 1e-6);
             assert!((blended[1] - (x[0] * (2.0 / 3.0) + x[1] * (1.0 / 3.0))).length() < 1e-12);
         }
+    }
+
+    #[test]
+    fn panels_are_merged_in_order_and_one_panel_is_its_own_tessellation() {
+        let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 3, 0.2, 0.3).unwrap());
+        let panels = [Panel { grid: a, offset: 0 }, Panel { grid: b, offset: 9 }];
+        let x: Vec<Vec3> = (0..21).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
+        let k = 2;
+        // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 2 cells: 7 × 5.
+        let (na, nb) = (25, 35);
+        let mesh = display_mesh(&panels, &x, k);
+        assert_eq!(mesh.vertex_count(), na + nb);
+        assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 4));
+        let first = CoonsSurface::new(&a, &x[..9]).tessellate(k);
+        let second = CoonsSurface::new(&b, &x[9..]).tessellate(k);
+        assert_eq!(display_mesh(&panels[..1], &x[..9], k), first);
+        assert_eq!(mesh.positions[na..], second.positions[..]);
+        assert_eq!(mesh.triangles[first.triangles.len()], second.triangles[0].map(|v| v + na as u32));
+        let topo = display_topology(&panels, k);
+        assert_eq!((topo.uv.len(), &topo.triangles), (na + nb, &mesh.triangles));
+        // The second panel's pattern coordinates start at its own origin; a 0.2 m × 0.3 m sheet, its far corner at (0.2, 0.3) m.
+        assert_eq!(topo.uv[na], [0.0, 0.0]);
+        assert!((f64::from(topo.uv[na + nb - 1][0]) - 0.2).abs() < 1e-6);
+        assert!((f64::from(topo.uv[na + nb - 1][1]) - 0.3).abs() < 1e-6);
+        // Node values reach the display vertices panel by panel: the corner nodes keep theirs.
+        let blended = panels_to_display(&panels, k, &x);
+        assert!((blended[na] - x[9]).length() < 1e-12 && (blended[na + nb - 1] - x[20]).length() < 1e-12);
     }
 }

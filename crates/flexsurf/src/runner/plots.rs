@@ -1,10 +1,9 @@
 //! Charts a person would rather look at than read, drawn with `plotters` (bitmap backend, the embedded DejaVu
 //! Sans registered as its font, so no system fonts are needed) and written as PNG through
-//! [`crate::io::atomic`]: `energy.png` of a run (energy vs time from its `energy.csv`), and the line charts of
-//! the virtual tests' sweeps ([`line_chart`]).
+//! [`crate::io::atomic`]: the line charts of a run's `energy.png` ([`super::outputs::energy`]) and of the virtual
+//! tests' sweeps ([`line_chart`]).
 
 use super::summary::Summary;
-use super::{io_err, RunError};
 use crate::io::render::{self, register_plot_font};
 use crate::scene::Scene;
 use plotters::prelude::*;
@@ -151,44 +150,6 @@ pub fn line_chart(
     render::save_png(path, &img)
 }
 
-/// The columns of `energy.csv` (time, kinetic, membrane, bending, potential), parsed.
-fn energy_rows(text: &str) -> Vec<[f64; 5]> {
-    text.lines()
-        .skip(1)
-        .filter_map(|l| {
-            let v: Vec<f64> = l.split(',').filter_map(|c| c.trim().parse().ok()).collect();
-            (v.len() >= 6).then(|| [v[1], v[2], v[3], v[4], v[5]])
-        })
-        .collect()
-}
-
-/// Writes `energy.png` into `out` from its `energy.csv`: kinetic, membrane and bending energy, the change of
-/// the gravitational potential energy from the start, and the total of the four, against simulated time.
-pub fn write_energy_png(out: &Path, scene: &Scene) -> Result<(), RunError> {
-    let csv = out.join("energy.csv");
-    let text = std::fs::read_to_string(&csv).map_err(io_err(&csv))?;
-    let rows = energy_rows(&text);
-    let Some(first) = rows.first().copied() else { return Ok(()) };
-    let line = |name: &str, color: [u8; 3], f: &dyn Fn(&[f64; 5]) -> f64| Series {
-        name: name.to_string(),
-        color,
-        points: rows.iter().map(|r| (r[0], f(r))).collect(),
-        dots: rows.len() <= 2,
-    };
-    let series = [
-        line("kinetic", [214, 39, 40], &|r| r[1]),
-        line("membrane", [31, 119, 180], &|r| r[2]),
-        line("bending", [44, 160, 44], &|r| r[3]),
-        line("gravity (change from t = 0)", [148, 103, 189], &|r| r[4] - first[4]),
-        line("total (change from t = 0)", [40, 40, 40], &|r| {
-            r[1] + r[2] + r[3] + r[4] - (first[1] + first[2] + first[3] + first[4])
-        }),
-    ];
-    let title = format!("{}  ·  {} model  ·  energy", scene.name, model_label(scene.model.kind.name()));
-    let png = out.join("energy.png");
-    line_chart(&png, (800, 480), &title, "simulated time (s)", "energy (J)", &series).map_err(io_err(&png))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -215,7 +176,6 @@ mod tests {
         let f = tick_format(0.25);
         assert_eq!((f(&-0.05), f(&1e-12), f(&0.1)), ("-0.050".to_string(), "0.000".to_string(), "0.100".to_string()));
         assert_eq!(tick_format(2e-6)(&1e-6), "1.00e-6");
-        assert_eq!(energy_rows("step,time,k,m,b,p\n0,0,1,2,3,4\nbad\n"), vec![[0.0, 1.0, 2.0, 3.0, 4.0]]);
         std::fs::remove_dir_all(&d).unwrap();
     }
 }

@@ -119,8 +119,6 @@ pub(super) struct Finished {
     pub timings: Counters,
     /// The static solve's report (`integrator = "static"`).
     pub static_report: Option<StaticReport>,
-    /// Frames written.
-    pub frames: Vec<FrameRecord>,
     /// Whether the run was stopped before its last step.
     pub interrupted: bool,
     /// The run's provenance.
@@ -146,20 +144,24 @@ pub(super) fn non_finite(summary: &Summary) -> Option<String> {
     walk(&serde_json::to_value(summary).ok()?, "")
 }
 
-/// The summary of `scene` run to `state`; `final_mesh` is the Coons mesh of `state`.
+/// The summary of `scene` run to `state`; `final_mesh` is the display mesh of `state`. Its `frames` are
+/// left empty for the frames output to report ([`super::outputs::Output::report`]).
 pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
     let model = &scene.model;
-    let Finished { stats, timings, static_report, frames, interrupted, provenance } = done;
+    let Finished { stats, timings, static_report, interrupted, provenance } = done;
+    let nodes = model.panels.iter().map(|p| p.grid.len()).sum();
+    // The first panel's nodes (the only one's, today).
+    let grid = model.panels.first().map_or([0, 0], |p| [p.grid.m, p.grid.n]);
     let d = sim::diagnose(model, state, 0);
     Summary {
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: scene.solver().resolve(model.grid.len()).name().to_string(),
+        solver: scene.solver().resolve(nodes).name().to_string(),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),
-        grid: [model.grid.m, model.grid.n],
+        grid,
         dt: scene.dt,
         steps: stats.steps,
         output_every: scene.output_every,
@@ -174,7 +176,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         waist_strain: scene.garment.as_ref().map(|g| g.waist_strain),
         initial_min_distance: scene.garment.as_ref().map(|g| g.initial_min_distance),
         static_solve: static_report,
-        frames,
+        frames: Vec::new(),
         final_state: final_state(model, &state.x, final_mesh, &d),
         interrupted,
         provenance,

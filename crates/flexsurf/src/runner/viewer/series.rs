@@ -6,8 +6,9 @@
 use super::ViewError;
 use crate::io::glb::{self, Animation, GlbFrame, GlbMesh};
 use crate::math::Vec3;
-use crate::runner::animation::{GLB_CLOTH_COLOR, GLB_OBSTACLE_COLOR, GLB_PLANE_COLOR, OBSTACLES_VTU, PVD_FILE};
 use crate::runner::fields::FrameFields;
+use crate::runner::outputs::glb::{GLB_CLOTH_COLOR, GLB_OBSTACLE_COLOR, GLB_PLANE_COLOR};
+use crate::runner::outputs::vtk::{OBSTACLES_VTU, PVD_FILE};
 use crate::surface::TriMesh;
 use std::path::Path;
 use vtkio::model::{Attribute, DataSet, IOBuffer, UnstructuredGridPiece, VertexNumbers};

@@ -13,7 +13,8 @@ pub mod series;
 
 use crate::io::atomic::write_atomic;
 use crate::io::gltf::base64_encode;
-use crate::runner::animation::{GLB_FILE, PVD_FILE};
+use crate::runner::outputs::glb::GLB_FILE;
+use crate::runner::outputs::vtk::PVD_FILE;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 

@@ -7,8 +7,8 @@
 use super::ViewError;
 use crate::io::render::{self, annotate, Drawable, Picture};
 use crate::math::Vec3;
-use crate::runner::animation::GLB_FILE;
-use crate::runner::outputs::{CLOTH_COLOR, OBSTACLE_COLOR, PLANE_COLOR};
+use crate::runner::outputs::glb::GLB_FILE;
+use crate::runner::outputs::snapshots::{CLOTH_COLOR, OBSTACLE_COLOR, PLANE_COLOR};
 use crate::surface::{Aabb, TriMesh};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -27,6 +27,124 @@ fn invalid(path: &Path, message: impl Into<String>) -> ViewError {
     ViewError::Invalid { path: path.to_path_buf(), message: message.into() }
 }
 
+/// A parsed `.glb`: its JSON document and its binary chunk.
+struct GlbDoc<'a> {
+    path: &'a Path,
+    doc: Value,
+    bin: &'a [u8],
+}
+
+impl<'a> GlbDoc<'a> {
+    /// Splits the checked `.glb` `bytes` into the JSON document and the binary chunk.
+    fn parse(path: &'a Path, bytes: &'a [u8]) -> Result<Self, ViewError> {
+        let u32_at = |at: usize| -> Option<usize> {
+            bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+        };
+        let json_len = u32_at(12).ok_or_else(|| invalid(path, "truncated header"))?;
+        let doc: Value = serde_json::from_slice(
+            bytes.get(20..20usize.saturating_add(json_len)).ok_or_else(|| invalid(path, "truncated"))?,
+        )
+        .map_err(|e| invalid(path, format!("its JSON chunk: {e}")))?;
+        let bin_len = u32_at(20 + json_len).ok_or_else(|| invalid(path, "no BIN chunk"))?;
+        let bin_at = 28 + json_len;
+        let bin =
+            bytes.get(bin_at..bin_at.saturating_add(bin_len)).ok_or_else(|| invalid(path, "truncated BIN chunk"))?;
+        Ok(Self { path, doc, bin })
+    }
+
+    /// The 4-byte words of an accessor (every accessor flexsurf writes is f32 or u32).
+    fn words(&self, acc: &Value) -> Result<Vec<[u8; 4]>, ViewError> {
+        let (doc, path) = (&self.doc, self.path);
+        let i = acc.as_u64().ok_or_else(|| invalid(path, "an accessor index is not a number"))? as usize;
+        let a = &doc["accessors"][i];
+        let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
+        let n = match a["type"].as_str() {
+            Some("SCALAR") => 1,
+            Some("VEC2") => 2,
+            Some("VEC3") => 3,
+            _ => return Err(invalid(path, format!("accessor {i}: unsupported type"))),
+        } * a["count"].as_u64().unwrap_or(0) as usize;
+        let at = (v["byteOffset"].as_u64().unwrap_or(0) + a["byteOffset"].as_u64().unwrap_or(0)) as usize;
+        let raw =
+            self.bin.get(at..at + 4 * n).ok_or_else(|| invalid(path, format!("accessor {i} runs past the buffer")))?;
+        Ok(raw.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
+    }
+
+    fn floats(&self, acc: &Value) -> Result<Vec<f32>, ViewError> {
+        Ok(self.words(acc)?.into_iter().map(f32::from_le_bytes).collect())
+    }
+
+    fn indices(&self, acc: &Value) -> Result<Vec<[u32; 3]>, ViewError> {
+        let w: Vec<u32> = self.words(acc)?.into_iter().map(u32::from_le_bytes).collect();
+        Ok(w.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+    }
+
+    /// The first primitive of the mesh of `node`.
+    fn primitive(&self, node: &Value) -> &Value {
+        &self.doc["meshes"][node["mesh"].as_u64().unwrap_or(u64::MAX) as usize]["primitives"][0]
+    }
+
+    /// The mesh of a primitive's positions, normals and indices.
+    fn mesh(&self, prim: &Value) -> Result<TriMesh, ViewError> {
+        Ok(TriMesh {
+            positions: vec3s(self.floats(&prim["attributes"]["POSITION"])?),
+            normals: vec3s(self.floats(&prim["attributes"]["NORMAL"])?),
+            triangles: self.indices(&prim["indices"])?,
+        })
+    }
+}
+
+fn vec3s(v: Vec<f32>) -> Vec<Vec3> {
+    v.chunks_exact(3).map(|c| Vec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect()
+}
+
+/// The cloth at each frame: the base mesh plus that frame's morph target (added in single precision, as a
+/// glTF viewer does), at the frame's time.
+fn cloth_frames(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(f64, TriMesh)>, ViewError> {
+    let prim = g.primitive(&g.doc["nodes"][cloth_node]);
+    let base = g.floats(&prim["attributes"]["POSITION"])?;
+    let base_n = g.floats(&prim["attributes"]["NORMAL"])?;
+    let triangles = g.indices(&prim["indices"])?;
+    if triangles.iter().flatten().any(|&v| v as usize >= base.len() / 3) {
+        return Err(invalid(g.path, "a cloth index is out of range"));
+    }
+    let frames = &g.doc["extras"]["flexsurf"]["frames"];
+    let times: Vec<f64> =
+        frames.as_array().map_or(vec![0.0], |f| f.iter().map(|x| x["time"].as_f64().unwrap_or(0.0)).collect());
+    let targets = prim["targets"].as_array().cloned().unwrap_or_default();
+    if targets.len() + 1 != times.len() {
+        return Err(invalid(g.path, format!("{} frames but {} morph targets", times.len(), targets.len())));
+    }
+    let mut out = Vec::new();
+    for (k, &t) in times.iter().enumerate() {
+        let (mut p, mut n) = (base.clone(), base_n.clone());
+        if k > 0 {
+            let (dp, dn) = (g.floats(&targets[k - 1]["POSITION"])?, g.floats(&targets[k - 1]["NORMAL"])?);
+            if dp.len() != p.len() || dn.len() != n.len() {
+                return Err(invalid(g.path, format!("morph target {} has the wrong size", k - 1)));
+            }
+            p.iter_mut().zip(&dp).for_each(|(a, d)| *a += d);
+            n.iter_mut().zip(&dn).for_each(|(a, d)| *a += d);
+        }
+        out.push((t, TriMesh { positions: vec3s(p), normals: vec3s(n), triangles: triangles.clone() }));
+    }
+    Ok(out)
+}
+
+/// The obstacles: every node with a mesh but the cloth's, and whether it is a ground plane.
+fn obstacles(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(TriMesh, bool)>, ViewError> {
+    let mut out = Vec::new();
+    for (i, node) in g.doc["nodes"].as_array().into_iter().flatten().enumerate() {
+        if i == cloth_node || node.get("mesh").is_none() {
+            continue;
+        }
+        let mesh = g.mesh(g.primitive(node))?;
+        mesh.validate().map_err(|e| invalid(g.path, format!("obstacle node {i}: {e}")))?;
+        out.push((mesh, node["name"].as_str().is_some_and(|s| s.ends_with("_plane"))));
+    }
+    Ok(out)
+}
+
 /// Reads the `animation.glb` that flexsurf wrote into `dir`.
 #[allow(clippy::too_many_lines)] // Until `io/` is split by its owner (issue 18).
 pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
@@ -37,88 +155,12 @@ pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
         Err(source) => return Err(ViewError::Io { path, source }),
     };
     super::check_glb(&path, &bytes)?;
-    let u32_at = |at: usize| -> Option<usize> {
-        bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
-    };
-    let json_len = u32_at(12).ok_or_else(|| invalid(&path, "truncated header"))?;
-    let doc: Value = serde_json::from_slice(
-        bytes.get(20..20usize.saturating_add(json_len)).ok_or_else(|| invalid(&path, "truncated"))?,
-    )
-    .map_err(|e| invalid(&path, format!("its JSON chunk: {e}")))?;
-    let bin_len = u32_at(20 + json_len).ok_or_else(|| invalid(&path, "no BIN chunk"))?;
-    let bin_at = 28 + json_len;
-    let bin = bytes.get(bin_at..bin_at.saturating_add(bin_len)).ok_or_else(|| invalid(&path, "truncated BIN chunk"))?;
-    // The 4-byte words of an accessor (every accessor flexsurf writes is f32 or u32).
-    let words = |acc: &Value| -> Result<Vec<[u8; 4]>, ViewError> {
-        let i = acc.as_u64().ok_or_else(|| invalid(&path, "an accessor index is not a number"))? as usize;
-        let a = &doc["accessors"][i];
-        let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
-        let n = match a["type"].as_str() {
-            Some("SCALAR") => 1,
-            Some("VEC2") => 2,
-            Some("VEC3") => 3,
-            _ => return Err(invalid(&path, format!("accessor {i}: unsupported type"))),
-        } * a["count"].as_u64().unwrap_or(0) as usize;
-        let at = (v["byteOffset"].as_u64().unwrap_or(0) + a["byteOffset"].as_u64().unwrap_or(0)) as usize;
-        let raw =
-            bin.get(at..at + 4 * n).ok_or_else(|| invalid(&path, format!("accessor {i} runs past the buffer")))?;
-        Ok(raw.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
-    };
-    let floats =
-        |acc: &Value| -> Result<Vec<f32>, ViewError> { Ok(words(acc)?.into_iter().map(f32::from_le_bytes).collect()) };
-    let vec3s = |v: Vec<f32>| -> Vec<Vec3> {
-        v.chunks_exact(3).map(|c| Vec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect()
-    };
-    let indices = |acc: &Value| -> Result<Vec<[u32; 3]>, ViewError> {
-        let w: Vec<u32> = words(acc)?.into_iter().map(u32::from_le_bytes).collect();
-        Ok(w.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
-    };
-    let ext = &doc["extras"]["flexsurf"];
+    let g = GlbDoc::parse(&path, &bytes)?;
+    let ext = &g.doc["extras"]["flexsurf"];
     let cloth_node =
         ext["cloth_node"].as_u64().ok_or_else(|| invalid(&path, "no extras.flexsurf.cloth_node"))? as usize;
-    let mesh_of = |node: &Value| &doc["meshes"][node["mesh"].as_u64().unwrap_or(u64::MAX) as usize]["primitives"][0];
-    let prim = mesh_of(&doc["nodes"][cloth_node]);
-    let base = floats(&prim["attributes"]["POSITION"])?;
-    let base_n = floats(&prim["attributes"]["NORMAL"])?;
-    let triangles = indices(&prim["indices"])?;
-    let nv = base.len() / 3;
-    if triangles.iter().flatten().any(|&v| v as usize >= nv) {
-        return Err(invalid(&path, "a cloth index is out of range"));
-    }
-    let times: Vec<f64> =
-        ext["frames"].as_array().map_or(vec![0.0], |f| f.iter().map(|x| x["time"].as_f64().unwrap_or(0.0)).collect());
-    let targets = prim["targets"].as_array().cloned().unwrap_or_default();
-    if targets.len() + 1 != times.len() {
-        return Err(invalid(&path, format!("{} frames but {} morph targets", times.len(), targets.len())));
-    }
-    let mut frames = Vec::new();
-    for (k, &t) in times.iter().enumerate() {
-        let (mut p, mut n) = (base.clone(), base_n.clone());
-        if k > 0 {
-            let (dp, dn) = (floats(&targets[k - 1]["POSITION"])?, floats(&targets[k - 1]["NORMAL"])?);
-            if dp.len() != p.len() || dn.len() != n.len() {
-                return Err(invalid(&path, format!("morph target {} has the wrong size", k - 1)));
-            }
-            p.iter_mut().zip(&dp).for_each(|(a, d)| *a += d);
-            n.iter_mut().zip(&dn).for_each(|(a, d)| *a += d);
-        }
-        let mesh = TriMesh { positions: vec3s(p), normals: vec3s(n), triangles: triangles.clone() };
-        frames.push((t, mesh));
-    }
-    let mut obstacles = Vec::new();
-    for (i, node) in doc["nodes"].as_array().into_iter().flatten().enumerate() {
-        if i == cloth_node || node.get("mesh").is_none() {
-            continue;
-        }
-        let p = mesh_of(node);
-        let mesh = TriMesh {
-            positions: vec3s(floats(&p["attributes"]["POSITION"])?),
-            normals: vec3s(floats(&p["attributes"]["NORMAL"])?),
-            triangles: indices(&p["indices"])?,
-        };
-        mesh.validate().map_err(|e| invalid(&path, format!("obstacle node {i}: {e}")))?;
-        obstacles.push((mesh, node["name"].as_str().is_some_and(|s| s.ends_with("_plane"))));
-    }
+    let frames = cloth_frames(&g, cloth_node)?;
+    let obstacles = obstacles(&g, cloth_node)?;
     let info = &ext["info"];
     let model = match info["model"].as_str() {
         Some("tfs") => "TFS model",

@@ -1,0 +1,100 @@
+//! The frames: the display mesh of every panel (merged into one mesh) at every output step, as
+//! `frames/frame_NNNNN.EXT` in the scene's frame format (OBJ, PLY or glTF, [`FrameFormat::writer`]).
+
+use super::{Context, Frame, Output, OutputState, RunOutput};
+use crate::runner::{io_err, RunError};
+use crate::scene::{FrameFormat, Scene};
+use crate::surface::TriMesh;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The folder of the frames, relative to the output folder.
+pub const FRAMES_DIR: &str = "frames";
+
+/// One written frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// Step.
+    pub step: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Path relative to the output directory.
+    pub file: String,
+}
+
+/// The frame file of `step` in `format`, relative to the output folder.
+pub fn frame_file(step: usize, format: FrameFormat) -> String {
+    format!("{FRAMES_DIR}/frame_{step:05}.{}", format.extension())
+}
+
+/// Writes `mesh` in `format` (atomically; see [`FrameFormat::writer`]).
+pub fn write_mesh(path: &Path, mesh: &TriMesh, format: FrameFormat) -> std::io::Result<()> {
+    (format.writer().write)(path, mesh)
+}
+
+/// The frames output.
+pub struct Frames<'a> {
+    scene: &'a Scene,
+    out: PathBuf,
+    steps: Vec<usize>,
+    written: Vec<FrameRecord>,
+}
+
+impl<'a> Frames<'a> {
+    /// The frames of the run `cx`.
+    pub fn new(cx: &Context<'a>) -> Self {
+        Self { scene: cx.scene, out: cx.out.clone(), steps: cx.steps.clone(), written: Vec::new() }
+    }
+}
+
+impl Output for Frames<'_> {
+    fn name(&self) -> &'static str {
+        "frames"
+    }
+
+    fn files(&self) -> Vec<String> {
+        self.steps.iter().map(|&s| frame_file(s, self.scene.output.format)).collect()
+    }
+
+    fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
+        self.written = OutputState::or_default(saved, self.name())?;
+        Ok(())
+    }
+
+    fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError> {
+        let Some(mesh) = frame.mesh else { return Ok(()) };
+        let (step, time) = (frame.state.step, frame.state.time);
+        let file = frame_file(step, self.scene.output.format);
+        let path = self.out.join(&file);
+        write_mesh(&path, mesh, self.scene.output.format).map_err(io_err(&path))?;
+        self.written.push(FrameRecord { step, time, file });
+        Ok(())
+    }
+
+    fn save(&self) -> Result<OutputState, RunError> {
+        OutputState::of(&self.written)
+    }
+
+    fn report(&self, run: &mut RunOutput) {
+        run.summary.frames.clone_from(&self.written);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_frame_format_writes_a_file_named_after_it() {
+        let dir = crate::io::scratch_dir("frame-formats");
+        let mesh = crate::io::test_mesh();
+        for format in [FrameFormat::Obj, FrameFormat::Ply, FrameFormat::Gltf] {
+            let path = dir.join(format!("mesh.{}", format.extension()));
+            write_mesh(&path, &mesh, format).unwrap();
+            assert!(std::fs::metadata(&path).unwrap().len() > 0);
+            assert_eq!(serde_json::to_value(format).unwrap().as_str(), Some(format.extension()));
+        }
+        assert_eq!(frame_file(42, FrameFormat::Ply), "frames/frame_00042.ply");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
