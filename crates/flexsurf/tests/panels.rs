@@ -125,6 +125,15 @@ fn two_different_clamped_sheets_sag_as_each_does_alone() {
     assert!(da < 1e-8 && db < 1e-8, "equilibria differ by {da:e} and {db:e} m");
     // The pinned rows of the second panel are its own: its node 0 did not move.
     assert_eq!(x[na], b.1[0]);
+    // Energies by term name: each panel's elastic terms summed under one name.
+    let energies = both.potential.term_energies(&x, true);
+    let names: Vec<&str> = energies.iter().map(|e| e.0).collect();
+    assert_eq!(names, ["membrane", "bending", "gravity and loads"]);
+    let (ea, eb) = (alone_a.potential.term_energies(&xa, true), alone_b.potential.term_energies(&xb, true));
+    for (k, (name, e)) in energies.iter().enumerate() {
+        let separate = ea[k].1 + eb[k].1;
+        assert!((e - separate).abs() <= 1e-6 * separate.abs().max(1e-12), "{name}: {e} vs {separate}");
+    }
 }
 
 #[test]

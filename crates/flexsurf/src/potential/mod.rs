@@ -670,6 +670,29 @@ impl Potential {
         values
     }
 
+    /// The value of each term at `x` by name (terms of one name, such as the elastic terms of several panels,
+    /// summed), in evaluation order; terms with an active set (contact) only when `active` (they are detected
+    /// cold, a query per node). For the energy records: their columns follow the terms present.
+    pub fn term_energies(&self, x: &[Vec3], active: bool) -> Vec<(&'static str, f64)> {
+        let cx = self.context(None);
+        let mut out: Vec<(&'static str, f64)> = Vec::new();
+        for term in &self.terms {
+            let mut scratch = Scratch::default();
+            match term.active_set() {
+                Some(a) if active => a.prepare(x, &cx, &mut scratch),
+                Some(_) => continue,
+                None => {}
+            }
+            let v = term.evaluate(x, &cx, &mut scratch, &mut Sink::none());
+            let name = term.info().name;
+            match out.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, total)) => *total += v,
+                None => out.push((name, v)),
+            }
+        }
+        out
+    }
+
     /// Largest violation over every term at `x` (penetration, m), from cold queries.
     pub fn violation_cold(&self, x: &[Vec3]) -> f64 {
         let cx = self.context(None);
