@@ -64,7 +64,7 @@ pub struct Drape {
 impl Drape {
     /// The Coons display mesh of the drape.
     pub fn mesh(&self, k: usize) -> TriMesh {
-        CoonsSurface::new(&self.model.grid, &self.x).tessellate(k)
+        CoonsSurface::new(&self.model.panels[0].grid, &self.x).tessellate(k)
     }
 }
 
@@ -187,13 +187,15 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>,
 /// The drape `x` of `model` with its report: equilibrium residual, shadow, drape coefficient and folds.
 fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usize) -> Drape {
     let Annulus { rd, rs, hr } = *ring;
-    let (grid, m, angular) = (model.grid, model.grid.m, model.grid.n);
+    // The specimen is one polar panel.
+    let grid = model.panels[0].grid;
+    let (m, angular) = (grid.m, grid.n);
     // Equilibrium residual: largest nodal force imbalance relative to the largest nodal weight.
     let mut g = vec![Vec3::ZERO; x.len()];
     StaticSolver::potential(&model, &x, Some(&mut g));
     let weight = model.mass.iter().fold(0.0, |a: f64, m| a.max(m * 9.81));
     let residual = g.iter().map(|v| v.length()).fold(0.0, f64::max) / weight;
-    let mesh = CoonsSurface::new(&model.grid, &x).tessellate(4);
+    let mesh = CoonsSurface::new(&grid, &x).tessellate(4);
     let hole = PI * (rd - hr) * (rd - hr);
     let shadow = (projected_area_xy(&mesh, 1024) + hole).max(PI * rd * rd);
     let a_disc = PI * rd * rd;

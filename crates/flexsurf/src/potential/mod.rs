@@ -674,9 +674,32 @@ impl Potential {
     /// summed), in evaluation order; terms with an active set (contact) only when `active` (they are detected
     /// cold, a query per node). For the energy records: their columns follow the terms present.
     pub fn term_energies(&self, x: &[Vec3], active: bool) -> Vec<(&'static str, f64)> {
+        self.energies_where(x, active, |_| true)
+    }
+
+    /// The names of the terms beyond the sheet's elastic energy and the loads that have no active set
+    /// (springs, a library user's terms), once each: the per-step energy table's extra columns.
+    pub fn extra_energy_names(&self) -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = Vec::new();
+        for t in self.terms.iter().filter(|t| t.active_set().is_none()) {
+            let info = t.info();
+            if !(info.part.is_elastic() || info.part == Part::Load || names.contains(&info.name)) {
+                names.push(info.name);
+            }
+        }
+        names
+    }
+
+    /// As [`Potential::term_energies`] for the terms whose info satisfies `which`.
+    pub fn energies_where(
+        &self,
+        x: &[Vec3],
+        active: bool,
+        which: impl Fn(&TermInfo) -> bool,
+    ) -> Vec<(&'static str, f64)> {
         let cx = self.context(None);
         let mut out: Vec<(&'static str, f64)> = Vec::new();
-        for term in &self.terms {
+        for term in self.terms.iter().filter(|t| which(&t.info())) {
             let mut scratch = Scratch::default();
             match term.active_set() {
                 Some(a) if active => a.prepare(x, &cx, &mut scratch),

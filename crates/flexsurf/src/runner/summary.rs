@@ -15,7 +15,7 @@ use crate::surface::{footprint, Aabb, TriMesh};
 use serde::Serialize;
 
 /// The configuration at the end of a run.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FinalState {
     /// Lowest node height (m).
     pub min_z: f64,
@@ -44,6 +44,9 @@ pub struct FinalState {
     pub max_penetration: f64,
     /// Largest engineering edge strain.
     pub max_strain: f64,
+    /// The value of every term of the potential by its name (J): the columns follow the terms present (the
+    /// elastic terms, gravity and loads, springs, contact, ...).
+    pub energies: std::collections::BTreeMap<String, f64>,
 }
 
 /// `summary.json`.
@@ -64,8 +67,11 @@ pub struct Summary {
     pub calibration: String,
     /// Material name.
     pub material: String,
-    /// Nodes `[M, N]`.
+    /// Nodes `[M, N]` (of the first panel when there are several).
     pub grid: [usize; 2],
+    /// Nodes `[M, N]` of each panel, for a model of several (absent for one).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub panels: Vec<[usize; 2]>,
     /// Time step (s).
     pub dt: f64,
     /// Steps taken.
@@ -162,6 +168,11 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),
         grid,
+        panels: if model.panels.len() > 1 {
+            model.panels.iter().map(|p| [p.grid.m, p.grid.n]).collect()
+        } else {
+            Vec::new()
+        },
         dt: scene.dt,
         steps: stats.steps,
         output_every: scene.output_every,
@@ -212,5 +223,6 @@ fn final_state(model: &Model, x: &[Vec3], mesh: &TriMesh, d: &Diagnostics) -> Fi
         potential_energy: d.potential,
         max_penetration: d.max_penetration,
         max_strain: model.max_strain(x),
+        energies: model.potential.term_energies(x, true).into_iter().map(|(n, e)| (n.to_string(), e)).collect(),
     }
 }

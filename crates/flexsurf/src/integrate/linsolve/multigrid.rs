@@ -475,7 +475,7 @@ mod tests {
             stepper.step(&scene.model, &mut state).unwrap();
         }
         stepper.assemble(&scene.model, &state);
-        let grid = Grid { topology, ..scene.model.grid };
+        let grid = Grid { topology, ..scene.model.panels[0].grid };
         (scene.model.potential.pattern().clone(), stepper.matrix().clone(), grid)
     }
 

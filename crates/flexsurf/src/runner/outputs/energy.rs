@@ -1,4 +1,5 @@
-//! `energy.csv`: one row per step (step, time, kinetic, membrane, bending and gravitational potential energy),
+//! `energy.csv`: one row per step (step, time, kinetic, membrane, bending and gravitational potential energy,
+//! then a column for each further term without an active set, such as `springs`),
 //! appended and flushed to the system row by row as the run goes (a kill keeps every row written; a resumed
 //! run truncates it to its length at the checkpoint), and `energy.png`, its chart, at the end.
 
@@ -19,6 +20,8 @@ const HEADER: &str = "step,time,kinetic,membrane,bending,potential\n";
 /// The energy output.
 pub struct Energy<'a> {
     scene: &'a Scene,
+    /// The terms beyond the elastic energy and the loads (springs, ...), a column each after the standard ones.
+    extra: Vec<&'static str>,
     out: PathBuf,
     file: Option<std::fs::File>,
     /// Bytes written to `energy.csv` so far.
@@ -28,7 +31,8 @@ pub struct Energy<'a> {
 impl<'a> Energy<'a> {
     /// The energy table of the run `cx`.
     pub fn new(cx: &Context<'a>) -> Self {
-        Self { scene: cx.scene, out: cx.out.clone(), file: None, bytes: 0 }
+        let extra = cx.scene.model.potential.extra_energy_names();
+        Self { scene: cx.scene, out: cx.out.clone(), extra, file: None, bytes: 0 }
     }
 
     fn append(&mut self, text: &str) -> Result<(), RunError> {
@@ -67,7 +71,9 @@ impl Output for Energy<'_> {
             None => {
                 self.file = Some(std::fs::File::create(&path).map_err(io_err(&path))?);
                 self.bytes = 0;
-                self.append(HEADER)
+                let mut header = HEADER.trim_end().to_string();
+                self.extra.iter().for_each(|name| header += &format!(",{}", name.replace(' ', "_")));
+                self.append(&(header + "\n"))
             }
             Some(s) => {
                 self.bytes = s.get(self.name())?;
@@ -80,11 +86,16 @@ impl Output for Energy<'_> {
     fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError> {
         // Only the energies: penetration and strain of every step are not written, so not computed here.
         let d = sim::energies(&self.scene.model, frame.state);
-        let row = format!(
-            "{},{},{:.9e},{:.9e},{:.9e},{:.9e}\n",
+        let mut row = format!(
+            "{},{},{:.9e},{:.9e},{:.9e},{:.9e}",
             d.step, d.time, d.kinetic, d.energies.membrane, d.energies.bending, d.potential
         );
-        self.append(&row)
+        if !self.extra.is_empty() {
+            let extra = &self.extra;
+            let values = self.scene.model.potential.energies_where(&frame.state.x, false, |i| extra.contains(&i.name));
+            values.iter().for_each(|(_, e)| row += &format!(",{e:.9e}"));
+        }
+        self.append(&(row + "\n"))
     }
 
     fn save(&self) -> Result<OutputState, RunError> {
