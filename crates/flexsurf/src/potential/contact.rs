@@ -202,6 +202,18 @@ pub struct ContactScratch {
     relinearized: usize,
 }
 
+impl ContactScratch {
+    /// Whether the scratch fits a model of `obstacles` obstacles and `nodes` nodes (every vector's size, every
+    /// node index): a checkpoint's is checked before use.
+    pub(crate) fn fits(&self, obstacles: usize, nodes: usize) -> bool {
+        self.cache.fits(obstacles, nodes)
+            && self.predicted.len() == nodes
+            && self.has_contact.len() == nodes
+            && self.contacts.iter().all(|c| c.node < nodes)
+            && self.lagged.iter().all(|l| l.node < nodes)
+    }
+}
+
 impl PenaltyContact {
     /// Contact with `obstacles` under `params`, nodes of rest area `area`.
     pub fn new(obstacles: Vec<Obstacle>, params: ContactParams, area: Vec<f64>) -> Self {

@@ -47,6 +47,23 @@ fn load(saved: &Saved, scratch: &mut Scratch) -> Result<(), String> {
 }
 
 impl WarmState {
+    /// Checks the saved state against a model of `obstacles` obstacles and `nodes` nodes (a checkpoint's,
+    /// before it is used: a forged one must not index past a vector).
+    pub fn check(&self, obstacles: usize, nodes: usize) -> Result<(), String> {
+        for saved in self.terms.iter().chain([&self.extra]) {
+            if let Saved::Contact(bytes) = saved {
+                let c: ContactScratch =
+                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the contact state: {e}"))?;
+                if !c.fits(obstacles, nodes) {
+                    return Err(format!(
+                        "its contact state does not fit the model ({obstacles} obstacles, {nodes} nodes)"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The warm state of a workspace without terms (for tests of the checkpoint format).
     #[cfg(test)]
     pub(crate) fn empty() -> Self {

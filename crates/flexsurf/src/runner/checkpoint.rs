@@ -194,6 +194,80 @@ pub fn read(out: &Path, fingerprint: &str) -> Result<Checkpoint, RunError> {
     Ok(ck)
 }
 
+/// The checkpoint `ck` (read by [`read`], of this run's fingerprint) checked against `scene` before use: the
+/// size of every vector against the model's node count (and the display mesh's vertex count), finiteness, the
+/// steps and counts against the run's. The checksum only detects damage, and a forged file with a valid one
+/// must give this error, never a panic or a run that silently goes wrong.
+pub fn validated(ck: Checkpoint, scene: &crate::scene::Scene) -> Result<Checkpoint, RunError> {
+    let path = PathBuf::from(CHECKPOINT);
+    check_against(&ck, scene).map_err(|e| {
+        bad(
+            &path,
+            format!("cannot resume: the checkpoint does not fit the scene ({e}); it is damaged or not this run's"),
+        )
+    })?;
+    Ok(ck)
+}
+
+fn all_finite(v: &[Vec3]) -> bool {
+    v.iter().all(|p| crate::math::finite(*p))
+}
+
+fn check_against(ck: &Checkpoint, scene: &crate::scene::Scene) -> Result<(), String> {
+    let n = scene.state.x.len();
+    let st = &ck.state;
+    for (name, v) in [("x", &st.x), ("x_prev", &st.x_prev), ("v", &st.v), ("v_prev", &st.v_prev)] {
+        if v.len() != n {
+            return Err(format!("the state's `{name}` has {} nodes, the model {n}", v.len()));
+        }
+        if !all_finite(v) {
+            return Err(format!("the state's `{name}` holds a non-finite value"));
+        }
+    }
+    if st.step == 0 || st.step >= scene.steps || !(st.time.is_finite() && st.time >= 0.0) {
+        return Err(format!(
+            "its step {} (t = {} s) is not one inside the run's {} steps",
+            st.step, st.time, scene.steps
+        ));
+    }
+    ck.warm.check(scene.model.obstacles().len(), n)?;
+    if !all_finite(&ck.solver.guess) {
+        return Err("the solver's guess holds a non-finite value".into());
+    }
+    let outputs = super::output_steps(scene.steps, scene.output_every).len();
+    if ck.frames.len() > outputs || ck.animation.len() > outputs {
+        return Err(format!("it lists more frames than the run's {outputs}"));
+    }
+    if ck.frames.iter().any(|(step, time, file)| *step > st.step || !time.is_finite() || file.contains("..")) {
+        return Err("a frame it lists is past its step or not a frame file".into());
+    }
+    if ck.pictured.len() > super::MAX_SNAPSHOTS {
+        return Err(format!("it pictures {} steps, more than {}", ck.pictured.len(), super::MAX_SNAPSHOTS));
+    }
+    if ck.pictured.iter().any(|(step, time, x)| *step > st.step || !time.is_finite() || x.len() != n || !all_finite(x))
+    {
+        return Err(format!("a pictured step is past its step or not {n} finite node positions"));
+    }
+    let k = scene.output.coons_subdivisions.max(1);
+    let vertices = super::fields::display_topology(&scene.model.grid, k).uv.len();
+    for f in &ck.animation {
+        let sizes = [f.positions.len(), f.normals.len(), f.velocity.len(), f.strain.len(), f.pressure.len()];
+        if f.step > st.step || !f.time.is_finite() || sizes.iter().any(|&s| s != vertices) {
+            return Err(format!(
+                "an animation frame is past its step or not of the display mesh's {vertices} vertices"
+            ));
+        }
+    }
+    let stats = &ck.stats;
+    if stats.steps > st.step || !(stats.wall_seconds.is_finite() && stats.max_penetration_seen.is_finite()) {
+        return Err("its run statistics do not fit its step".into());
+    }
+    if ck.counters.seconds.iter().any(|s| !s.is_finite()) {
+        return Err("its counters hold a non-finite value".into());
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,7 +2,7 @@
 //! paths), listed *before* they are written, the fingerprint of the run, and, once the run ends, the SHA-256
 //! of each of its files as it left them. With it:
 //!
-//! - a run holds an exclusive lock on the folder (`flock` on the folder itself, std's [`File::try_lock`]) for
+//! - a run holds an exclusive lock on the folder (`flock` on the folder itself, through the `fs4` crate) for
 //!   its whole life: a second run into the folder is refused, naming the process that holds it;
 //! - a run into a folder holding another run's outputs refuses, naming them, unless asked to overwrite; then
 //!   it removes exactly the files of the old manifest that still have the content it recorded (regular files
@@ -164,9 +164,10 @@ fn lock_holder(_dir: &File) -> Option<u32> {
 /// run holds it. A file system that cannot lock (some network file systems) leaves the folder unlocked.
 fn lock(root: &Path) -> Result<Option<File>, RunError> {
     let Ok(dir) = File::open(root) else { return Ok(None) };
-    match dir.try_lock() {
+    // `fs4`'s trait (the crate keeps Rust 1.85; std's inherent `File::try_lock` needs 1.89).
+    match fs4::FileExt::try_lock(&dir) {
         Ok(()) => Ok(Some(dir)),
-        Err(fs::TryLockError::WouldBlock) => {
+        Err(fs4::TryLockError::WouldBlock) => {
             let who = lock_holder(&dir).map_or_else(String::new, |pid| format!(" (process {pid})"));
             Err(refused(
                 root,
@@ -176,7 +177,7 @@ fn lock(root: &Path) -> Result<Option<File>, RunError> {
                 ),
             ))
         }
-        Err(fs::TryLockError::Error(_)) => Ok(None),
+        Err(fs4::TryLockError::Error(_)) => Ok(None),
     }
 }
 
@@ -414,7 +415,8 @@ impl Folder {
             }
             new.push(rel);
         }
-        if !foreign.is_empty() && !(self.had_manifest && self.overwrite) {
+        let allowed = self.had_manifest && self.overwrite;
+        if !foreign.is_empty() && !allowed {
             return Err(refused(&self.root, Self::foreign_message(&foreign, self.had_manifest)));
         }
         if !new.is_empty() {

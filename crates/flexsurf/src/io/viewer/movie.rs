@@ -30,10 +30,12 @@ fn invalid(path: &Path, message: impl Into<String>) -> ViewError {
 /// Reads the `animation.glb` that flexsurf wrote into `dir`.
 pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
     let path = dir.join(GLB_FILE);
-    let bytes = match std::fs::read(&path) {
+    let bytes = match super::read_limited(&path, super::MAX_ANIMATION_BYTES) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(ViewError::NoAnimation(path)),
-        Err(source) => return Err(ViewError::Io { path, source }),
+        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            return Err(ViewError::NoAnimation(path))
+        }
+        Err(e) => return Err(e),
     };
     super::check_glb(&path, &bytes)?;
     let u32_at = |at: usize| -> Option<usize> {
