@@ -140,8 +140,9 @@ MAIN_GUARD = (
 def _run_processes(task: str | dict, file: str | None, todo: list[dict], workers: int | None) -> list[dict]:
     if not todo:
         return []
-    if multiprocessing.parent_process() is not None and multiprocessing.current_process().name != "MainProcess":
-        # A spawned worker re-running an unguarded script: say why instead of starting processes from it.
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # A spawned worker still starting up, re-running an unguarded script: say why (multiprocessing's own
+        # check, which would refuse to start processes from it, does not).
         raise RuntimeError(f"sweep() was called in a worker process: {MAIN_GUARD}")
     n = max(1, min(workers or os.cpu_count() or 1, len(todo)))
     # Spawned workers: a fork of a process that already runs native threads is not safe.
