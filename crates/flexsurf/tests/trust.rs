@@ -198,6 +198,9 @@ fn regression_rerunning_a_stopped_run_said_another_run() {
     assert!(!e.contains("another run"), "{e}");
 }
 
+/// A change made to a genuine checkpoint.
+type Forgery = Box<dyn Fn(&mut checkpoint::Checkpoint)>;
+
 #[test]
 fn regression_a_forged_checkpoint_with_a_valid_checksum_panicked() {
     let d = scratch("forged");
@@ -206,7 +209,7 @@ fn regression_a_forged_checkpoint_with_a_valid_checksum_panicked() {
     stopped(&s, &out);
     let path = out.join(checkpoint::CHECKPOINT);
     let good = checkpoint::decode(&std::fs::read(&path).unwrap()).unwrap();
-    let forgeries: Vec<(&str, Box<dyn Fn(&mut checkpoint::Checkpoint)>)> = vec![
+    let forgeries: Vec<(&str, Forgery)> = vec![
         ("a node short", Box::new(|c| c.state.x.truncate(24))),
         ("a velocity more", Box::new(|c| c.state.v.push(flexsurf::math::Vec3::ZERO))),
         ("a NaN position", Box::new(|c| c.state.x[3].y = f64::NAN)),
