@@ -7,7 +7,8 @@ the Python side (``run``'s result, sweeps). See ``docs/python.md``.
   (:meth:`Scene.from_dict`), checked by the library; errors raise :class:`SceneError` naming the key.
 - :class:`Simulation` — step a scene, read positions and velocities as ``(M, N, 3)`` arrays, move pinned nodes
   and spring targets between steps.
-- :func:`run` — run a scene as ``flexsurf run`` does; the summary as a dict and the frames as arrays.
+- :func:`run` — run a scene as ``flexsurf run`` does; the summary as a dict and the frames as arrays (an output
+  folder that cannot be used as it is raises :class:`FolderError`; ``overwrite=True`` replaces another run's).
 - :func:`kes`, :func:`cantilever`, :func:`cusick` — the virtual textile tests.
 - :class:`Material` — a fabric from a file or from keyword arguments.
 - :func:`sweep` — many independent runs on a process pool or on Ray, into a pandas DataFrame.
@@ -15,6 +16,7 @@ the Python side (``run``'s result, sweeps). See ``docs/python.md``.
 
 from ._flexsurf import (
     FlexsurfError,
+    FolderError,
     Material,
     Scene,
     SceneError,
@@ -31,6 +33,7 @@ from ._sweep import sweep
 
 __all__ = [
     "FlexsurfError",
+    "FolderError",
     "Material",
     "RunResult",
     "Scene",

@@ -24,6 +24,10 @@ class SceneError(FlexsurfError):
 class SimulationError(FlexsurfError):
     """A run or step that failed (divergence, a failed solve, an output that cannot be written)."""
 
+class FolderError(FlexsurfError):
+    """An output folder that cannot be used as it is: another run's outputs (pass ``overwrite=True``), files
+    flexsurf did not write, a symbolic link inside it, or another run writing into it now."""
+
 class Scene:
     """A built scene: model, initial state and run settings, read and checked by the library."""
 
@@ -114,7 +118,9 @@ class Material:
 def read_toml(path: _Path) -> dict[str, Any]:
     """The keys of a TOML file as a dict (unchecked)."""
 
-def run_into(scene: Scene, out: _Path) -> tuple[dict[str, Any], list[int], npt.NDArray[np.float64]]:
+def run_into(
+    scene: Scene, out: _Path, overwrite: bool = False
+) -> tuple[dict[str, Any], list[int], npt.NDArray[np.float64]]:
     """Runs ``scene`` into ``out``; the summary, the output steps and the frames ``(F, M, N, 3)``."""
 
 def kes(material: _MaterialArg = None, calibration: str = "kes") -> dict[str, Any]: ...

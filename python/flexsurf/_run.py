@@ -67,18 +67,21 @@ def as_scene(scene: SceneLike, file: str | os.PathLike[str] | None = None) -> Sc
     return Scene.from_toml(os.fspath(scene))
 
 
-def run(scene: SceneLike, out: str | os.PathLike[str] | None = None) -> RunResult:
+def run(scene: SceneLike, out: str | os.PathLike[str] | None = None, overwrite: bool = False) -> RunResult:
     """Runs a scene as ``flexsurf run SCENE --out OUT`` does, with the GIL released.
 
     ``scene`` is a :class:`Scene`, a path to a TOML scene or a dict of its keys. With ``out`` the usual files
     (``frames/``, ``energy.csv``, ``summary.json``, ``snapshots.png``) are written there, bit for bit those of
     the command line (``summary.json``'s wall times aside); without it they go to a temporary directory that is
-    removed. Raises :class:`SceneError` for a bad scene and :class:`SimulationError` for a failed run.
+    removed. A folder holding another run's outputs raises :class:`FolderError` unless ``overwrite=True``
+    (which removes exactly the files that run wrote, as its ``manifest.json`` lists them); files flexsurf did
+    not write, a symbolic link inside the folder or another run writing into it now raise it too. Raises
+    :class:`SceneError` for a bad scene and :class:`SimulationError` for a failed run.
     """
     built = as_scene(scene)
     if out is None:
         with tempfile.TemporaryDirectory(prefix="flexsurf-") as tmp:
             summary, steps, frames = run_into(built, tmp)
         return RunResult(summary, np.asarray(steps), frames, None)
-    summary, steps, frames = run_into(built, os.fspath(out))
+    summary, steps, frames = run_into(built, os.fspath(out), overwrite=bool(overwrite))
     return RunResult(summary, np.asarray(steps), frames, Path(out))

@@ -7,6 +7,7 @@ import itertools
 import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Iterable, Mapping, Sequence, Union
 
 from ._flexsurf import Material, Scene, cantilever, cusick, kes, read_toml
@@ -129,14 +130,28 @@ def sweep(
     return table
 
 
+MAIN_GUARD = (
+    'the "process" backend starts its workers by re-importing the script that called sweep(), so that script '
+    'must run its top-level code only under `if __name__ == "__main__":` (see docs/python.md); without the guard '
+    "every worker runs the sweep again and dies"
+)
+
+
 def _run_processes(task: str | dict, file: str | None, todo: list[dict], workers: int | None) -> list[dict]:
     if not todo:
         return []
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # A spawned worker still starting up, re-running an unguarded script: say why (multiprocessing's own
+        # check, which would refuse to start processes from it, does not).
+        raise RuntimeError(f"sweep() was called in a worker process: {MAIN_GUARD}")
     n = max(1, min(workers or os.cpu_count() or 1, len(todo)))
     # Spawned workers: a fork of a process that already runs native threads is not safe.
-    with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(_case_row, task, file, k, c) for k, c in enumerate(todo)]
-        return [f.result() for f in futures]
+    try:
+        with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(_case_row, task, file, k, c) for k, c in enumerate(todo)]
+            return [f.result() for f in futures]
+    except BrokenProcessPool as e:
+        raise RuntimeError(f"the sweep's worker processes stopped: {MAIN_GUARD}") from e
 
 
 def _run_ray(

@@ -32,10 +32,15 @@ def test_process_sweep_equals_single_runs(small_drop, tmp_path):
     grid = {"material.bending_warp": [5e-5, 5e-4], "contact.friction": [0.0, 0.5]}
     cases = flexsurf._sweep.cases(grid)
     assert len(cases) == 4
-    path = tmp_path / "sweep.parquet"
-    table = flexsurf.sweep(small_drop, grid, backend="process", workers=2, parquet=path)
+    table = flexsurf.sweep(small_drop, grid, backend="process", workers=2)
     check_rows_equal_single_runs(table, small_drop, cases)
     assert table["final.min_z"].nunique() == 4
+
+
+def test_sweep_writes_parquet(small_drop, tmp_path):
+    pytest.importorskip("pyarrow", reason="Parquet needs pyarrow (pip install \"./python[parquet]\")")
+    path = tmp_path / "sweep.parquet"
+    table = flexsurf.sweep(small_drop, {"contact.friction": [0.0, 0.5]}, backend="process", workers=2, parquet=path)
     back = pd.read_parquet(path)
     assert back["final.min_z"].tolist() == table["final.min_z"].tolist()
 

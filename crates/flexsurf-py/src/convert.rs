@@ -2,21 +2,65 @@
 //! TOML text of a scene or a material (so that it is read, checked and reported exactly as a file is), and the
 //! library's serialisable reports become Python dicts.
 
-use pyo3::exceptions::PyTypeError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pyo3::IntoPyObjectExt;
 
-/// A Python value as a TOML value; `key` is the dotted key it sits at, for the error message.
-pub fn py_to_toml(value: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+/// The deepest nesting of dicts and lists converted (a scene nests a few levels; a dict that contains itself
+/// would recurse forever).
+pub const MAX_DEPTH: usize = 64;
+/// The most values (numbers, strings, …, and containers) converted from one dict.
+pub const MAX_VALUES: usize = 10_000_000;
+
+/// The limits of one conversion: the depth of the value at hand and the values converted so far.
+struct Budget {
+    values: usize,
+}
+
+impl Budget {
+    fn take(&mut self, key: &str, depth: usize) -> PyResult<()> {
+        if depth > MAX_DEPTH {
+            return Err(PyValueError::new_err(format!(
+                "`{key}`: nested deeper than {MAX_DEPTH} levels of dicts and lists (a dict or list that contains \
+                 itself?)"
+            )));
+        }
+        self.values += 1;
+        if self.values > MAX_VALUES {
+            return Err(PyValueError::new_err(format!("`{key}`: more than {MAX_VALUES} values in one scene")));
+        }
+        Ok(())
+    }
+}
+
+/// An integer: a Python `int`, or anything else that is one exactly (`operator.index`: numpy's integers).
+fn as_integer(value: &Bound<'_, PyAny>, key: &str) -> PyResult<Option<toml::Value>> {
+    let index = if value.is_instance_of::<PyInt>() {
+        value.clone()
+    } else if !value.is_instance_of::<PyFloat>() && value.hasattr("__index__")? {
+        match value.call_method0("__index__") {
+            Ok(i) => i,
+            Err(_) => return Ok(None),
+        }
+    } else {
+        return Ok(None);
+    };
+    match index.extract::<i64>() {
+        Ok(i) => Ok(Some(toml::Value::Integer(i))),
+        Err(_) => Err(PyTypeError::new_err(format!("`{key}`: integer {value} does not fit in 64 bits"))),
+    }
+}
+
+/// A Python value as a TOML value; `key` is the dotted key it sits at (for the error message), `depth` its
+/// nesting, `budget` the values converted so far.
+fn to_toml(value: &Bound<'_, PyAny>, key: &str, depth: usize, budget: &mut Budget) -> PyResult<toml::Value> {
+    budget.take(key, depth)?;
     if value.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(value.extract()?));
     }
-    if value.is_instance_of::<PyInt>() {
-        return match value.extract::<i64>() {
-            Ok(i) => Ok(toml::Value::Integer(i)),
-            Err(_) => Err(PyTypeError::new_err(format!("`{key}`: integer {value} does not fit in 64 bits"))),
-        };
+    if let Some(i) = as_integer(value, key)? {
+        return Ok(i);
     }
     if value.is_instance_of::<PyFloat>() {
         return Ok(toml::Value::Float(value.extract()?));
@@ -25,12 +69,12 @@ pub fn py_to_toml(value: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> 
         return Ok(toml::Value::String(value.extract()?));
     }
     if let Ok(d) = value.cast::<PyDict>() {
-        return dict_to_table(d, key).map(toml::Value::Table);
+        return table(d, key, depth, budget).map(toml::Value::Table);
     }
     if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
         let mut items = Vec::new();
         for (k, item) in value.try_iter()?.enumerate() {
-            items.push(py_to_toml(&item?, &format!("{key}[{k}]"))?);
+            items.push(to_toml(&item?, &format!("{key}[{k}]"), depth + 1, budget)?);
         }
         return Ok(toml::Value::Array(items));
     }
@@ -49,6 +93,10 @@ pub fn py_to_toml(value: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> 
 
 /// A Python dict with string keys as a TOML table.
 pub fn dict_to_table(d: &Bound<'_, PyDict>, prefix: &str) -> PyResult<toml::Table> {
+    table(d, prefix, 0, &mut Budget { values: 0 })
+}
+
+fn table(d: &Bound<'_, PyDict>, prefix: &str, depth: usize, budget: &mut Budget) -> PyResult<toml::Table> {
     let mut table = toml::Table::new();
     for (k, v) in d.iter() {
         let name: String =
@@ -58,7 +106,7 @@ pub fn dict_to_table(d: &Bound<'_, PyDict>, prefix: &str) -> PyResult<toml::Tabl
             // `None` stands for "not given", as a key left out of the file.
             continue;
         }
-        table.insert(name, py_to_toml(&v, &key)?);
+        table.insert(name, to_toml(&v, &key, depth + 1, budget)?);
     }
     Ok(table)
 }

@@ -12,7 +12,7 @@ use flexsurf::lab::cantilever::{cantilever as run_cantilever, Direction, Strip};
 use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
 use flexsurf::lab::kes::kes as run_kes;
 use flexsurf::material::{Calibration, Fabric};
-use flexsurf::runner::{output_steps, run_scene_observed};
+use flexsurf::runner::{output_steps, run_scene_with, RunOptions};
 use flexsurf::scene::material::{load_material_file, material_from_toml, ResolvedMaterial};
 use flexsurf::scene::{SceneError as LibSceneError, SceneSpec};
 use numpy::ndarray::Array4;
@@ -37,6 +37,28 @@ create_exception!(
     FlexsurfError,
     "A run or a step that failed (divergence, a failed solve, an output that cannot be written)."
 );
+
+create_exception!(
+    _flexsurf,
+    FolderError,
+    FlexsurfError,
+    "An output folder that cannot be used as it is: another run's outputs (pass `overwrite=True`), files flexsurf \
+     did not write, a symbolic link inside it, or another run writing into it now."
+);
+
+/// A run's error as a Python exception: a folder problem as `FolderError` (in the words of the Python
+/// call: `overwrite=True`, not a command-line flag), anything else as `SimulationError`.
+fn run_err(e: &flexsurf::runner::RunError) -> PyErr {
+    use flexsurf::runner::manifest::{OVERWRITE_HINT, RESUME_HINT};
+    match e {
+        flexsurf::runner::RunError::Folder { .. } => FolderError::new_err(
+            e.to_string()
+                .replace(OVERWRITE_HINT, "pass overwrite=True")
+                .replace(RESUME_HINT, "resume it from the command line (flexsurf run SCENE --resume)"),
+        ),
+        _ => sim_err(format!("{e:#}")),
+    }
+}
 
 /// A library scene error as a Python `SceneError` carrying `key` (the dotted key) and `file`.
 fn scene_err(py: Python<'_>, e: &LibSceneError) -> PyErr {
@@ -159,12 +181,15 @@ fn read_toml<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>>
 }
 
 /// Runs `scene` into `out` (the files of `flexsurf run`, bit for bit), with the GIL released. Returns the
-/// summary (a dict), the output steps and the node positions at those steps, shape `(F, M, N, 3)`.
+/// summary (a dict), the output steps and the node positions at those steps, shape `(F, M, N, 3)`. With
+/// `overwrite`, the outputs of another run in `out` are removed first (exactly the files its manifest lists).
 #[pyfunction]
+#[pyo3(signature = (scene, out, overwrite = false))]
 fn run_into<'py>(
     py: Python<'py>,
     scene: &PyScene,
     out: PathBuf,
+    overwrite: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Vec<usize>, Bound<'py, PyAny>)> {
     let sc = Arc::clone(&scene.scene);
     let steps =
@@ -180,9 +205,10 @@ fn run_into<'py>(
             }
         };
         keep(&sc.state);
-        run_scene_observed(&sc, &out, &mut keep).map(|o| (o, kept, frames))
+        let options = RunOptions { overwrite, ..RunOptions::default() };
+        run_scene_with(&sc, &out, &options, &mut keep).map(|o| (o, kept, frames))
     });
-    let (output, kept, frames) = result.map_err(|e| sim_err(format!("{e:#}")))?;
+    let (output, kept, frames) = result.map_err(|e| run_err(&e))?;
     let count = kept.len();
     let frames = Array4::from_shape_vec((count, m, n, 3), frames).map_err(sim_err)?.into_pyarray(py).into_any();
     Ok((to_py(py, &output.summary)?, kept, frames))
@@ -359,6 +385,7 @@ fn _flexsurf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FlexsurfError", py.get_type::<FlexsurfError>())?;
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SimulationError", py.get_type::<SimulationError>())?;
+    m.add("FolderError", py.get_type::<FolderError>())?;
     m.add_class::<PyScene>()?;
     m.add_class::<PyMaterial>()?;
     m.add_class::<simulation::PySimulation>()?;

@@ -52,6 +52,9 @@ impl History {
     }
 }
 
+/// The longest stretch of steps taken without checking for signals (Ctrl-C).
+const SIGNAL_CHECK: std::time::Duration = std::time::Duration::from_millis(50);
+
 /// A scene being stepped: its own model (spring targets may change), state and stepper.
 #[pyclass(module = "flexsurf._flexsurf", name = "Simulation")]
 pub struct PySimulation {
@@ -114,29 +117,37 @@ impl PySimulation {
     }
 
     /// Takes `n` steps (default 1) with the GIL released; returns the step count reached. A failed step raises
-    /// `SimulationError` and leaves the state at the last good step.
+    /// `SimulationError` and leaves the state at the last good step. Signals are checked between steps (at
+    /// least every [`SIGNAL_CHECK`]): Ctrl-C raises `KeyboardInterrupt`, the state at the last step taken.
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: usize) -> PyResult<usize> {
         let Self { model, state, stepper, last, history, .. } = self;
         let stepper = stepper.get_mut().unwrap_or_else(PoisonError::into_inner);
-        let result = py.detach(|| {
-            for _ in 0..n {
-                let before = state.clone();
-                let t0 = Instant::now();
-                match stepper.step(model, state) {
-                    Ok(info) => {
-                        history.push(t0.elapsed().as_secs_f64(), &info);
-                        *last = Some(info);
+        let mut done = 0;
+        while done < n {
+            let result = py.detach(|| {
+                let start = Instant::now();
+                let mut taken = 0;
+                while done + taken < n && (taken == 0 || start.elapsed() < SIGNAL_CHECK) {
+                    let before = state.clone();
+                    let t0 = Instant::now();
+                    match stepper.step(model, state) {
+                        Ok(info) => {
+                            history.push(t0.elapsed().as_secs_f64(), &info);
+                            *last = Some(info);
+                        }
+                        Err(e) => {
+                            *state = before;
+                            return Err(e);
+                        }
                     }
-                    Err(e) => {
-                        *state = before;
-                        return Err(e);
-                    }
+                    taken += 1;
                 }
-            }
-            Ok(())
-        });
-        result.map_err(|e| SimulationError::new_err(e.to_string()))?;
+                Ok(taken)
+            });
+            done += result.map_err(|e| SimulationError::new_err(e.to_string()))?;
+            py.check_signals()?;
+        }
         Ok(self.state.step)
     }
 

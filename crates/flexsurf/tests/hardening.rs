@@ -334,9 +334,9 @@ fn stopping_writes_a_checkpoint_and_an_interrupted_summary() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(json["interrupted"], true);
-    // The manifest is not complete; a new run (not a resume) is refused.
+    // The manifest is not complete; a new run (not a resume) is refused, with the suggestion to resume.
     let e = run_scene_with(&s, &out, &RunOptions::default(), |_| {}).unwrap_err().to_string();
-    assert!(e.contains("holds the outputs of another run"), "{e}");
+    assert!(e.contains("stopped run of this same scene") && e.contains("--resume"), "{e}");
     // Resuming with another scene is refused.
     let other = built(&d, &SMALL.replace("steps = 6", "steps = 7"));
     let e = run_scene_with(&other, &out, &RunOptions { resume: true, ..Default::default() }, |_| {}).unwrap_err();

@@ -1,12 +1,13 @@
 //! `flexsurf view`: writes `OUT_DIR/view.html`, the self-contained interactive viewer of a run folder
-//! (`flexsurf::runner::viewer`), and says how to open it; `--gif` and `--mp4` add a movie of the run.
+//! (`flexsurf::runner::viewer`), and says how to open it; `--gif` and `--mp4` add a movie of the run; `--serve`
+//! serves it on the loopback interface ([`serve`]).
 
 use anyhow::{bail, Context, Result};
 use flexsurf::runner::viewer::{self, movie};
-use std::io::{BufRead, BufReader, Write};
-use std::net::{Ipv4Addr, TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
+
+mod serve;
 
 /// The arguments of `flexsurf view`.
 #[derive(Debug, clap::Args)]
@@ -65,7 +66,7 @@ pub fn execute(args: &ViewArgs) -> Result<()> {
         println!("wrote {}", gif.display());
     }
     if args.serve {
-        return serve(&args.dir, args.port);
+        return serve::serve(&args.dir, args.port);
     }
     if args.mp4 {
         let frames = args.dir.join(".mp4-pictures");
@@ -96,59 +97,5 @@ pub fn execute(args: &ViewArgs) -> Result<()> {
             Err(e) => bail!("could not start ffmpeg: {e}"),
         }
     }
-    Ok(())
-}
-
-/// Serves the page of `dir` on 127.0.0.1:`port`: `/` is the page as the run stands (built afresh), `/state`
-/// the run's [`viewer::run_state`], which the page polls. One request at a time; anything else is 404.
-fn serve(dir: &Path, port: u16) -> Result<()> {
-    let listener = TcpListener::bind((Ipv4Addr::LOCALHOST, port))
-        .with_context(|| format!("--serve: cannot listen on 127.0.0.1:{port}"))?;
-    let addr = listener.local_addr()?;
-    println!("serving http://{addr}/ (the viewer of {}; Ctrl-C stops)", dir.display());
-    std::io::stdout().flush()?;
-    for stream in listener.incoming() {
-        let Ok(stream) = stream else { continue };
-        if let Err(e) = answer(dir, stream) {
-            eprintln!("--serve: {e:#}");
-        }
-    }
-    Ok(())
-}
-
-fn answer(dir: &Path, mut stream: TcpStream) -> Result<()> {
-    stream.set_read_timeout(Some(std::time::Duration::from_secs(5)))?;
-    let mut line = String::new();
-    let mut reader = BufReader::new(stream.try_clone()?);
-    reader.read_line(&mut line)?;
-    // The rest of the request head is not needed; read it so the client sees a clean close.
-    let mut header = String::new();
-    while reader.read_line(&mut header)? > 2 {
-        header.clear();
-    }
-    let mut parts = line.split_whitespace();
-    let (method, target) = (parts.next().unwrap_or(""), parts.next().unwrap_or(""));
-    let path = target.split(['?', '#']).next().unwrap_or("");
-    let (status, kind, body) = match (method, path) {
-        ("GET", "/") | ("GET", "/view.html") => {
-            let state = viewer::run_state(dir);
-            match viewer::view_html_live(dir, &state) {
-                Ok(html) => ("200 OK", "text/html; charset=utf-8", html.into_bytes()),
-                Err(e) => ("503 Service Unavailable", "text/plain; charset=utf-8", format!("{e}\n").into_bytes()),
-            }
-        }
-        // Browsers ask for an icon; there is none.
-        ("GET", "/favicon.ico") => ("204 No Content", "text/plain; charset=utf-8", Vec::new()),
-        ("GET", "/state") => ("200 OK", "text/plain; charset=utf-8", viewer::run_state(dir).into_bytes()),
-        ("GET", _) => ("404 Not Found", "text/plain; charset=utf-8", b"not found\n".to_vec()),
-        _ => ("405 Method Not Allowed", "text/plain; charset=utf-8", b"only GET\n".to_vec()),
-    };
-    write!(
-        stream,
-        "HTTP/1.1 {status}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\nCache-Control: no-store\r\n\
-         Connection: close\r\n\r\n",
-        body.len()
-    )?;
-    stream.write_all(&body)?;
     Ok(())
 }

@@ -130,6 +130,16 @@ impl ContactCache {
         }
     }
 
+    /// Whether the cache is sized for `obstacles` × `nodes` (a checkpoint's is checked before use).
+    pub(crate) fn fits(&self, obstacles: usize, nodes: usize) -> bool {
+        self.nodes == nodes
+            && self.hints.len() == obstacles * nodes
+            && self.dist.len() == nodes
+            && self.at.len() == nodes
+            && self.at.iter().all(|p| crate::math::finite(*p))
+            && !self.dist.iter().any(|d| d.is_nan())
+    }
+
     pub(crate) fn ensure(&mut self, obstacles: usize, nodes: usize) {
         if self.hints.len() != obstacles * nodes || self.nodes != nodes {
             *self = Self::new(obstacles, nodes);

@@ -327,6 +327,21 @@ struct StaticLag {
     slip: f64,
 }
 
+impl ContactScratch {
+    /// Whether the scratch fits a model of `obstacles` obstacles and `nodes` nodes (every vector's size, every
+    /// node index): a checkpoint's is checked before use.
+    pub(crate) fn fits(&self, obstacles: usize, nodes: usize) -> bool {
+        self.cache.fits(obstacles, nodes)
+            && self.predicted.len() == nodes
+            && self.has_contact.len() == nodes
+            && self
+                .contacts
+                .iter()
+                .all(|c| (1..=4).contains(&c.stencil.len) && c.stencil.nodes.iter().all(|&k| k < nodes))
+            && self.lagged.iter().all(|l| l.node < nodes)
+    }
+}
+
 impl PenaltyContact {
     /// Contact with `obstacles` under `params`, nodes of rest area `area`.
     pub fn new(obstacles: Vec<Obstacle>, params: ContactParams, area: Vec<f64>) -> Self {
@@ -408,11 +423,10 @@ impl Term for PenaltyContact {
             Some(bytes) => {
                 let c: ContactScratch =
                     postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the contact state: {e}"))?;
-                if c.predicted.len() != self.area.len() || c.has_contact.len() != self.area.len() {
+                let (obstacles, nodes) = (self.obstacles.len(), self.area.len());
+                if !c.fits(obstacles, nodes) {
                     return Err(format!(
-                        "the saved contact state is for {} nodes, the model has {}",
-                        c.predicted.len(),
-                        self.area.len()
+                        "the saved contact state does not fit the model ({obstacles} obstacles, {nodes} nodes)"
                     ));
                 }
                 scratch.set(c);

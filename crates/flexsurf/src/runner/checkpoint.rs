@@ -194,6 +194,57 @@ pub fn read(out: &Path, fingerprint: &str) -> Result<Checkpoint, RunError> {
     Ok(ck)
 }
 
+/// The checkpoint `ck` (read by [`read`], of this run's fingerprint) checked against `scene` before use: the
+/// size of every vector against the model's node count (and the display mesh's vertex count), finiteness, the
+/// steps and counts against the run's. The checksum only detects damage, and a forged file with a valid one
+/// must give this error, never a panic or a run that silently goes wrong.
+pub fn validated(ck: Checkpoint, scene: &crate::scene::Scene) -> Result<Checkpoint, RunError> {
+    let path = PathBuf::from(CHECKPOINT);
+    check_against(&ck, scene).map_err(|e| {
+        bad(
+            &path,
+            format!("cannot resume: the checkpoint does not fit the scene ({e}); it is damaged or not this run's"),
+        )
+    })?;
+    Ok(ck)
+}
+
+fn all_finite(v: &[crate::math::Vec3]) -> bool {
+    v.iter().all(|p| crate::math::finite(*p))
+}
+
+fn check_against(ck: &Checkpoint, scene: &crate::scene::Scene) -> Result<(), String> {
+    let n = scene.state.x.len();
+    let st = &ck.state;
+    for (name, v) in [("x", &st.x), ("x_prev", &st.x_prev), ("v", &st.v), ("v_prev", &st.v_prev)] {
+        if v.len() != n {
+            return Err(format!("the state's `{name}` has {} nodes, the model {n}", v.len()));
+        }
+        if !all_finite(v) {
+            return Err(format!("the state's `{name}` holds a non-finite value"));
+        }
+    }
+    if st.step == 0 || st.step >= scene.steps || !(st.time.is_finite() && st.time >= 0.0) {
+        return Err(format!(
+            "its step {} (t = {} s) is not one inside the run's {} steps",
+            st.step, st.time, scene.steps
+        ));
+    }
+    if ck.solver.guess.len() != n || !all_finite(&ck.solver.guess) {
+        return Err(format!("the solver's guess is not {n} finite values"));
+    }
+    // The terms' states are checked by each term as it restores them (`Term::restore`), the outputs' states by
+    // each output as it starts from them (`Output::start`).
+    let stats = &ck.stats;
+    if stats.steps > st.step || !(stats.wall_seconds.is_finite() && stats.max_penetration_seen.is_finite()) {
+        return Err("its run statistics do not fit its step".into());
+    }
+    if ck.counters.seconds.iter().any(|s| !s.is_finite()) {
+        return Err("its counters hold a non-finite value".into());
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

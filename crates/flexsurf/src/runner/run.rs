@@ -52,7 +52,11 @@ pub(super) fn run<'a>(
     if options.resume && is_static {
         return Err(RunError::Resume("a static solve has no checkpoint to resume from".into()));
     }
-    let resume = if options.resume { Some(checkpoint::read(out, &fp)?) } else { None };
+    let resume = if options.resume {
+        Some(checkpoint::read(out, &fp).and_then(|ck| checkpoint::validated(ck, scene))?)
+    } else {
+        None
+    };
     let mut folder = Folder::open(out, &fp, options.overwrite, resume.is_some())?;
     // A static solve writes the initial state and the equilibrium (as step 1).
     let steps = if is_static { vec![0, 1] } else { output_steps(scene.steps, scene.output_every) };

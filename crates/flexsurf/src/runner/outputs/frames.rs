@@ -58,6 +58,14 @@ impl Output for Frames<'_> {
 
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
         self.written = OutputState::or_default(saved, self.name())?;
+        let most = self.steps.len();
+        let sane = |f: &FrameRecord| f.time.is_finite() && !f.file.contains("..") && !f.file.starts_with('/');
+        if self.written.len() > most || !self.written.iter().all(sane) {
+            return Err(OutputState::misfit(
+                self.name(),
+                format!("more than the run's {most} frames, or not frame files"),
+            ));
+        }
         Ok(())
     }
 

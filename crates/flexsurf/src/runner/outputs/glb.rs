@@ -48,6 +48,17 @@ impl Output for GlbAnimation<'_> {
         // series of a run in progress instead).
         remove_if_present(&self.out.join(GLB_FILE))?;
         self.frames = OutputState::or_default(saved, self.name())?;
+        let vertices = display_topology(&self.scene.model.panels, self.scene.output.coons_subdivisions.max(1)).uv.len();
+        let fits = |f: &FrameFields| {
+            let sizes = [f.positions.len(), f.normals.len(), f.velocity.len(), f.strain.len(), f.pressure.len()];
+            f.time.is_finite() && sizes.iter().all(|&s| s == vertices)
+        };
+        if !self.frames.iter().all(fits) {
+            return Err(OutputState::misfit(
+                self.name(),
+                format!("frames not of the display mesh's {vertices} vertices"),
+            ));
+        }
         Ok(())
     }
 

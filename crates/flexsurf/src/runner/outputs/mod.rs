@@ -83,6 +83,11 @@ impl OutputState {
     pub fn or_default<T: DeserializeOwned + Default>(saved: Option<&Self>, name: &str) -> Result<T, RunError> {
         saved.map_or_else(|| Ok(T::default()), |s| s.get(name))
     }
+
+    /// The error of a restored state that does not fit the run (a damaged or forged checkpoint).
+    pub fn misfit(name: &str, what: String) -> RunError {
+        RunError::Resume(format!("the checkpoint does not fit the scene (the `{name}` output's state: {what})"))
+    }
 }
 
 /// What the outputs of a run share: the scene, the folder and the output steps.

@@ -80,6 +80,11 @@ impl Output for Snapshots<'_> {
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError> {
         self.pictured = OutputState::or_default(saved, self.name())?;
         let (model, k) = (&self.scene.model, self.scene.output.coons_subdivisions);
+        let n = model.nodes();
+        let fits = |x: &[crate::math::Vec3]| x.len() == n && x.iter().all(|p| crate::math::finite(*p));
+        if self.pictured.len() > MAX_SNAPSHOTS || !self.pictured.iter().all(|(_, t, x)| t.is_finite() && fits(x)) {
+            return Err(OutputState::misfit(self.name(), format!("pictures that are not {n} finite node positions")));
+        }
         self.snapshots = self
             .pictured
             .iter()

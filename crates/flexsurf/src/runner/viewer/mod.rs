@@ -52,6 +52,48 @@ pub enum ViewError {
     },
 }
 
+/// The largest `animation.glb` (and `.vtu` frame) the viewer reads (bytes).
+pub const MAX_ANIMATION_BYTES: u64 = 1 << 30;
+
+/// The bytes of the regular file `path`, at most `limit` of them: a FIFO, a device (`/dev/zero`) or a huge
+/// file is an error naming what it is, read no further.
+pub(crate) fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, ViewError> {
+    crate::io::input::read_bytes_limited(path, limit)
+        .map_err(|source| ViewError::Io { path: path.to_path_buf(), source })
+}
+
+/// Checks that `path` is a regular file of at most `limit` bytes before a reader opens it itself.
+pub(crate) fn check_regular(path: &Path, limit: u64) -> Result<(), ViewError> {
+    let io = |source| ViewError::Io { path: path.to_path_buf(), source };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(ViewError::Invalid { path: path.to_path_buf(), message: "is not a regular file".into() });
+    }
+    if meta.len() > limit {
+        let message = format!("is {} bytes, more than the {limit} the viewer reads", meta.len());
+        return Err(ViewError::Invalid { path: path.to_path_buf(), message });
+    }
+    Ok(())
+}
+
+/// `json` made safe inside an HTML `<script>` element: `<`, `>` and `&` as JSON's `\u` escapes (so no
+/// `</script>`, `<!--` or `<script` in a scene name can end or re-open the element), and the line separators
+/// U+2028/U+2029 that older JavaScript takes for line ends. The JSON value is unchanged.
+pub fn script_json(json: &str) -> String {
+    let mut out = String::with_capacity(json.len() + json.len() / 16);
+    for c in json.chars() {
+        match c {
+            '<' => out.push_str("\\u003c"),
+            '>' => out.push_str("\\u003e"),
+            '&' => out.push_str("\\u0026"),
+            '\u{2028}' => out.push_str("\\u2028"),
+            '\u{2029}' => out.push_str("\\u2029"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
 /// Checks the `.glb` header (magic, version, length, a JSON chunk first) so a wrong file is named here rather
 /// than failing in the browser.
 fn check_glb(path: &Path, bytes: &[u8]) -> Result<(), ViewError> {
@@ -100,32 +142,35 @@ pub fn view_html_live(dir: &Path, state: &str) -> Result<String, ViewError> {
 
 fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
     let glb_path = dir.join(GLB_FILE);
-    let (glb, in_progress) = match std::fs::read(&glb_path) {
+    let read = read_limited(&glb_path, MAX_ANIMATION_BYTES);
+    let (glb, in_progress) = match read {
         Ok(b) => {
             check_glb(&glb_path, &b)?;
             (b, false)
         }
         // A run in progress: the frames of its VTK series so far.
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && dir.join(PVD_FILE).exists() => {
+        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            if !dir.join(PVD_FILE).exists() {
+                return Err(ViewError::NoAnimation(glb_path));
+            }
             let info = serde_json::json!({ "scene": dir.file_name().map(|n| n.to_string_lossy().into_owned()) });
             (series::glb_from_series(dir, &info)?.0, true)
         }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(ViewError::NoAnimation(glb_path)),
-        Err(source) => return Err(ViewError::Io { path: glb_path, source }),
+        Err(e) => return Err(e),
     };
     let summary_path = dir.join("summary.json");
-    let summary: serde_json::Value = match std::fs::read_to_string(&summary_path) {
-        Ok(text) => serde_json::from_str(&text)
+    let summary: serde_json::Value = match read_limited(&summary_path, crate::io::input::MAX_INPUT_BYTES) {
+        Ok(bytes) => serde_json::from_slice(&bytes)
             .map_err(|e| ViewError::Invalid { path: summary_path.clone(), message: e.to_string() })?,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
-        Err(source) => return Err(ViewError::Io { path: summary_path, source }),
+        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
+        Err(e) => return Err(e),
     };
     // A summary beside a missing animation.glb is an earlier run's: a run removes it when it starts.
     let summary = if in_progress { serde_json::Value::Null } else { summary };
     let data = serde_json::json!({ "summary": summary, "in_progress": in_progress, "live": live,
                                    "glb": base64_encode(&glb) });
-    // Inside <script>, "</" could close the element: JSON allows "<\/" for it.
-    let json = data.to_string().replace("</", "<\\/");
+    // Inside <script>, nothing a scene provides may end or re-open the element.
+    let json = script_json(&data.to_string());
     Ok(TEMPLATE.replacen(SLOT, &json, 1))
 }
 

@@ -149,10 +149,12 @@ fn obstacles(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(TriMesh, bool)>, 
 #[allow(clippy::too_many_lines)] // Until `io/` is split by its owner (issue 18).
 pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
     let path = dir.join(GLB_FILE);
-    let bytes = match std::fs::read(&path) {
+    let bytes = match super::read_limited(&path, super::MAX_ANIMATION_BYTES) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(ViewError::NoAnimation(path)),
-        Err(source) => return Err(ViewError::Io { path, source }),
+        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            return Err(ViewError::NoAnimation(path))
+        }
+        Err(e) => return Err(e),
     };
     super::check_glb(&path, &bytes)?;
     let g = GlbDoc::parse(&path, &bytes)?;

@@ -41,6 +41,7 @@ fn pvd_entries(path: &Path, text: &str) -> Result<Vec<(f64, String)>, ViewError>
 
 /// The first piece of an unstructured grid file.
 fn piece(path: &Path) -> Result<UnstructuredGridPiece, ViewError> {
+    super::check_regular(path, super::MAX_ANIMATION_BYTES)?;
     let vtk = vtkio::Vtk::import(path).map_err(|e| invalid(path, format!("not a readable .vtu: {e}")))?;
     let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
         return Err(invalid(path, "not an unstructured grid"));
@@ -81,12 +82,16 @@ fn triples(v: &[f32]) -> Vec<[f32; 3]> {
 /// The `.glb` bytes of the frames the VTK series of `dir` holds so far, and how many frames that is.
 pub fn glb_from_series(dir: &Path, info: &serde_json::Value) -> Result<(Vec<u8>, usize), ViewError> {
     let pvd = dir.join(PVD_FILE);
-    let text = std::fs::read_to_string(&pvd).map_err(|source| ViewError::Io { path: pvd.clone(), source })?;
+    let bytes = super::read_limited(&pvd, crate::io::input::MAX_INPUT_BYTES)?;
+    let text = String::from_utf8_lossy(&bytes);
     let entries = pvd_entries(&pvd, &text)?;
     let mut frames = Vec::new();
     let (mut tris, mut uv) = (Vec::new(), Vec::new());
     for (k, (time, file)) in entries.iter().enumerate() {
         let path = dir.join(file);
+        if !Path::new(file).components().all(|c| matches!(c, std::path::Component::Normal(_))) {
+            return Err(invalid(&pvd, format!("lists {file}, which is not a file inside the run folder")));
+        }
         let p = piece(&path)?;
         let n = p.num_points();
         let positions = triples(&f32s(&path, &p.points, "points")?);

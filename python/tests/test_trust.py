@@ -1,0 +1,114 @@
+"""Issue 22 at the Python boundary: recursive and deep structures, numpy integers, Ctrl-C during a long
+``Simulation.step``, runs into an existing folder, and the README's snippet run verbatim as a script."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexsurf
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_a_dict_that_contains_itself_raises_naming_the_key(small_drop):
+    d = dict(small_drop)
+    d["extra"] = {}
+    d["extra"]["self"] = d["extra"]
+    with pytest.raises(ValueError, match=r"`extra\.self\.self.*nested deeper than 64 levels"):
+        flexsurf.Scene.from_dict(d)
+
+
+def test_lists_nested_20000_deep_raise_naming_the_key(small_drop):
+    deep: list = []
+    for _ in range(20000):
+        deep = [deep]
+    d = dict(small_drop)
+    d["sheet"] = dict(d["sheet"], size=deep)
+    with pytest.raises(ValueError, match=r"`sheet\.size\[0\]\[0\].*nested deeper"):
+        flexsurf.Scene.from_dict(d)
+
+
+def test_numpy_integers_are_integers(small_drop):
+    d = dict(small_drop)
+    d["sheet"] = dict(d["sheet"], nodes=[np.int64(9), np.int32(9)])
+    d["time"] = dict(d["time"], steps=np.uint16(20))
+    scene = flexsurf.Scene.from_dict(d)
+    assert scene.grid == (9, 9) and scene.steps == 20
+    # numpy floats stay floats: an integer key refuses 2.0 as it refuses a float from a file.
+    d["time"] = dict(d["time"], steps=np.float64(20.0))
+    with pytest.raises(flexsurf.SceneError):
+        flexsurf.Scene.from_dict(d)
+
+
+def test_a_sweep_over_a_numpy_integer_array(small_drop):
+    table = flexsurf.sweep(small_drop, {"time.steps": np.array([20, 40])}, workers=1)
+    assert table["error"].isna().all(), table["error"].tolist()
+    assert table["steps"].tolist() == [20, 40]
+
+
+def test_sigint_during_a_long_step_raises_keyboard_interrupt(small_drop):
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.step(10**7)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - start < 10
+    assert 0 < sim.step_count < 10**7
+    sim.step(1)  # the state is the last step's, and stepping goes on
+
+
+def test_a_run_into_an_existing_run_folder_raises_folder_error(small_drop, tmp_path):
+    out = tmp_path / "out"
+    flexsurf.run(small_drop, out=out)
+    with pytest.raises(flexsurf.FolderError) as e:
+        flexsurf.run(small_drop, out=out)
+    message = str(e.value)
+    assert "overwrite=True" in message and "--" not in message, message
+    assert not isinstance(e.value, flexsurf.SimulationError)
+    result = flexsurf.run(small_drop, out=out, overwrite=True)
+    assert result.summary["steps"] == 40
+
+
+def readme_snippet() -> str:
+    """The Python block of the README's "Python" section."""
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## Python") :]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_readme_snippet_runs_verbatim_as_a_script(tmp_path):
+    for name in ("scenes", "materials", "bodies"):
+        (tmp_path / name).symlink_to(ROOT / name)
+    script = tmp_path / "snippet.py"
+    script.write_text(readme_snippet())
+    for _ in range(2):  # twice: the second run finds the first one's folder
+        done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "out" / "py" / "summary.json").exists()
+
+
+def test_a_process_sweep_from_an_unguarded_script_says_why(tmp_path, small_drop):
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "import flexsurf\n"
+        f"d = flexsurf.scene_dict({str(ROOT / 'scenes' / 'ball_drop.toml')!r})\n"
+        "d['sheet']['nodes'] = [5, 5]\nd['time']['steps'] = 2\n"
+        "flexsurf.sweep(d, {'contact.friction': [0.0, 0.5]}, workers=2)\n"
+    )
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0
+    assert 'if __name__ == "__main__":' in done.stderr, done.stderr[-2000:]
