@@ -17,7 +17,7 @@
 //!
 //! ```text
 //! FLEXSURF_FUZZ_SECONDS=3600 FLEXSURF_FUZZ_INPUTS=1000000 FLEXSURF_FUZZ_SEED=1 \
-//!     nice -n 19 cargo test --release -p flexsurf --test fuzz -- --nocapture
+//!     nice -n 19 cargo test --profile ci -p flexsurf --test suite fuzz::mutation_fuzz -- --nocapture
 //! ```
 
 use flexsurf::scene::{Limits, SceneSpec};
@@ -354,8 +354,14 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let findings_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/fuzz-findings");
     let mut findings = Findings { dir: findings_dir.clone(), list: Vec::new() };
 
-    // Panics are findings, caught and reported; the default hook's messages would only clutter the log.
-    std::panic::set_hook(Box::new(|_| {}));
+    // Panics are findings, caught and reported; the default hook's messages would only clutter the log. Only
+    // this thread's: the other tests of the binary run beside it and keep their messages.
+    let (fuzzing, default_hook) = (std::thread::current().id(), std::panic::take_hook());
+    std::panic::set_hook(Box::new(move |info| {
+        if std::thread::current().id() != fuzzing {
+            default_hook(info);
+        }
+    }));
     // Watchdog: the start time (ms since `t0`) of the input in progress, and the input itself.
     let t0 = Instant::now();
     let busy_since = Arc::new(AtomicU64::new(u64::MAX));

@@ -2,7 +2,7 @@
 //! recursion and an exact rational cylinder, derivatives against finite differences, closest-point projection
 //! against brute-force dense sampling, G¹ joins of the mannequin, and signed distance to a tessellated sphere.
 //!
-//! `FLEXSURF_BLESS=1 cargo test --release -p flexsurf --test nurbs` rewrites `bodies/mannequin.toml` and
+//! `FLEXSURF_BLESS=1 cargo test --release -p flexsurf --test suite nurbs::` rewrites `bodies/mannequin.toml` and
 //! `docs/mannequin.png` from the generator.
 
 use flexsurf::contact::mannequin::{self, girth};

@@ -1,0 +1,20 @@
+//! The integration tests of the `flexsurf` library, as one test binary (one link instead of one per file).
+//!
+//! A new test file is one `mod` line here. Run one module with its path as the filter, e.g.
+//! `cargo test --profile ci -p flexsurf --test suite derivatives::` (docs/testing.md).
+
+mod derivatives;
+mod dynamics;
+mod fuzz;
+mod hardening;
+mod lab;
+mod model;
+mod nurbs;
+mod outputs;
+mod resume;
+mod scenarios;
+mod scenes;
+mod skirt;
+mod solvers;
+mod statics;
+mod threads;
