@@ -250,7 +250,8 @@ impl PyMaterial {
     /// The paper's non-woven cotton.
     #[staticmethod]
     fn paper_cotton() -> Self {
-        Self { material: ResolvedMaterial { fabric: Fabric::paper_cotton(), name: "paper-cotton".into() } }
+        let (fabric, name) = (Fabric::paper_cotton(), "paper-cotton".into());
+        Self { material: ResolvedMaterial { fabric, name, warnings: Vec::new() } }
     }
 
     /// Display name.

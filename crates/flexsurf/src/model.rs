@@ -203,8 +203,10 @@ impl ModelBuilder {
             sign("springs", &ranges::SPRING_STIFFNESS, s.stiffness)?;
         }
         let c = &self.contact;
+        // A builder's contact stiffness may be 0 (no contact force, the default).
+        let stiffness = Range { rule: ranges::Rule::NonNegative, ..ranges::CONTACT_STIFFNESS };
+        sign("contact.stiffness", &stiffness, c.stiffness)?;
         if !self.obstacles.is_empty() {
-            sign("contact.stiffness", &ranges::CONTACT_STIFFNESS, c.stiffness)?;
             sign("contact.slip_speed", &ranges::SLIP_SPEED, c.slip_speed)?;
         }
         sign("contact.offset", &ranges::CONTACT_OFFSET, c.offset)?;

@@ -260,6 +260,8 @@ impl Range {
                 Some(format!("{quoted}must be finite and non-negative"))
             }
             _ if !value.is_finite() => Some(format!("{quoted}must be a finite number")),
+            // Lengths keep the wording of `[garment]`, which tests and users know.
+            Rule::Positive if value <= 0.0 && self.unit == "m" => Some(format!("{quoted}must be a positive length")),
             Rule::Positive if value <= 0.0 => Some(format!("{quoted}must be positive")),
             _ => None,
         }
@@ -284,7 +286,8 @@ impl Range {
     pub fn unusual(&self, value: f64, echo: bool) -> Option<String> {
         let u = self.usual?;
         let (lo, hi) = u.si;
-        if (lo..=hi).contains(&value) {
+        // Zero (a non-negative quantity switched off, `contact.offset = 0`) is a choice, not a unit slip.
+        if value == 0.0 || (lo..=hi).contains(&value) {
             return None;
         }
         let quoted = if echo {
@@ -316,6 +319,7 @@ mod tests {
         assert_eq!(FRICTION.problem(-0.5, true).unwrap(), "-0.5 must be finite and non-negative");
         assert_eq!(GRAVITY.problem(-2e4, true).unwrap(), "-20000 m/s² is outside the accepted range ±1e4 m/s²");
         assert!(DT.problem(0.01, true).is_none());
+        assert_eq!(SPHERE_RADIUS.problem(0.0, true).unwrap(), "0 m must be a positive length");
     }
 
     #[test]
@@ -331,7 +335,7 @@ mod tests {
         assert!(DENSITY.unusual(0.0745, true).is_none());
         // 1e-8 N·m = 1.02e-4 gf·cm²/cm (1 gf·cm²/cm = 9.80665e-5 N·m).
         assert!(BENDING_WARP.unusual(1.0, false).unwrap().contains("1e-8 to 0.001 N·m (1.02e-4 to 10.2 gf·cm²/cm"));
-        assert!(DT.unusual(100.0, true).is_none());
+        assert!(DT.unusual(100.0, true).is_none() && CONTACT_OFFSET.unusual(0.0, true).is_none());
         assert_eq!((short(10.197), short(1.0197e-4), short(150.0)), ("10.2".into(), "1.02e-4".into(), "150".into()));
     }
 }
