@@ -118,8 +118,9 @@ impl PyScene {
 
     /// Nodes `(M, N)`: the shape of the position arrays is `(M, N, 3)`.
     #[getter]
-    fn grid(&self) -> (usize, usize) {
-        (self.scene.model.grid.m, self.scene.model.grid.n)
+    fn grid(&self) -> PyResult<(usize, usize)> {
+        let g = simulation::one_sheet(&self.scene.model)?;
+        Ok((g.m, g.n))
     }
 
     /// Time step (s).
@@ -165,8 +166,15 @@ impl PyScene {
     }
 
     fn __repr__(&self) -> String {
-        let g = &self.scene.model.grid;
-        format!("Scene({:?}, grid={}x{}, dt={}, steps={})", self.scene.name, g.m, g.n, self.scene.dt, self.scene.steps)
+        let sheets: Vec<String> =
+            self.scene.model.panels.iter().map(|p| format!("{}x{}", p.grid.m, p.grid.n)).collect();
+        format!(
+            "Scene({:?}, grid={}, dt={}, steps={})",
+            self.scene.name,
+            sheets.join("+"),
+            self.scene.dt,
+            self.scene.steps
+        )
     }
 }
 
@@ -194,14 +202,15 @@ fn run_into<'py>(
     let sc = Arc::clone(&scene.scene);
     let steps =
         if matches!(sc.method(), Method::Static(_)) { vec![0, 1] } else { output_steps(sc.steps, sc.output_every) };
-    let (m, n) = (sc.model.grid.m, sc.model.grid.n);
+    let grid = simulation::one_sheet(&sc.model)?;
+    let (m, n) = (grid.m, grid.n);
     let result = py.detach(|| {
         let mut frames: Vec<f64> = Vec::with_capacity(steps.len() * m * n * 3);
         let mut kept = Vec::with_capacity(steps.len());
         let mut keep = |state: &flexsurf::state::State| {
             if steps.binary_search(&state.step).is_ok() && kept.last() != Some(&state.step) {
                 kept.push(state.step);
-                simulation::push_grid(&sc.model.grid, &state.x, &mut frames);
+                simulation::push_grid(&grid, &state.x, &mut frames);
             }
         };
         keep(&sc.state);

@@ -59,6 +59,8 @@ const SIGNAL_CHECK: std::time::Duration = std::time::Duration::from_millis(50);
 #[pyclass(module = "flexsurf._flexsurf", name = "Simulation")]
 pub struct PySimulation {
     model: Model,
+    /// The scene's one sheet (the arrays are `(M, N, 3)` over it).
+    grid: Grid,
     state: State,
     /// In a mutex only to make the class `Sync` (the stepper's scratch is `Send` only); never locked, as the
     /// class's own borrow flag already gives `step` exclusive access.
@@ -68,9 +70,20 @@ pub struct PySimulation {
     history: History,
 }
 
+/// The grid of a model of one sheet: the bindings' arrays are `(M, N, 3)` over one grid.
+pub(crate) fn one_sheet(model: &Model) -> PyResult<Grid> {
+    model.sheet_grid().copied().ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "the scene has {} sheets; the Python bindings give (M, N, 3) arrays of a scene of one sheet \
+             (run it with flexsurf.run or the command line)",
+            model.panels.len()
+        ))
+    })
+}
+
 impl PySimulation {
     fn node(&self, i: usize, j: usize) -> PyResult<usize> {
-        let g = &self.model.grid;
+        let g = &self.grid;
         if i >= g.m || j >= g.n {
             return Err(PyIndexError::new_err(format!("node ({i}, {j}) is outside the {}x{} grid", g.m, g.n)));
         }
@@ -78,7 +91,7 @@ impl PySimulation {
     }
 
     fn grid_array<'py>(&self, py: Python<'py>, f: impl Fn(usize) -> Vec3) -> Bound<'py, PyArray3<f64>> {
-        let g = &self.model.grid;
+        let g = &self.grid;
         let mut v = Vec::with_capacity(g.len() * 3);
         for i in 0..g.m {
             for j in 0..g.n {
@@ -104,10 +117,12 @@ impl PySimulation {
                 ))
             }
         };
+        let grid = one_sheet(&sc.model)?;
         let model = sc.model.clone();
         let stepper = Stepper::new(&model, &params).map_err(sim_err)?;
         Ok(Self {
             model,
+            grid,
             state: sc.state.clone(),
             stepper: Mutex::new(stepper),
             dt: sc.dt,
@@ -160,7 +175,7 @@ impl PySimulation {
 
     /// Writes the node positions into `out`, a C-contiguous float64 array of shape `(M, N, 3)` (no allocation).
     fn positions_into(&self, out: &Bound<'_, PyArray3<f64>>) -> PyResult<()> {
-        let g = &self.model.grid;
+        let g = &self.grid;
         if out.shape() != [g.m, g.n, 3] {
             return Err(PyValueError::new_err(format!("out: shape {:?} must be ({}, {}, 3)", out.shape(), g.m, g.n)));
         }
@@ -189,7 +204,7 @@ impl PySimulation {
     /// Nodes `(M, N)`.
     #[getter]
     fn grid(&self) -> (usize, usize) {
-        (self.model.grid.m, self.model.grid.n)
+        (self.grid.m, self.grid.n)
     }
 
     /// Steps taken.
@@ -213,7 +228,7 @@ impl PySimulation {
     /// The pinned nodes as `(i, j)` pairs.
     #[getter]
     fn pinned(&self) -> Vec<(usize, usize)> {
-        let g = &self.model.grid;
+        let g = &self.grid;
         (0..g.m)
             .flat_map(|i| (0..g.n).map(move |j| (i, j)))
             .filter(|&(i, j)| self.model.pinned()[g.index(i, j)])
@@ -231,7 +246,7 @@ impl PySimulation {
     /// The springs as `(i, j)` nodes, in the order `set_spring_target` numbers them.
     #[getter]
     fn spring_nodes(&self) -> Vec<(usize, usize)> {
-        self.model.springs().iter().map(|s| self.model.grid.coords(s.node)).collect()
+        self.model.springs().iter().map(|s| self.grid.coords(s.node)).collect()
     }
 
     /// The spring targets (m), an `(S, 3)` array.
@@ -295,9 +310,6 @@ impl PySimulation {
     }
 
     fn __repr__(&self) -> String {
-        format!(
-            "Simulation(grid={}x{}, step={}, t={})",
-            self.model.grid.m, self.model.grid.n, self.state.step, self.state.time
-        )
+        format!("Simulation(grid={}x{}, step={}, t={})", self.grid.m, self.grid.n, self.state.step, self.state.time)
     }
 }

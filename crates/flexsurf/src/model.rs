@@ -239,7 +239,6 @@ impl ModelBuilder {
         let potential = Potential::new(n, terms, Pins::from_flags(self.pinned));
         let rest = self.panels.into_iter().flat_map(|p| p.rest).collect();
         Ok(Model {
-            grid: panels[0].grid,
             panels,
             rest,
             fabric: self.fabric,
@@ -288,8 +287,6 @@ impl Panel {
 /// Everything that stays fixed during a run.
 #[derive(Debug, Clone)]
 pub struct Model {
-    /// The first panel's grid (transitional: code that has not moved to [`Model::panels`] yet reads it).
-    pub grid: Grid,
     /// The panels, in node order (one for a single sheet).
     pub panels: Vec<Panel>,
     /// Rest shape of every panel (also the initial shape unless a scene says otherwise).

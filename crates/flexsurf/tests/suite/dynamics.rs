@@ -222,7 +222,7 @@ fn ball_drop_cannot_be_passed_through_at_large_steps() {
     for (dt, steps) in [(0.1, 30), (1.0, 5)] {
         let scene = ball_drop(dt, steps, "preset = \"paper-cotton\"");
         let (worst, last, state) = penetration(&scene);
-        let centre = state.x[scene.model.grid.index(10, 10)];
+        let centre = state.x[scene.model.panels[0].grid.index(10, 10)];
         assert!(centre.z > 0.29 && centre.z < 0.31, "Δt = {dt}: centre node at z = {}", centre.z);
         assert!(state.x.iter().all(|p| p.z > -1.0), "Δt = {dt}: the sheet fell");
         assert!(worst < 0.02 && last < 0.005, "Δt = {dt}: penetration {worst:e} m seen, {last:e} m at the end");

@@ -3,6 +3,7 @@
 //! A new test file is one `mod` line here. Run one module with its path as the filter, e.g.
 //! `cargo test --profile ci -p flexsurf --test suite derivatives::` (docs/testing.md).
 
+mod contact_records;
 mod derivatives;
 mod dynamics;
 mod fuzz;
@@ -11,10 +12,14 @@ mod lab;
 mod model;
 mod nurbs;
 mod outputs;
+mod panels;
 mod resume;
 mod scenarios;
 mod scenes;
 mod skirt;
 mod solvers;
+mod sparsity;
 mod statics;
 mod threads;
+mod trust;
+mod two_sheets;

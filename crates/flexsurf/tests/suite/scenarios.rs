@@ -340,9 +340,9 @@ fn gradient_parts(model: &Model, x: &[Vec3]) -> (f64, f64, f64, f64) {
     let n = x.len();
     let s = &model.stiffness;
     let mut gm = vec![Vec3::ZERO; n];
-    let em = Membrane::new(&model.grid, &model.rest, s).evaluate(x, &mut Sink::grad(&mut gm));
+    let em = Membrane::new(&model.panels[0].grid, &model.rest, s).evaluate(x, &mut Sink::grad(&mut gm));
     let mut gb = vec![Vec3::ZERO; n];
-    let bending = Bending::new(&model.grid, &model.rest, s);
+    let bending = Bending::new(&model.panels[0].grid, &model.rest, s);
     let eb = match model.kind {
         ModelKind::Tfs => bending.evaluate(x, &mut Sink::grad(&mut gb)),
         ModelKind::Terzopoulos => terzopoulos::bending(&bending, x, &mut Sink::grad(&mut gb)),

@@ -54,7 +54,7 @@ fn assert_names(e: &SceneError, file: &str, key: &str) {
 fn ball_drop_builds_the_canonical_scene() {
     let path = repo().join("scenes/ball_drop.toml");
     let s = scene::load(&path).unwrap();
-    let g = &s.model.grid;
+    let g = &s.model.panels[0].grid;
     assert_eq!((g.m, g.n), (21, 21));
     assert!((g.h1 - 0.05).abs() < 1e-15 && (g.h2 - 0.05).abs() < 1e-15);
     assert_eq!((s.dt, s.steps, s.output_every), (0.01, 300, 100));
@@ -93,9 +93,11 @@ fn pins_springs_materials_and_topology() {
     std::fs::write(&path, text).unwrap();
     let s = scene::load(&path).unwrap();
     assert_eq!(s.model.pinned().iter().filter(|p| **p).count(), 5);
-    assert!(s.model.pinned()[s.model.grid.index(4, 4)] && s.model.pinned()[s.model.grid.index(2, 2)]);
+    assert!(
+        s.model.pinned()[s.model.panels[0].grid.index(4, 4)] && s.model.pinned()[s.model.panels[0].grid.index(2, 2)]
+    );
     assert_eq!(s.model.springs().len(), 6);
-    let top = s.model.grid.index(3, 4);
+    let top = s.model.panels[0].grid.index(3, 4);
     let spring = s.model.springs().into_iter().find(|sp| sp.node == top).unwrap();
     assert_eq!((spring.target, spring.stiffness), (s.state.x[top], 80.0));
     assert_eq!(s.model.springs()[5].target, Vec3::Z);
@@ -109,7 +111,7 @@ fn pins_springs_materials_and_topology() {
     let c = scene::load(&d.join("cylinder.toml")).unwrap();
     let r = 1.0 / std::f64::consts::TAU;
     assert!(c.state.x.iter().all(|p| ((p.x.powi(2) + p.y.powi(2)).sqrt() - r).abs() < 1e-12));
-    assert!((c.model.grid.h1 - 1.0 / 8.0).abs() < 1e-15);
+    assert!((c.model.panels[0].grid.h1 - 1.0 / 8.0).abs() < 1e-15);
     std::fs::remove_dir_all(&d).unwrap();
 }
 

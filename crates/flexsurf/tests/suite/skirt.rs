@@ -63,11 +63,11 @@ fn assert_names(e: &SceneError, file: &str, key: &str, words: &str) {
 fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     let s = scene::load(&skirt_path()).unwrap();
     let m = &s.model;
-    assert_eq!((m.grid.m, m.grid.n), (28, 14));
-    assert!(m.grid.periodic(0) && !m.grid.periodic(1));
+    assert_eq!((m.panels[0].grid.m, m.panels[0].grid.n), (28, 14));
+    assert!(m.panels[0].grid.periodic(0) && !m.panels[0].grid.periodic(1));
     assert_eq!(m.springs().len(), 28);
     for (i, sp) in m.springs().iter().enumerate() {
-        assert_eq!(sp.node, m.grid.index(i, 0), "spring {i} holds a waist node");
+        assert_eq!(sp.node, m.panels[0].grid.index(i, 0), "spring {i} holds a waist node");
         assert_eq!(sp.stiffness, 80.0);
         assert_eq!(sp.target, s.state.x[sp.node], "spring {i} pulls to the initial position");
     }
@@ -99,7 +99,11 @@ fn the_skirt_scene_is_the_papers_setup_and_starts_outside_the_body() {
     assert!(g.waist_strain.abs() < 0.01, "waist strain {}", g.waist_strain);
     for (k, p) in s.state.x.iter().enumerate() {
         let (d, _) = contact::closest(&m.obstacles(), *p).unwrap();
-        assert!(d >= m.contact_params().unwrap().offset - 1e-4, "node {:?} at {d} m from the body", m.grid.coords(k));
+        assert!(
+            d >= m.contact_params().unwrap().offset - 1e-4,
+            "node {:?} at {d} m from the body",
+            m.panels[0].grid.coords(k)
+        );
     }
     for &k in &g.waist_nodes {
         let (d, _) = contact::closest(&m.obstacles(), s.state.x[k]).unwrap();
@@ -142,7 +146,7 @@ fn the_skirt_stays_outside_the_body_and_the_waist_holds_for_600_steps() {
     );
     // Each waist spring carries at most its share of the skirt's weight (the hips carry some of it).
     let weight: f64 = s.model.mass.iter().sum::<f64>() * s.model.gravity.length();
-    let share = weight / s.model.grid.m as f64;
+    let share = weight / s.model.panels[0].grid.m as f64;
     let bound = 3.0 * share / 80.0;
     let drift = sum.waist_drift_max.expect("garment runs report the waist drift");
     assert!(drift <= bound, "waist drift {drift} m above {bound} m (3 × {share} N / 80 N/m)");

@@ -143,7 +143,7 @@ impl StripModel {
     /// angle of the last segment above the horizontal (radians).
     fn tip(&self) -> Shape {
         let mid = ACROSS / 2;
-        let g = &self.model.grid;
+        let g = &self.model.panels[0].grid;
         let (c, t, b) = (self.x[g.index(1, mid)], self.x[g.index(self.m - 1, mid)], self.x[g.index(self.m - 2, mid)]);
         let d = t - b;
         Shape { x: (t.x - c.x) / self.l, z: (t.z - c.z) / self.l, psi: d.z.atan2(d.x) }
