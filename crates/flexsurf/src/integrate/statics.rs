@@ -157,6 +157,79 @@ struct Watch {
     left: usize,
 }
 
+/// The state of one Newton solve ([`StaticSolver::newton`]): the load factor, scale and tolerance, the
+/// buffers, and the trust region's and watchdog's bookkeeping.
+struct Newton {
+    lam: f64,
+    load: f64,
+    tol: f64,
+    start: Vec<Vec3>,
+    runaway: f64,
+    grad: Vec<Vec3>,
+    step: Vec<Vec3>,
+    trial: Vec<Vec3>,
+    /// Levenberg shift relative to the matrix scale (0: pure Newton).
+    mu: f64,
+    escapes: usize,
+    res: f64,
+    it: usize,
+    /// The point is new: evaluate and assess it.
+    fresh: bool,
+    pi: f64,
+    op: Operator,
+    /// The last factorisation was of the exact Hessian with no more than the floor shift.
+    certified: bool,
+    /// Watchdog: a rejected full step is followed tentatively for a few Newton steps from this checkpoint.
+    watch: Option<Watch>,
+    /// Accepted steps since the last failed watchdog (a watchdog is armed after two).
+    since_watch: usize,
+}
+
+impl Newton {
+    fn new(model: &Model, x: &[Vec3], lam: f64, load: f64, tol: f64) -> Self {
+        let n = x.len();
+        Self {
+            lam,
+            load,
+            tol,
+            start: x.to_vec(),
+            runaway: 1e3 * model.length_scale(),
+            grad: vec![Vec3::ZERO; n],
+            step: vec![Vec3::ZERO; n],
+            trial: x.to_vec(),
+            mu: 0.0,
+            escapes: 0,
+            res: f64::INFINITY,
+            it: 0,
+            fresh: true,
+            pi: 0.0,
+            op: Operator::Exact,
+            certified: false,
+            watch: None,
+            since_watch: WATCH_REARM,
+        }
+    }
+}
+
+/// What a stage of a Newton iteration decides.
+enum Flow {
+    /// On to the next iteration.
+    Next,
+    /// The solve ends.
+    Done(Outcome),
+    /// On with this iteration (factorise and step).
+    Go,
+}
+
+/// A step's numbers for [`StaticSolver::judge`]: `g·p`, `|p|²`, the model's predicted decrease, the matrix scale.
+#[derive(Clone, Copy)]
+struct Judged {
+    gp: f64,
+    pp: f64,
+    pred: f64,
+    scale: f64,
+}
+
 /// Relative diagonal shift that keeps free rigid modes solvable and is the threshold of "negative" curvature.
 const EPS_SHIFT: f64 = 1e-12;
 
@@ -458,8 +531,9 @@ impl StaticSolver {
     }
 
     /// Newton's method at load factor `lam` from `x`, at most `budget` iterations: the trust region, the
-    /// watchdog and the saddle escape of the module documentation.
-    #[allow(clippy::too_many_lines)]
+    /// watchdog and the saddle escape of the module documentation. Each iteration: [`Self::assess`] the
+    /// point (when it is new), [`Self::factorise`] the shifted Hessian, then judge the step
+    /// ([`Self::unresolved`] when `Π` cannot resolve its decrease, else [`Self::judge`]).
     fn newton(
         &mut self,
         model: &Model,
@@ -469,179 +543,200 @@ impl StaticSolver {
         tol: f64,
         budget: usize,
     ) -> Result<Outcome, StaticError> {
-        let n = x.len();
-        let start = x.to_vec();
-        let mut runaway = 1e3 * model.length_scale();
-        let mut grad = vec![Vec3::ZERO; n];
-        let mut step = vec![Vec3::ZERO; n];
-        let mut trial = x.to_vec();
-        // Levenberg shift relative to the matrix scale (0: pure Newton).
-        let mut mu: f64 = 0.0;
-        let mut escapes = 0;
-        let mut res = f64::INFINITY;
-        let mut it = 0;
-        let mut fresh = true;
-        let mut pi = 0.0;
-        let mut op = Operator::Exact;
-        // The last factorisation was of the exact Hessian with no more than the floor shift.
-        let mut certified = false;
-        // Watchdog: a rejected full step is followed tentatively for a few Newton steps from this checkpoint.
-        let mut watch: Option<Watch> = None;
-        // Accepted steps since the last failed watchdog (a watchdog is armed after two).
-        let mut since_watch = WATCH_REARM;
-        while it < budget {
-            if fresh {
-                op = Operator::Exact;
-                pi = self.eval(model, x, lam, Want { grad: true, hess: Some(op) });
-                grad.copy_from_slice(&self.ws.grad);
-                res = grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
-                if !pi.is_finite() || !res.is_finite() {
-                    match watch.take() {
-                        Some(w) => {
-                            self.restore(x, &w, &mut mu, &mut since_watch);
-                            continue;
-                        }
-                        None => return Ok(Outcome::Failed(it, res)),
-                    }
-                }
-                if let Some(w) = &mut watch {
-                    if pi <= w.pi + ARMIJO * w.pred {
-                        watch = None;
-                    } else if w.left == 0 {
-                        let w = watch.take().unwrap_or_else(|| unreachable!());
-                        self.restore(x, &w, &mut mu, &mut since_watch);
-                        continue;
-                    } else {
-                        w.left -= 1;
-                    }
-                }
-                if res <= tol && watch.is_none() {
-                    // A positive definite exact Hessian factorised at μ = 0 on the last iteration certifies
-                    // stability; else check (and leave a saddle).
-                    if certified
-                        || escapes >= MAX_ESCAPES
-                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, true)?
-                    {
-                        return Ok(Outcome::Converged(it, res, pi, escapes));
-                    }
-                    escapes += 1;
-                    certified = false;
-                    it += 1;
-                    mu = 0.0;
-                    continue;
-                }
-                let drift = x.iter().zip(&start).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
-                if drift > runaway {
-                    // Far from the start: either the sheet falls for ever, or it drifted along a flat rigid mode.
-                    if let Some((d, f)) = self.unbounded(model, x) {
-                        return Ok(Outcome::Runaway(d.max(drift), f));
-                    }
-                    runaway *= 10.0;
+        let mut nw = Newton::new(model, x, lam, load, tol);
+        while nw.it < budget {
+            if nw.fresh {
+                match self.assess(model, x, &mut nw)? {
+                    Flow::Next => continue,
+                    Flow::Done(o) => return Ok(o),
+                    Flow::Go => {}
                 }
             }
-            it += 1;
-            // Factorise H + μ s I, growing μ until positive definite; the PSD operator where the exact one
-            // cannot be factorised at a moderate shift.
+            nw.it += 1;
             let scale = self.scale();
-            let mut ok = false;
-            for _ in 0..16 {
-                let s = (mu * scale).max(EPS_SHIFT * scale);
-                for (p, g) in step.iter_mut().zip(&grad) {
-                    *p = -*g;
-                }
-                if self.factor_with(model, s, &mut step) {
-                    ok = true;
-                    certified = op == Operator::Exact && mu * scale <= EPS_SHIFT * scale;
-                    break;
-                }
-                if op == Operator::Exact {
-                    op = Operator::Projected;
-                    self.eval(model, x, lam, Want { grad: false, hess: Some(op) });
-                    continue;
-                }
-                mu = (mu * 10.0).max(1e-10);
+            if !self.factorise(model, x, &mut nw, scale) {
+                return Ok(Outcome::Failed(nw.it, nw.res));
             }
-            if !ok {
-                return Ok(Outcome::Failed(it, res));
-            }
-            let s = (mu * scale).max(EPS_SHIFT * scale);
-            let gp: f64 = grad.iter().zip(&step).map(|(g, p)| g.dot(*p)).sum();
-            let pp: f64 = step.iter().map(|p| p.length_squared()).sum();
+            let s = (nw.mu * scale).max(EPS_SHIFT * scale);
+            let gp: f64 = nw.grad.iter().zip(&nw.step).map(|(g, p)| g.dot(*p)).sum();
+            let pp: f64 = nw.step.iter().map(|p| p.length_squared()).sum();
             // Model decrease m(p) = g·p + ½ pᵀHp with (H + sI) p = −g.
             let pred = 0.5 * (gp - s * pp);
-            for k in 0..n {
-                trial[k] = x[k] + step[k];
+            for k in 0..x.len() {
+                nw.trial[k] = x[k] + nw.step[k];
             }
-            if pred.is_nan() || pred >= 0.0 || -pred <= 1e-14 * pi.abs().max(f64::MIN_POSITIVE) {
-                // Π cannot resolve the decrease: judge the step on the residual instead.
-                let pt = self.eval(model, &trial, lam, Want::GRADIENT);
-                let rt = self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / load;
-                if pt.is_finite() && rt < 0.5 * res {
-                    x.copy_from_slice(&trial);
-                    fresh = true;
-                    continue;
-                }
-                if res <= tol.sqrt() && watch.is_none() {
-                    let exact_at_x = fresh && op == Operator::Exact;
-                    if certified
-                        || escapes >= MAX_ESCAPES
-                        || self.stable_or_escape(model, x, lam, pi, &grad, &mut trial, exact_at_x)?
-                    {
-                        return Ok(Outcome::Converged(it, res, pi, escapes));
-                    }
-                    escapes += 1;
-                    certified = false;
-                    mu = 0.0;
-                    fresh = true;
-                    continue;
-                }
-                if mu > 1e6 {
-                    return Ok(Outcome::Failed(it, res));
-                }
-                mu = (mu * 10.0).max(1e-10);
-                fresh = false;
-                continue;
-            }
-            let pt = self.eval(model, &trial, lam, Want::VALUE);
-            let rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
-            if watch.is_some() {
-                // Tentative: follow the Newton step whatever Π does (the checkpoint decides).
-                x.copy_from_slice(&trial);
-                fresh = true;
-                mu = 0.0;
-            } else if rho > ARMIJO {
-                x.copy_from_slice(&trial);
-                if rho > 0.75 {
-                    mu = if mu <= 1e-10 { 0.0 } else { mu * 0.125 };
-                } else if rho < 0.25 {
-                    mu = (mu * 4.0).max(1e-10);
-                }
-                since_watch += 1;
-                fresh = true;
-            } else if since_watch >= WATCH_REARM && pt.is_finite() {
-                watch = Some(Watch { x: x.to_vec(), pi, pred, mu, left: WATCH_STEPS });
-                x.copy_from_slice(&trial);
-                mu = 0.0;
-                fresh = true;
+            let flow = if pred.is_nan() || pred >= 0.0 || -pred <= 1e-14 * nw.pi.abs().max(f64::MIN_POSITIVE) {
+                self.unresolved(model, x, &mut nw)?
             } else {
-                // Rejected: the step that the quadratic fit of Π along p would take sets the new shift.
-                let fit = if pt.is_finite() { -gp / (2.0 * (pt - pi - gp)) } else { 0.0 };
-                let alpha = if fit.is_finite() && fit > 0.0 { fit.clamp(0.1, 0.5) } else { 0.1 };
-                let gn: f64 = grad.iter().map(|g| g.length_squared()).sum::<f64>().sqrt();
-                let need = gn / (alpha * pp.sqrt()) / scale;
-                mu = (mu * 4.0).max(need.min(mu * 1e3 + 1e-10)).max(1e-10);
-                fresh = false;
-                if mu > 1e6 {
-                    // No step of any length decreases Π: round-off, if the residual is that small.
-                    return Ok(if res <= tol.sqrt() {
-                        Outcome::Converged(it, res, pi, escapes)
-                    } else {
-                        Outcome::Failed(it, res)
-                    });
-                }
+                self.judge(model, x, &mut nw, Judged { gp, pp, pred, scale })
+            };
+            if let Flow::Done(o) = flow {
+                return Ok(o);
             }
         }
-        Ok(Outcome::Failed(it, res))
+        Ok(Outcome::Failed(nw.it, nw.res))
+    }
+
+    /// A new point `x`: evaluates `Π`, its gradient and exact Hessian there, settles a watchdog, and stops on
+    /// convergence (a stable point, or one left along a negative curvature) or on a runaway.
+    fn assess(&mut self, model: &Model, x: &mut [Vec3], nw: &mut Newton) -> Result<Flow, StaticError> {
+        nw.op = Operator::Exact;
+        nw.pi = self.eval(model, x, nw.lam, Want { grad: true, hess: Some(nw.op) });
+        nw.grad.copy_from_slice(&self.ws.grad);
+        nw.res = nw.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / nw.load;
+        if !nw.pi.is_finite() || !nw.res.is_finite() {
+            return Ok(match nw.watch.take() {
+                Some(w) => {
+                    self.restore(x, &w, &mut nw.mu, &mut nw.since_watch);
+                    Flow::Next
+                }
+                None => Flow::Done(Outcome::Failed(nw.it, nw.res)),
+            });
+        }
+        if let Some(w) = &mut nw.watch {
+            if nw.pi <= w.pi + ARMIJO * w.pred {
+                nw.watch = None;
+            } else if w.left == 0 {
+                let w = nw.watch.take().unwrap_or_else(|| unreachable!());
+                self.restore(x, &w, &mut nw.mu, &mut nw.since_watch);
+                return Ok(Flow::Next);
+            } else {
+                w.left -= 1;
+            }
+        }
+        if nw.res <= nw.tol && nw.watch.is_none() {
+            // A positive definite exact Hessian factorised at μ = 0 on the last iteration certifies stability;
+            // else check (and leave a saddle).
+            if self.settle(model, x, nw, true)? {
+                return Ok(Flow::Done(Outcome::Converged(nw.it, nw.res, nw.pi, nw.escapes)));
+            }
+            nw.it += 1;
+            return Ok(Flow::Next);
+        }
+        let drift = x.iter().zip(&nw.start).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        if drift > nw.runaway {
+            // Far from the start: either the sheet falls for ever, or it drifted along a flat rigid mode.
+            if let Some((d, f)) = self.unbounded(model, x) {
+                return Ok(Flow::Done(Outcome::Runaway(d.max(drift), f)));
+            }
+            nw.runaway *= 10.0;
+        }
+        Ok(Flow::Go)
+    }
+
+    /// At a point within the tolerance: true when it is a stable equilibrium (certified by the last exact
+    /// factorisation, or checked), or after the most saddle escapes; else it has left the saddle (into `x`):
+    /// one more escape, a fresh trust region. `exact_at_x`: the workspace holds the exact Hessian at `x`.
+    fn settle(
+        &mut self,
+        model: &Model,
+        x: &mut [Vec3],
+        nw: &mut Newton,
+        exact_at_x: bool,
+    ) -> Result<bool, StaticError> {
+        if nw.certified
+            || nw.escapes >= MAX_ESCAPES
+            || self.stable_or_escape(model, x, nw.lam, nw.pi, &nw.grad, &mut nw.trial, exact_at_x)?
+        {
+            return Ok(true);
+        }
+        nw.escapes += 1;
+        nw.certified = false;
+        nw.mu = 0.0;
+        Ok(false)
+    }
+
+    /// Factorises `H + μ s I` into the step `(H + μ s I) p = −g`, growing `μ` until positive definite; the PSD
+    /// operator where the exact one cannot be factorised at a moderate shift. False when none could be.
+    fn factorise(&mut self, model: &Model, x: &[Vec3], nw: &mut Newton, scale: f64) -> bool {
+        for _ in 0..16 {
+            let s = (nw.mu * scale).max(EPS_SHIFT * scale);
+            for (p, g) in nw.step.iter_mut().zip(&nw.grad) {
+                *p = -*g;
+            }
+            if self.factor_with(model, s, &mut nw.step) {
+                nw.certified = nw.op == Operator::Exact && nw.mu * scale <= EPS_SHIFT * scale;
+                return true;
+            }
+            if nw.op == Operator::Exact {
+                nw.op = Operator::Projected;
+                self.eval(model, x, nw.lam, Want { grad: false, hess: Some(nw.op) });
+                continue;
+            }
+            nw.mu = (nw.mu * 10.0).max(1e-10);
+        }
+        false
+    }
+
+    /// A step whose decrease `Π` cannot resolve: judged on the residual instead (taken when it halves it),
+    /// else convergence within round-off, else a larger shift.
+    fn unresolved(&mut self, model: &Model, x: &mut [Vec3], nw: &mut Newton) -> Result<Flow, StaticError> {
+        let pt = self.eval(model, &nw.trial, nw.lam, Want::GRADIENT);
+        let rt = self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / nw.load;
+        if pt.is_finite() && rt < 0.5 * nw.res {
+            x.copy_from_slice(&nw.trial);
+            nw.fresh = true;
+            return Ok(Flow::Next);
+        }
+        if nw.res <= nw.tol.sqrt() && nw.watch.is_none() {
+            let exact_at_x = nw.fresh && nw.op == Operator::Exact;
+            if self.settle(model, x, nw, exact_at_x)? {
+                return Ok(Flow::Done(Outcome::Converged(nw.it, nw.res, nw.pi, nw.escapes)));
+            }
+            nw.fresh = true;
+            return Ok(Flow::Next);
+        }
+        if nw.mu > 1e6 {
+            return Ok(Flow::Done(Outcome::Failed(nw.it, nw.res)));
+        }
+        nw.mu = (nw.mu * 10.0).max(1e-10);
+        nw.fresh = false;
+        Ok(Flow::Next)
+    }
+
+    /// The trust region's verdict on the step to `nw.trial`: taken (the shift relaxed or tightened by the
+    /// ratio of actual to predicted decrease), taken tentatively under a new watchdog, or rejected with the
+    /// shift the quadratic fit of `Π` along the step asks for.
+    fn judge(&mut self, model: &Model, x: &mut [Vec3], nw: &mut Newton, j: Judged) -> Flow {
+        let Judged { gp, pp, pred, scale } = j;
+        let (pi, mu) = (nw.pi, nw.mu);
+        let pt = self.eval(model, &nw.trial, nw.lam, Want::VALUE);
+        let rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
+        if nw.watch.is_some() {
+            // Tentative: follow the Newton step whatever Π does (the checkpoint decides).
+            x.copy_from_slice(&nw.trial);
+            (nw.fresh, nw.mu) = (true, 0.0);
+        } else if rho > ARMIJO {
+            x.copy_from_slice(&nw.trial);
+            if rho > 0.75 {
+                nw.mu = if mu <= 1e-10 { 0.0 } else { mu * 0.125 };
+            } else if rho < 0.25 {
+                nw.mu = (mu * 4.0).max(1e-10);
+            }
+            nw.since_watch += 1;
+            nw.fresh = true;
+        } else if nw.since_watch >= WATCH_REARM && pt.is_finite() {
+            nw.watch = Some(Watch { x: x.to_vec(), pi, pred, mu, left: WATCH_STEPS });
+            x.copy_from_slice(&nw.trial);
+            (nw.fresh, nw.mu) = (true, 0.0);
+        } else {
+            // Rejected: the step that the quadratic fit of Π along p would take sets the new shift.
+            let fit = if pt.is_finite() { -gp / (2.0 * (pt - pi - gp)) } else { 0.0 };
+            let alpha = if fit.is_finite() && fit > 0.0 { fit.clamp(0.1, 0.5) } else { 0.1 };
+            let gn: f64 = nw.grad.iter().map(|g| g.length_squared()).sum::<f64>().sqrt();
+            let need = gn / (alpha * pp.sqrt()) / scale;
+            nw.mu = (mu * 4.0).max(need.min(mu * 1e3 + 1e-10)).max(1e-10);
+            nw.fresh = false;
+            if nw.mu > 1e6 {
+                // No step of any length decreases Π: round-off, if the residual is that small.
+                return Flow::Done(if nw.res <= nw.tol.sqrt() {
+                    Outcome::Converged(nw.it, nw.res, pi, nw.escapes)
+                } else {
+                    Outcome::Failed(nw.it, nw.res)
+                });
+            }
+        }
+        Flow::Next
     }
 
     /// Back to a watchdog's checkpoint after it failed: a larger shift, no new watchdog for a while.

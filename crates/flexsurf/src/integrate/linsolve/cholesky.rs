@@ -59,13 +59,8 @@ pub struct Cholesky {
     system: Reduced,
     /// The union structure when the matrix has extra blocks.
     union: Option<Union>,
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    src: Vec<(u32, u8)>,
-    values: Vec<f64>,
-    symbolic: SymbolicCholesky<usize>,
-    l_values: Vec<f64>,
-    mem: MemBuffer,
+    /// The scalar structure, its analysis and the factor's buffers.
+    st: Structure,
     /// Scalar right-hand side / solution of the triangular solves.
     flat: Vec<f64>,
     /// A factor of a recent matrix exists.
@@ -80,17 +75,10 @@ impl Cholesky {
 
     /// Symbolic analysis of the scalar upper triangle of `pattern`.
     pub fn new(pattern: &BlockPattern) -> Result<Self, LinearError> {
-        let s = Structure::of(pattern)?;
         Ok(Self {
             system: Reduced::new(pattern),
             union: None,
-            col_ptr: s.col_ptr,
-            row_idx: s.row_idx,
-            src: s.src,
-            values: s.values,
-            symbolic: s.symbolic,
-            l_values: s.l_values,
-            mem: s.mem,
+            st: Structure::of(pattern)?,
             flat: vec![0.0; 3 * pattern.nodes()],
             factored: false,
             no_fixed: Vec::new(),
@@ -105,9 +93,7 @@ impl Cholesky {
             return Ok(false);
         }
         let (union, pattern) = Union::new(self.system.pattern(), &a.extra);
-        let s = Structure::of(&pattern)?;
-        (self.col_ptr, self.row_idx, self.src, self.values) = (s.col_ptr, s.row_idx, s.src, s.values);
-        (self.symbolic, self.l_values, self.mem) = (s.symbolic, s.l_values, s.mem);
+        self.st = Structure::of(&pattern)?;
         self.factored = false;
         self.union = Some(union);
         Ok(true)
@@ -125,10 +111,10 @@ impl Cholesky {
         };
         let n = self.flat.len();
         for c in 0..n {
-            for p in self.col_ptr[c]..self.col_ptr[c + 1] {
-                let r = self.row_idx[p];
-                let (blk, e) = self.src[p];
-                self.values[p] = if fixed[r / 3] || fixed[c / 3] {
+            for p in self.st.col_ptr[c]..self.st.col_ptr[c + 1] {
+                let r = self.st.row_idx[p];
+                let (blk, e) = self.st.src[p];
+                self.st.values[p] = if fixed[r / 3] || fixed[c / 3] {
                     if r == c {
                         1.0
                     } else {
@@ -144,18 +130,19 @@ impl Cholesky {
     fn factor(&mut self) -> Result<(), LinearError> {
         let n = self.flat.len();
         let mat = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx),
-            &self.values,
+            SymbolicSparseColMatRef::new_checked(n, n, &self.st.col_ptr, None, &self.st.row_idx),
+            &self.st.values,
         );
         self.factored = false;
-        self.symbolic
+        self.st
+            .symbolic
             .factorize_numeric_llt::<f64>(
-                &mut self.l_values,
+                &mut self.st.l_values,
                 mat,
                 Side::Upper,
                 LltRegularization::default(),
                 Par::Seq,
-                MemStack::new(&mut self.mem),
+                MemStack::new(&mut self.st.mem),
                 Default::default(),
             )
             .map_err(|e| match e {
@@ -186,7 +173,7 @@ impl Cholesky {
 
     /// `x = (L Lᵀ)⁻¹ b` with the current factor.
     pub(crate) fn apply(&mut self, b: &[Vec3], x: &mut [Vec3]) {
-        apply_factor(&self.symbolic, &self.l_values, &mut self.mem, &mut self.flat, b, x);
+        apply_factor(&self.st.symbolic, &self.st.l_values, &mut self.st.mem, &mut self.flat, b, x);
     }
 }
 
@@ -258,7 +245,8 @@ impl BlockSolver for Cholesky {
         self.system.eliminate(a, fixed, b, x);
         let mut tried = 0;
         if reuse == Reuse::Nearby && self.factored {
-            let Self { system, symbolic, l_values, mem, flat, .. } = self;
+            let Self { system, st, flat, .. } = self;
+            let Structure { symbolic, l_values, mem, .. } = st;
             apply_factor(symbolic, l_values, mem, flat, system.rhs(), x);
             let result = system.cg(
                 a,
@@ -276,7 +264,8 @@ impl BlockSolver for Cholesky {
         self.fill(a, fixed);
         self.factor()?;
         let t1 = Instant::now();
-        let Self { system, symbolic, l_values, mem, flat, .. } = self;
+        let Self { system, st, flat, .. } = self;
+        let Structure { symbolic, l_values, mem, .. } = st;
         apply_factor(symbolic, l_values, mem, flat, system.rhs(), x);
         // The failed re-solve's iterations count, and their time is the factorisation's set-up.
         Ok(SolveStats::since(t0, t1, tried, true).analysed(analysed))
@@ -284,7 +273,7 @@ impl BlockSolver for Cholesky {
 
     /// Non-zeros of the factor `L`.
     fn factor_nnz(&self) -> usize {
-        self.symbolic.len_val()
+        self.st.symbolic.len_val()
     }
 
     fn kind(&self) -> SolverKind {

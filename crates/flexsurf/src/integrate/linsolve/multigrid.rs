@@ -258,7 +258,6 @@ impl Level {
 
     /// The level below a fine level of `m × n` nodes (`free`: nodes with a row in `P`) with the transfers of
     /// its two directions.
-    #[allow(clippy::too_many_lines)] // Until `integrate/` is split by its owner (issue 18).
     fn new(
         fine: &BlockPattern,
         free: &[bool],

@@ -146,7 +146,6 @@ fn obstacles(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(TriMesh, bool)>, 
 }
 
 /// Reads the `animation.glb` that flexsurf wrote into `dir`.
-#[allow(clippy::too_many_lines)] // Until `io/` is split by its owner (issue 18).
 pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
     let path = dir.join(GLB_FILE);
     let bytes = match super::read_limited(&path, super::MAX_ANIMATION_BYTES) {
