@@ -56,6 +56,20 @@ pub fn print_table(rows: &[(&str, &RunOutput)]) {
         );
     }
     for (name, o) in rows {
+        // A static solve takes no steps: its own numbers instead of a rate.
+        if let Some(r) = &o.summary.static_solve {
+            println!(
+                "{name}: static solve, {} Newton iterations ({} load steps, {} saddle escapes), relative residual \
+                 {:.2e}, potential {:.6e} J",
+                r.iterations,
+                r.load_steps.len(),
+                r.escapes,
+                r.residual,
+                r.potential
+            );
+        }
+    }
+    for (name, o) in rows {
         let s = &o.summary;
         if let (Some(drift), Some(gap)) = (s.waist_drift_max, s.initial_min_distance) {
             println!(

@@ -59,6 +59,21 @@ pub enum TriMeshError {
         /// Signed volume (m³).
         volume: f64,
     },
+    /// A stray vertex far from the rest, or an enclosed volume lost in round-off (a flat mesh): the winding
+    /// cannot be told.
+    #[error(
+        "{file}: the mesh's orientation cannot be told: its farthest vertex, {vertex} (1-based, as in the file), \
+         is {distance:.3e} m from the mesh's median point, over 100 times the other vertices' typical distance, or \
+         its enclosed volume is lost in round-off: a stray vertex, or a flat mesh?"
+    )]
+    Degenerate {
+        /// File name.
+        file: String,
+        /// The vertex farthest from the median point (1-based).
+        vertex: usize,
+        /// Its distance (m).
+        distance: f64,
+    },
     /// A vertex coordinate is NaN or infinite.
     #[error("vertex {index} is not finite")]
     NonFiniteVertex {
@@ -181,14 +196,35 @@ fn check_closed(vertices: &[Vec3], triangles: &[[u32; 3]], file: &str) -> Result
     if let Some(&first) = bad.first() {
         return Err(TriMeshError::Open { file: file.to_string(), edges: bad.len(), first });
     }
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| vertices[i as usize]);
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum();
-    if volume <= 0.0 {
+    // The signed volume about the vertices' median point (not the origin: far coordinates would cancel), and
+    // how much of it round-off could be.
+    let median = |axis: usize| {
+        let mut v: Vec<f64> = vertices.iter().map(|p| p[axis]).collect();
+        v.sort_unstable_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let r = Vec3::new(median(0), median(1), median(2));
+    let (mut volume, mut magnitude) = (0.0, 0.0);
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize] - r);
+        let v = a.dot(b.cross(c)) / 6.0;
+        volume += v;
+        magnitude += v.abs();
+    }
+    let lost = !volume.is_finite() || volume.abs() <= 1e3 * f64::EPSILON * magnitude;
+    if lost || volume < 0.0 {
+        // A stray vertex far from the rest (its faces folded over the others, or its coordinates swamping the
+        // sum) is named rather than called a winding fault.
+        let mut d: Vec<f64> = vertices.iter().map(|p| (*p - r).length()).collect();
+        let far = (0..d.len()).fold(0, |m, k| if d[k] > d[m] { k } else { m });
+        let distance = d[far];
+        d.sort_unstable_by(f64::total_cmp);
+        let typical = d[d.len() / 2];
+        if lost || distance > 100.0 * typical {
+            return Err(TriMeshError::Degenerate { file: file.to_string(), vertex: far + 1, distance });
+        }
+    }
+    if volume < 0.0 {
         return Err(TriMeshError::InsideOut { file: file.to_string(), volume });
     }
     Ok(())
@@ -308,5 +344,27 @@ mod tests {
         assert_eq!((m.vertex_count(), m.triangle_count()), (8, 12));
         assert!((m.area() - 6.0).abs() < 1e-12);
         assert!(body.distance(Vec3::new(0.5, 0.5, 2.0)).0 > 0.99);
+    }
+
+    /// Issue 22: one far-off vertex of a closed cube was reported as "inside out".
+    #[test]
+    fn regression_a_far_off_vertex_was_called_inside_out() {
+        let faces = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        let cube = |v7: &str| format!("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n{v7}\nv 0 1 1\n{faces}");
+        for far in ["v -1e9 -1e9 -1e9", "v -1e5 -2e5 -1e5"] {
+            let e = TriMeshBody::from_obj_str(&cube(far), "cube.obj").err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.contains("vertex, 7 ") && e.contains("stray vertex") && !e.contains("inside out"), "{far}: {e}");
+        }
+        // A cube wound the other way round is still inside out.
+        let flipped: String = cube("v 1 1 1")
+            .lines()
+            .map(|l| match l.strip_prefix("f ") {
+                Some(f) => format!("f {}\n", f.split(' ').rev().collect::<Vec<_>>().join(" ")),
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let e = TriMeshBody::from_obj_str(&flipped, "cube.obj").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("inside out"), "{e}");
+        assert!(TriMeshBody::from_obj_str(&cube("v 1 1 1"), "cube.obj").is_ok());
     }
 }

@@ -125,10 +125,13 @@ pub fn write_energy_png(out: &Path, scene: &Scene) -> Result<(), RunError> {
     let text = std::fs::read_to_string(&csv).map_err(io_err(&csv))?;
     let rows = energy_rows(&text);
     let Some(first) = rows.first().copied() else { return Ok(()) };
+    // A static solve's rows are the start and the equilibrium, both at t = 0: plotted against the state.
+    let stat = matches!(scene.method(), crate::integrate::Method::Static(_));
+    let x = |k: usize, r: &[f64; 5]| if stat { k as f64 } else { r[0] };
     let line = |name: &str, color: [u8; 3], f: &dyn Fn(&[f64; 5]) -> f64| Series {
         name: name.to_string(),
         color,
-        points: rows.iter().map(|r| (r[0], f(r))).collect(),
+        points: rows.iter().enumerate().map(|(k, r)| (x(k, r), f(r))).collect(),
         dots: rows.len() <= 2,
     };
     let series = [
@@ -142,7 +145,8 @@ pub fn write_energy_png(out: &Path, scene: &Scene) -> Result<(), RunError> {
     ];
     let title = format!("{}  ·  {} model  ·  energy", scene.name, model_label(scene.model.kind.name()));
     let png = out.join(ENERGY_PNG);
-    line_chart(&png, (800, 480), &title, "simulated time (s)", "energy (J)", &series).map_err(io_err(&png))
+    let axis = if stat { "state (0: start, 1: equilibrium of the static solve)" } else { "simulated time (s)" };
+    line_chart(&png, (800, 480), &title, axis, "energy (J)", &series).map_err(io_err(&png))
 }
 
 #[cfg(test)]

@@ -112,14 +112,25 @@ impl Output for Snapshots<'_> {
 
     fn finish(&mut self, summary: &Summary) -> Result<(), RunError> {
         let scene = self.scene;
-        let title = format!(
-            "{}  ·  {} model  ·  {} steps  ·  t = {:.2} s",
-            scene.name,
-            model_label(scene.model.kind.name()),
-            summary.steps,
-            summary.simulated_seconds
-        );
-        write_snapshots(&self.out, &scene.model, &self.snapshots, scene.output.image_size, &title)
+        let model = model_label(scene.model.kind.name());
+        // A static solve has no time: its title says how it converged, its panels what they show.
+        let (title, labels): (String, Vec<String>) = match &summary.static_solve {
+            Some(r) => (
+                format!(
+                    "{}  ·  {model} model  ·  static solve: {} Newton iterations, residual {:.1e}",
+                    scene.name, r.iterations, r.residual
+                ),
+                self.snapshots.iter().map(|s| if s.step == 0 { "start" } else { "equilibrium" }.to_string()).collect(),
+            ),
+            None => (
+                format!(
+                    "{}  ·  {model} model  ·  {} steps  ·  t = {:.2} s",
+                    scene.name, summary.steps, summary.simulated_seconds
+                ),
+                self.snapshots.iter().map(|s| format!("step {}   t = {:.2} s", s.step, s.time)).collect(),
+            ),
+        };
+        write_snapshots(&self.out, &scene.model, &self.snapshots, scene.output.image_size, &title, &labels)
     }
 }
 
@@ -131,6 +142,7 @@ fn write_snapshots(
     snapshots: &[Snapshot],
     image_size: [u32; 2],
     title: &str,
+    labels: &[String],
 ) -> Result<(), RunError> {
     let view = view_for(model, snapshots.iter().map(|s| &s.mesh));
     let [w, h] = image_size;
@@ -143,10 +155,9 @@ fn write_snapshots(
             img
         })
         .collect();
-    let labels: Vec<String> = snapshots.iter().map(|s| format!("step {}   t = {:.2} s", s.step, s.time)).collect();
     let png = out.join(SNAPSHOTS_PNG);
     let columns = render::grid_layout(images.len()).1;
-    let panel = render::with_title(&render::panel(&images, &labels, columns), title);
+    let panel = render::with_title(&render::panel(&images, labels, columns), title);
     render::save_png(&png, &panel).map_err(io_err(&png))
 }
 
