@@ -17,7 +17,7 @@ use crate::math::{Mat3, Vec3};
 use crate::sparse::{BlockMatrix, BlockPattern};
 
 /// Which second-derivative operator (Hessian approximation) to assemble. Each term documents what each variant
-/// contains for it; `tests/derivatives.rs` checks every one.
+/// contains for it; `tests/suite/derivatives.rs` checks every one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Operator {
     /// `∇²E_h`, exact (finite-difference tested; may be indefinite).

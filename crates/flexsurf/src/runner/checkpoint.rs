@@ -5,7 +5,7 @@
 //! state of every output by its name ([`super::outputs::Output::save`]: the frames written, the length of
 //! `energy.csv`, the positions of the steps pictured, the animation's frames…). A resumed run restores all
 //! this (`energy.csv` truncated to its length at the checkpoint) and continues; its outputs are byte-identical
-//! to an uninterrupted run's (tests/resume.rs).
+//! to an uninterrupted run's (tests/suite/resume.rs).
 //!
 //! The file is written atomically (temporary file, then rename), so a kill leaves the previous checkpoint or
 //! the new one. Layout: the magic line `flexsurf-checkpoint\n`, the format version (u32, little-endian), the
