@@ -149,3 +149,21 @@ fn a_builder_with_a_wrong_rest_shape_names_the_panel() {
     assert_eq!(e.field, "rest");
     assert!(e.message.contains("panel 1"), "{e}");
 }
+
+#[test]
+fn auto_takes_cholesky_for_several_panels_and_multigrid_refuses_them() {
+    use flexsurf::integrate::linsolve::{LinearSolver, SolverKind};
+    let big = 200_000;
+    assert_eq!(SolverKind::Auto.for_panels(big, 1), SolverKind::Multigrid);
+    assert_eq!(SolverKind::Auto.for_panels(big, 2), SolverKind::Cholesky);
+    assert_eq!(SolverKind::Multigrid.for_panels(10, 2), SolverKind::Multigrid);
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(5, 5, 0.2, 0.2).unwrap();
+    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G)
+        .panel(grid, grid.flat_positions(1.0), ElasticOptions::default())
+        .build()
+        .unwrap();
+    let e = LinearSolver::new(SolverKind::Multigrid, model.potential.pattern(), &model.panels).err().unwrap();
+    assert!(e.to_string().contains("one panel"), "{e}");
+    assert!(LinearSolver::new(SolverKind::Auto, model.potential.pattern(), &model.panels).is_ok());
+}

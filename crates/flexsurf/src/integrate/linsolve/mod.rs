@@ -100,15 +100,20 @@ impl SolverKind {
         }
     }
 
+    /// The concrete solver for a model of `nodes` nodes in `panels` panels: [`SolverKind::resolve`], except
+    /// that `auto` takes Cholesky for several panels (the multigrid hierarchy is built on one grid).
+    pub fn for_panels(self, nodes: usize, panels: usize) -> SolverKind {
+        match (self, self.resolve(nodes)) {
+            (SolverKind::Auto, SolverKind::Multigrid) if panels > 1 => SolverKind::Cholesky,
+            (_, kind) => kind,
+        }
+    }
+
     /// A solver of this kind for `pattern` on the model's `panels` (its analysis done): the one table of the
     /// linear solvers. The multigrid hierarchy is built on one grid, so `auto` takes Cholesky for a model of
     /// several panels and `multigrid` refuses one.
     pub fn solver(self, pattern: &BlockPattern, panels: &[Panel]) -> Result<Box<dyn BlockSolver>, LinearError> {
-        let kind = match (self, self.resolve(pattern.nodes()), panels) {
-            (SolverKind::Auto, SolverKind::Multigrid, [_, _, ..]) => SolverKind::Cholesky,
-            (_, kind, _) => kind,
-        };
-        Ok(match kind {
+        Ok(match self.for_panels(pattern.nodes(), panels.len()) {
             SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
             SolverKind::Multigrid => match panels {
                 [one] => Box::new(Multigrid::new(pattern, &one.grid)?),
