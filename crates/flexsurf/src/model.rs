@@ -401,19 +401,24 @@ impl Model {
         self.panels.iter().map(|p| diagonal(&p.grid)).fold(0.0, f64::max)
     }
 
+    /// The grid edges of every panel as model node pairs: each cell's four edges, cell by cell, panel after
+    /// panel (an edge shared by two cells comes twice).
+    pub fn edges(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.panels.iter().flat_map(|panel| {
+            panel.grid.cells().flat_map(move |(i, j)| {
+                let c = panel.grid.cell(i, j).map(|k| panel.global(k));
+                [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])]
+            })
+        })
+    }
+
     /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges of every panel.
     pub fn max_strain(&self, x: &[Vec3]) -> f64 {
         let mut worst: f64 = 0.0;
-        for panel in &self.panels {
-            let g = &panel.grid;
-            for (i, j) in g.cells() {
-                let c = g.cell(i, j).map(|k| panel.global(k));
-                for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
-                    let l0 = (self.rest[b] - self.rest[a]).length();
-                    let l = (x[b] - x[a]).length();
-                    worst = worst.max((l / l0 - 1.0).abs());
-                }
-            }
+        for (a, b) in self.edges() {
+            let l0 = (self.rest[b] - self.rest[a]).length();
+            let l = (x[b] - x[a]).length();
+            worst = worst.max((l / l0 - 1.0).abs());
         }
         worst
     }

@@ -657,14 +657,9 @@ impl Potential {
         let cx = self.context(None);
         let mut values = Values::default();
         for term in &self.terms {
-            let mut scratch = Scratch::default();
-            let active = term.active_set();
-            if let Some(a) = active {
-                a.prepare(x, &cx, &mut scratch);
-            }
-            let v = term.evaluate(x, &cx, &mut scratch, sink);
+            let (v, contacts) = cold(&**term, x, &cx, sink);
             values.add(term.info().part, v);
-            values.contacts += active.map_or(0, |a| a.active(&scratch));
+            values.contacts += contacts;
         }
         values.total = sink.energy;
         values
@@ -699,14 +694,9 @@ impl Potential {
     ) -> Vec<(&'static str, f64)> {
         let cx = self.context(None);
         let mut out: Vec<(&'static str, f64)> = Vec::new();
-        for term in self.terms.iter().filter(|t| which(&t.info())) {
-            let mut scratch = Scratch::default();
-            match term.active_set() {
-                Some(a) if active => a.prepare(x, &cx, &mut scratch),
-                Some(_) => continue,
-                None => {}
-            }
-            let v = term.evaluate(x, &cx, &mut scratch, &mut Sink::none());
+        let wanted = |t: &dyn Term| which(&t.info()) && (active || t.active_set().is_none());
+        for term in self.terms.iter().filter(|t| wanted(&***t)) {
+            let (v, _) = cold(&**term, x, &cx, &mut Sink::none());
             let name = term.info().name;
             match out.iter_mut().find(|(n, _)| *n == name) {
                 Some((_, total)) => *total += v,
@@ -747,6 +737,18 @@ impl Potential {
             }
         }
     }
+}
+
+/// `term` evaluated into `sink` at `x` from a cold scratch (its active set, if any, detected first): its value
+/// and its active constraints.
+fn cold(term: &dyn Term, x: &[Vec3], cx: &Context, sink: &mut Sink) -> (f64, usize) {
+    let mut scratch = Scratch::default();
+    let active = term.active_set();
+    if let Some(a) = active {
+        a.prepare(x, cx, &mut scratch);
+    }
+    let v = term.evaluate(x, cx, &mut scratch, sink);
+    (v, active.map_or(0, |a| a.active(&scratch)))
 }
 
 /// One evaluation pass: the configuration, the context and what is wanted.

@@ -98,20 +98,14 @@ fn display_stencil(grid: &Grid, k: usize) -> Vec<([usize; 4], [f64; 4], [f64; 2]
 /// Largest `|ℓ/ℓ₀ − 1|` over the grid edges of its panel at each node.
 pub fn node_strain(model: &Model, x: &[Vec3]) -> Vec<f64> {
     let mut s = vec![0.0_f64; x.len()];
-    for p in &model.panels {
-        let g = &p.grid;
-        for (i, j) in g.cells() {
-            let c = g.cell(i, j).map(|k| p.global(k));
-            for (a, b) in [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])] {
-                let l0 = (model.rest[b] - model.rest[a]).length();
-                if l0 <= 0.0 {
-                    continue;
-                }
-                let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
-                s[a] = s[a].max(e);
-                s[b] = s[b].max(e);
-            }
+    for (a, b) in model.edges() {
+        let l0 = (model.rest[b] - model.rest[a]).length();
+        if l0 <= 0.0 {
+            continue;
         }
+        let e = ((x[b] - x[a]).length() / l0 - 1.0).abs();
+        s[a] = s[a].max(e);
+        s[b] = s[b].max(e);
     }
     s
 }
