@@ -16,6 +16,7 @@ mod panels;
 mod resume;
 mod scenarios;
 mod scenes;
+mod seams;
 mod skirt;
 mod solvers;
 mod sparsity;

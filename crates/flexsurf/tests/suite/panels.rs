@@ -64,7 +64,7 @@ fn two_identical_sheets_fall_as_one_does() {
     floor(&mut two);
     let two = two.build().unwrap();
     assert_eq!(two.panels.len(), 2);
-    assert_eq!(two.panels[1].offset, grid.len());
+    assert_eq!(two.panels[1].global(0), grid.len());
     assert_eq!(two.nodes(), 2 * grid.len());
     assert!((two.total_mass() - 2.0 * one.total_mass()).abs() < 1e-15 * one.total_mass());
 
