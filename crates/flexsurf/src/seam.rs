@@ -175,7 +175,10 @@ pub fn weld(grids: &[Grid], seams: &[Seam]) -> Result<Welds, SeamError> {
         let (ga, gb) = (&grids[seam.a.panel], &grids[seam.b.panel]);
         let (la, lb) = (seam.a.edge.count(ga), seam.b.edge.count(gb));
         if la != lb {
-            let message = format!("its edges have {la} and {lb} nodes (panel {} {:?}, panel {} {:?}); a seam joins equal counts", seam.a.panel, seam.a.edge, seam.b.panel, seam.b.edge);
+            let message = format!(
+                "its edges have {la} and {lb} nodes (panel {} {:?}, panel {} {:?}); a seam joins equal counts",
+                seam.a.panel, seam.a.edge, seam.b.panel, seam.b.edge
+            );
             return Err(SeamError { seam: s, message });
         }
         if seam.a.panel == seam.b.panel && seam.a.edge == seam.b.edge {
@@ -257,7 +260,12 @@ fn strip(seam: &Seam, panels: &[PanelView<'_>]) -> (Grid, Vec<Vec3>, Vec<usize>)
 /// Side `b`'s rest positions as the strip uses them: as they are where its edge lies on side `a`'s (a closed
 /// panel, pieces given in place), else turned rigidly so that `b`'s edge lies on `a`'s and `b` continues `a`
 /// flat across it (two flat pieces).
-fn aligned_rest<'a>(seam: &Seam, pa: &'a PanelView<'_>, pb: &'a PanelView<'_>, len: usize) -> impl Fn(usize) -> Vec3 + 'a {
+fn aligned_rest<'a>(
+    seam: &Seam,
+    pa: &'a PanelView<'_>,
+    pb: &'a PanelView<'_>,
+    len: usize,
+) -> impl Fn(usize) -> Vec3 + 'a {
     let edge = |side: &SeamSide, p: &PanelView<'_>, depth: usize| -> Vec<Vec3> {
         (0..len).map(|t| p.rest[side.node(p.grid, t, len, depth)]).collect()
     };

@@ -163,7 +163,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: scene.solver().for_panels(nodes, model.panels.len()).name().to_string(),
+        solver: scene.solver().resolve(nodes).name().to_string(),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),

@@ -76,7 +76,10 @@ fn periodic_skirt_equals_the_seamed_free_grid() {
         .unwrap();
     // The joined generatrix takes the first one's numbers: the model's nodes are the periodic grid's.
     assert_eq!(seamed.nodes(), periodic.nodes());
-    assert_eq!((0..n).map(|j| seamed.panels[0].global(free.index(m, j))).collect::<Vec<_>>(), (0..n).map(|j| grid.index(0, j)).collect::<Vec<_>>());
+    assert_eq!(
+        (0..n).map(|j| seamed.panels[0].global(free.index(m, j))).collect::<Vec<_>>(),
+        (0..n).map(|j| grid.index(0, j)).collect::<Vec<_>>()
+    );
     for (a, b) in periodic.mass.iter().zip(&seamed.mass) {
         assert!((a - b).abs() <= 1e-15 * a, "masses {a} and {b}");
     }
@@ -138,7 +141,8 @@ fn two_sewn_halves_equal_the_whole_sheet() {
     let (left, right) = (part(0), part(6));
     // The right half cut out 2 m away and turned by 2 rad in the plane.
     let (c, s) = (2.0_f64.cos(), 2.0_f64.sin());
-    let elsewhere: Vec<Vec3> = right.iter().map(|p| Vec3::new(c * p.x - s * p.y + 2.0, s * p.x + c * p.y - 1.0, 0.0)).collect();
+    let elsewhere: Vec<Vec3> =
+        right.iter().map(|p| Vec3::new(c * p.x - s * p.y + 2.0, s * p.x + c * p.y - 1.0, 0.0)).collect();
     let x0: Vec<Vec3> = rest.iter().map(|p| curved(*p)).collect();
     let reference = run(&whole, x0.clone(), 0.005, 40);
     for right_rest in [right.clone(), elsewhere] {
@@ -194,7 +198,8 @@ fn seam_bending_matches_finite_differences() {
         let x = perturbed(&model.from_panel_nodes(&rest), 0.01, 7);
         let seam_term = model.potential.terms().iter().filter(|t| t.info().name == "bending").count();
         assert_eq!(seam_term, 2, "the panel's bending and the seam's");
-        check(&model.potential, &x, None, None, Operator::Exact).assert_below(&format!("seamed band {count} {warp}"), 1e-6);
+        check(&model.potential, &x, None, None, Operator::Exact)
+            .assert_below(&format!("seamed band {count} {warp}"), 1e-6);
     }
 }
 
@@ -205,8 +210,11 @@ fn a_bad_seam_is_an_error_naming_it() {
     let a = Grid::sheet(5, 4, 0.4, 0.3).unwrap();
     let b = Grid::new(5, 4, 0.1, 0.1, [Topology::Periodic, Topology::Free]).unwrap();
     let two = || {
-        ModelBuilder::new(a, a.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G)
-            .panel(b, b.flat_positions(1.0), ElasticOptions::default())
+        ModelBuilder::new(a, a.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G).panel(
+            b,
+            b.flat_positions(1.0),
+            ElasticOptions::default(),
+        )
     };
     let square = Grid::sheet(4, 4, 0.3, 0.3).unwrap();
     let folded = ModelBuilder::new(square, square.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G);
