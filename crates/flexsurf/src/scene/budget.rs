@@ -27,9 +27,9 @@ impl Default for Limits {
 /// Frames per simulated second of a default animation ([`animation_every`]).
 pub const ANIMATION_FPS: f64 = 20.0;
 /// Most frames of a default animation after its first.
-pub const ANIMATION_MAX_FRAMES: usize = 100;
+pub const ANIMATION_MAX_FRAMES: usize = 60;
 /// Most bytes of the later frames of a default animation in `animation.glb`.
-pub const ANIMATION_MAX_BYTES: u64 = 32 << 20;
+pub const ANIMATION_MAX_BYTES: u64 = 24 << 20;
 /// Bytes of one display vertex in one later frame of `animation.glb`: its position and normal offsets (24)
 /// and its strain, contact pressure and velocity (20), all `f32`.
 pub const GLB_BYTES_PER_VERTEX: u64 = 44;

@@ -478,7 +478,7 @@ pub struct OutputSpec {
     pub format: FrameFormat,
     /// A frame of the animation (`animation.glb`, the VTK series, the viewer) every this many steps, besides
     /// every output step; default: about 20 frames per simulated second (every 5 steps at Δt = 0.01 s), thinned
-    /// to at most 100 frames and 32 MiB of frame data (docs/scenes.md).
+    /// to at most 60 frames and 24 MiB of frame data (docs/scenes.md).
     pub animation_every: Option<usize>,
 }
 
