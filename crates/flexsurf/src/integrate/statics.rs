@@ -56,8 +56,9 @@ pub enum StaticError {
     /// coincident nodes): no residual can be measured there, so none is reported as if it were one.
     #[error(
         "static solve failed after {iterations} Newton iterations at load factor {load:.3}: the {what} not finite \
-         ({value}) at {at}, so there is no residual to report (the last finite relative residual: {}) (hint: look for coincident or far-off nodes, an overflowing stiffness or load, or relax the sheet \
-         dynamically with `integrator.kind = \"linearized\"`)",
+         ({value}) at {at}, so there is no residual to report (the last finite relative residual: {}) (hint: look \
+         for coincident or far-off nodes, an overflowing stiffness or load, or relax the sheet dynamically with \
+         `integrator.kind = \"linearized\"`)",
         last.map_or_else(|| "none".to_string(), |r| format!("{r:.3e}"))
     )]
     NonFinite {
