@@ -143,6 +143,16 @@ pub const CONTACT_OFFSET: Range = Range {
     bounds: (0.0, 1.0),
     usual: Some(Usual { si: (1e-4, 0.05), kes_unit: "mm", to_kes: offset_to_kes }),
 };
+/// `self_contact.stiffness`.
+pub const SELF_STIFFNESS: Range = Range { key: "self_contact.stiffness", ..CONTACT_STIFFNESS };
+/// `self_contact.thickness`.
+pub const SELF_THICKNESS: Range = Range {
+    key: "self_contact.thickness",
+    unit: "m",
+    rule: Rule::Positive,
+    bounds: (1e-6, 0.1),
+    usual: Some(Usual { si: (1e-4, 0.02), kes_unit: "mm", to_kes: offset_to_kes }),
+};
 /// `contact.friction`.
 pub const FRICTION: Range = entry("contact.friction", "", Rule::NonNegative, (0.0, 100.0));
 /// `contact.slip_speed`.
@@ -177,7 +187,7 @@ pub const POISSON: Range = entry("poisson", "", Rule::Signed, (0.0, 1e3));
 pub const BENDING_POISSON: Range = entry("bending_poisson", "", Rule::Signed, (0.0, 1.0));
 
 /// The whole table, in the order of `docs/scenes.md`.
-pub const TABLE: [&Range; 33] = [
+pub const TABLE: [&Range; 35] = [
     &DT,
     &GRAVITY,
     &SHEET_SIZE,
@@ -195,6 +205,8 @@ pub const TABLE: [&Range; 33] = [
     &PLANE_NORMAL,
     &CONTACT_STIFFNESS,
     &CONTACT_OFFSET,
+    &SELF_STIFFNESS,
+    &SELF_THICKNESS,
     &FRICTION,
     &SLIP_SPEED,
     &VELOCITY,

@@ -27,6 +27,8 @@ pub mod defaults {
     pub const SLIP_SPEED: f64 = crate::potential::contact::ContactParams::SLIP_SPEED;
     /// Contact offset `δ` (m).
     pub const CONTACT_OFFSET: f64 = 0.005;
+    /// `self_contact.thickness` (m).
+    pub const SELF_THICKNESS: f64 = 0.004;
     /// Coulomb friction coefficient.
     pub const CONTACT_FRICTION: f64 = 0.0;
     /// Coons sub-quads per cell edge in frames and pictures.
@@ -77,6 +79,9 @@ pub struct SceneSpec {
     /// Penalty contact with the obstacles.
     #[serde(default)]
     pub contact: ContactSpec,
+    /// Contact of the sheet with itself and between sheets (`[self_contact]`; off without the table).
+    #[serde(default)]
+    pub self_contact: Option<SelfContactSpec>,
     /// The initial condition: velocity, angular velocity, positions from a frame.
     #[serde(default)]
     pub initial: InitialSpec,
@@ -352,6 +357,23 @@ impl Default for ContactSpec {
             friction: defaults::CONTACT_FRICTION,
             slip_speed: defaults::SLIP_SPEED,
         }
+    }
+}
+
+/// `[self_contact]`: the sheet's elements (nodes, edges, triangles of its grid) push apart closer than the
+/// thickness, so it never passes through itself or another sheet.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelfContactSpec {
+    /// Contact thickness (m), under half the shortest grid edge; default 0.004.
+    pub thickness: f64,
+    /// Penalty (N/m³). Default: as `[contact]`'s, from the fabric's weight over the thickness.
+    pub stiffness: Option<f64>,
+}
+
+impl Default for SelfContactSpec {
+    fn default() -> Self {
+        Self { thickness: defaults::SELF_THICKNESS, stiffness: None }
     }
 }
 

@@ -21,6 +21,7 @@ use crate::grid::{Grid, Topology};
 use crate::material::{Fabric, Stiffness};
 use crate::math::{Mat3, Vec3};
 use crate::potential::contact::ContactParams;
+use crate::potential::self_contact::SelfContactParams;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -90,6 +91,7 @@ pub(crate) struct Parts<'s> {
     pub(crate) gravity: Vec3,
     pub(crate) obstacles: Vec<Obstacle>,
     pub(crate) contact: ContactParams,
+    pub(crate) self_contact: Option<SelfContactParams>,
     pub(crate) pins: Vec<Vec<usize>>,
     pub(crate) springs: Vec<SpringSet>,
 }
@@ -135,7 +137,9 @@ impl SceneSpec {
         starts_outside(v, &obstacles, contact.offset, &body)?;
         let (pins, springs) = self.constraints(v, &body.grids())?;
         self.check_output(v)?;
-        let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
+        let self_contact = self.self_contact(v, material.fabric.density, gravity)?;
+        let parts =
+            Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, self_contact, pins, springs };
         Ok(Checked { parts, dt, output_every, animation_every, condition, material: material.name, estimate })
     }
 
@@ -162,6 +166,22 @@ impl SceneSpec {
             friction: v.number(&ranges::FRICTION, "contact.friction", c.friction)?,
             slip_speed: v.number(&ranges::SLIP_SPEED, "contact.slip_speed", c.slip_speed)?,
         })
+    }
+
+    /// The checked `[self_contact]`; its default stiffness follows the fabric's weight as `[contact]`'s does.
+    fn self_contact(
+        &self,
+        v: &Validator<'_>,
+        density: f64,
+        gravity: Vec3,
+    ) -> Result<Option<SelfContactParams>, SceneError> {
+        let Some(c) = &self.self_contact else { return Ok(None) };
+        let thickness = v.number(&ranges::SELF_THICKNESS, "self_contact.thickness", c.thickness)?;
+        let stiffness = match c.stiffness {
+            Some(k) => v.number(&ranges::SELF_STIFFNESS, "self_contact.stiffness", k)?,
+            None => ContactParams::default_stiffness(density, gravity, thickness),
+        };
+        Ok(Some(SelfContactParams { stiffness, thickness }))
     }
 
     /// The checked `[sheet]` or `[garment]` (exactly one is given); a garment is fitted onto `obstacles` with
