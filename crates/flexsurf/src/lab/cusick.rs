@@ -93,7 +93,8 @@ pub const ASSUMED_ORDER: f64 = 1.0;
 /// [`ASSUMED_ORDER`]; the estimate extrapolates the two finest.
 pub fn richardson(points: &[(f64, f64)]) -> Result<(f64, f64), LabError> {
     let n = points.len();
-    if n < 2 || points.windows(2).any(|p| !(p[1].0 < p[0].0 && p[1].0 > 0.0)) || points.iter().any(|p| !p.1.is_finite()) {
+    if n < 2 || points.windows(2).any(|p| !(p[1].0 < p[0].0 && p[1].0 > 0.0)) || points.iter().any(|p| !p.1.is_finite())
+    {
         return Err(LabError::Input(format!(
             "richardson: needs two or more finite values on decreasing positive spacings, got {points:?}"
         )));

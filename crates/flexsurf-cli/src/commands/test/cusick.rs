@@ -284,7 +284,8 @@ fn write_tables(runs: &[LevelRun], estimate: Option<(f64, f64)>, out: &Path) -> 
     let mut paths = Vec::new();
     for (file, text) in [("cusick.csv", each), ("cusick_levels.csv", levels)] {
         let path = out.join(file);
-        flexsurf::io::atomic::write_atomic(&path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        flexsurf::io::atomic::write_atomic(&path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
         paths.push(path);
     }
     Ok(paths)
@@ -321,10 +322,8 @@ fn levels_chart(
             dots: true,
         });
     }
-    let title = format!(
-        "Cusick drape of {name}, {:.0} cm specimen: drape coefficient against grid spacing",
-        100.0 * specimen
-    );
+    let title =
+        format!("Cusick drape of {name}, {:.0} cm specimen: drape coefficient against grid spacing", 100.0 * specimen);
     line_chart(&path, (760, 440), &title, "mean radial node spacing (mm)", "drape coefficient (%)", &series)
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
