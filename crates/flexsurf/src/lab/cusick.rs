@@ -181,7 +181,7 @@ pub struct Settle {
 }
 
 /// The default tolerance of the final static solve: the largest nodal force imbalance, in largest nodal weights.
-pub const EQUILIBRIUM_TOLERANCE: f64 = 1e-6;
+pub const EQUILIBRIUM_TOLERANCE: f64 = 1e-5;
 
 impl Default for Settle {
     fn default() -> Self {
