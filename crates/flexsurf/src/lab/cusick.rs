@@ -17,7 +17,7 @@
 use super::LabError;
 use crate::grid::{Grid, Topology};
 use crate::integrate::linsolve::SolverKind;
-use crate::integrate::statics::StaticSolver;
+use crate::integrate::statics::{StaticOptions, StaticSolver};
 use crate::integrate::{StepParams, Stepper};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
@@ -47,8 +47,15 @@ pub struct CusickReport {
     pub grid: [usize; 2],
     /// Damped implicit steps (Δt = 0.04 s) taken to come to rest.
     pub steps: usize,
-    /// Equilibrium residual at the end: largest nodal force imbalance over the largest nodal weight.
+    /// Equilibrium residual of the reported shape: largest nodal force imbalance over the largest nodal weight,
+    /// measured on the final positions (after the static solve when there is one).
     pub residual: f64,
+    /// The same residual where the dynamic relaxation stopped, before the static solve.
+    pub relaxed_residual: f64,
+    /// The drape coefficient where the dynamic relaxation stopped (%), before the static solve.
+    pub relaxed_drape_coefficient: f64,
+    /// Newton iterations of the final static solve (0 without one).
+    pub static_iterations: usize,
 }
 
 /// The draped specimen: report, model and positions (for pictures and meshes).
@@ -76,6 +83,61 @@ pub fn default_grid(specimen: f64, level: usize) -> (usize, usize) {
     (radial, [48, 72, 96][level.min(2)])
 }
 
+/// The order assumed by [`richardson`] when three levels do not show one: the clamp (its inner ring at
+/// `R_disc − h`) is first order in the spacing `h`.
+pub const ASSUMED_ORDER: f64 = 1.0;
+
+/// The Richardson estimate of the grid-converged value from `(spacing, value)` pairs, coarsest first (the grids
+/// refined alike in both directions): `(value at spacing 0, order)`. With three or more, the order is the one
+/// the last three show when they converge monotonically with an order between 0.5 and 4, else
+/// [`ASSUMED_ORDER`]; the estimate extrapolates the two finest.
+pub fn richardson(points: &[(f64, f64)]) -> Result<(f64, f64), LabError> {
+    let n = points.len();
+    if n < 2 || points.windows(2).any(|p| !(p[1].0 < p[0].0 && p[1].0 > 0.0)) || points.iter().any(|p| !p.1.is_finite())
+    {
+        return Err(LabError::Input(format!(
+            "richardson: needs two or more finite values on decreasing positive spacings, got {points:?}"
+        )));
+    }
+    let p = if n >= 3 { observed_order(&points[n - 3..]).unwrap_or(ASSUMED_ORDER) } else { ASSUMED_ORDER };
+    let ((h1, d1), (h2, d2)) = (points[n - 2], points[n - 1]);
+    Ok((d2 + (d2 - d1) * h2.powf(p) / (h1.powf(p) - h2.powf(p)), p))
+}
+
+/// The order `p` with `(d0 − d1)/(d1 − d2) = (h0^p − h1^p)/(h1^p − h2^p)`, by bisection on [0.5, 4]; `None`
+/// when the differences change sign or no order in that range fits.
+fn observed_order(pts: &[(f64, f64)]) -> Option<f64> {
+    let [(h0, d0), (h1, d1), (h2, d2)] = [pts[0], pts[1], pts[2]];
+    let (a, b) = (d0 - d1, d1 - d2);
+    if a * b <= 0.0 {
+        return None;
+    }
+    let f = |p: f64| (h0.powf(p) - h1.powf(p)) / (h1.powf(p) - h2.powf(p)) - a / b;
+    let (mut lo, mut hi) = (0.5, 4.0);
+    if f(lo) * f(hi) > 0.0 {
+        return None;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if f(lo) * f(mid) <= 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(0.5 * (lo + hi))
+}
+
+/// The grid of `level` (0, 1, 2; above 2 is 2) for a specimen of diameter `specimen`: [`default_grid`]'s cells,
+/// graded by [`GRADING`].
+pub fn default_polar(specimen: f64, level: usize) -> PolarGrid {
+    let (radial, angular) = default_grid(specimen, level);
+    PolarGrid { radial, angular, grading: GRADING }
+}
+
+/// The default radial grading: the last radial cell (at the hem) this many times the first (at the disc's edge).
+pub const GRADING: f64 = 1.0;
+
 /// Drapes a specimen of diameter `specimen` with `radial` cells outside the disc and `angular` nodes around.
 pub fn cusick(
     fabric: &Fabric,
@@ -98,21 +160,140 @@ pub fn cusick_specimen(
     angular: usize,
     index: usize,
 ) -> Result<Drape, LabError> {
-    let s = Stiffness::calibrate(fabric, calibration)?;
-    let (rd, rs) = (0.5 * DISC, 0.5 * specimen);
-    let hr = (rs - rd) / radial as f64;
-    let ring = Annulus { rd, rs, hr };
-    let (model, start) = clamped_specimen(fabric, s, &ring, radial + 2, angular, index)?;
-    let (x, steps) = relax(fabric, &model, start)?;
-    Ok(measure(model, x, &ring, specimen, steps))
+    cusick_settled(fabric, calibration, specimen, PolarGrid::uniform(radial, angular), index, &Settle::default())
 }
 
-/// The specimen's annulus on the polar grid: disc radius `rd`, specimen radius `rs`, radial cell `hr` (m).
+/// How a specimen comes to rest: damped implicit dynamics until no node moves faster than `rest_speed` (or
+/// `max_steps`), then, when `equilibrium` is set, a static Newton solve from there to that residual (largest
+/// nodal force imbalance over the largest nodal weight), so that the reported shape is an equilibrium
+/// and not a snapshot of a slowly creeping sheet.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Settle {
+    /// Speed (m/s) below which the relaxation stops.
+    pub rest_speed: f64,
+    /// Most relaxation steps.
+    pub max_steps: usize,
+    /// Tolerance of the final static solve; `None` reports the relaxation's end as it is.
+    pub equilibrium: Option<f64>,
+    /// Start from a wobble of the hem with this many folds instead of the many-mode wobble (a study of the
+    /// equilibria: the fold count is then chosen by the start, not by the fabric).
+    pub folds: Option<usize>,
+}
+
+/// The default tolerance of the final static solve: the largest nodal force imbalance, in largest nodal weights.
+pub const EQUILIBRIUM_TOLERANCE: f64 = 1e-5;
+
+impl Default for Settle {
+    fn default() -> Self {
+        Self { rest_speed: 1e-4, max_steps: 1500, equilibrium: Some(EQUILIBRIUM_TOLERANCE), folds: None }
+    }
+}
+
+/// The specimen's polar grid: `radial` cells outside the disc, `angular` nodes around, and the radial cells
+/// growing geometrically from the disc's edge to the hem, the last `grading` times the first (1: uniform).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PolarGrid {
+    /// Radial cells outside the disc.
+    pub radial: usize,
+    /// Nodes around.
+    pub angular: usize,
+    /// Ratio of the last radial cell (at the hem) to the first (at the disc's edge).
+    pub grading: f64,
+}
+
+impl PolarGrid {
+    /// A uniform grid.
+    pub fn uniform(radial: usize, angular: usize) -> Self {
+        Self { radial, angular, grading: 1.0 }
+    }
+
+    /// The node spacings (m) on a specimen of diameter `specimen`: [mean radial, first radial (at the disc's
+    /// edge), around the hem].
+    pub fn spacing(&self, specimen: f64) -> [f64; 3] {
+        let ring = Annulus { rd: 0.5 * DISC, rs: 0.5 * specimen, radial: self.radial.max(1), grading: self.grading };
+        [(ring.rs - ring.rd) / ring.radial as f64, ring.first(), 2.0 * PI * ring.rs / self.angular.max(1) as f64]
+    }
+}
+
+/// As [`cusick_specimen`] on `grid`, settled as `settle` says.
+pub fn cusick_settled(
+    fabric: &Fabric,
+    calibration: Calibration,
+    specimen: f64,
+    grid: PolarGrid,
+    index: usize,
+    settle: &Settle,
+) -> Result<Drape, LabError> {
+    let PolarGrid { radial, angular, grading } = grid;
+    if !(specimen.is_finite() && specimen > DISC) {
+        return Err(LabError::Input(format!("cusick: specimen {specimen} m must exceed the {DISC} m disc")));
+    }
+    if radial < 2 || angular < 8 || !(1.0..=100.0).contains(&grading) {
+        return Err(LabError::Input(format!(
+            "cusick: grid {radial} x {angular}, grading {grading}: at least 2 radial cells, 8 nodes around and \
+             a grading between 1 and 100"
+        )));
+    }
+    let s = Stiffness::calibrate(fabric, calibration)?;
+    let (rd, rs) = (0.5 * DISC, 0.5 * specimen);
+    let ring = Annulus { rd, rs, radial, grading };
+    let (model, start) = clamped_specimen(fabric, s, &ring, [radial + 2, angular], (index, settle.folds))?;
+    let (mut x, steps) = relax(fabric, &model, start, settle)?;
+    let relaxed = (residual(&model, &x), drape_coefficient(&model, &x, &ring));
+    let iterations = match settle.equilibrium {
+        Some(tolerance) => equilibrate(&model, &mut x, tolerance)?,
+        None => 0,
+    };
+    let mut drape = measure(model, x, &ring, specimen, steps);
+    drape.report.relaxed_residual = relaxed.0;
+    drape.report.relaxed_drape_coefficient = relaxed.1;
+    drape.report.static_iterations = iterations;
+    Ok(drape)
+}
+
+/// The specimen's annulus on the polar grid: disc radius `rd`, specimen radius `rs` (m), `radial` cells outside
+/// the disc growing geometrically outwards, the last `grading` times the first.
 #[derive(Clone, Copy)]
 struct Annulus {
     rd: f64,
     rs: f64,
-    hr: f64,
+    radial: usize,
+    grading: f64,
+}
+
+impl Annulus {
+    /// Ratio of a radial cell to the one inside it.
+    fn ratio(&self) -> f64 {
+        if self.radial > 1 {
+            self.grading.powf(1.0 / (self.radial - 1) as f64)
+        } else {
+            1.0
+        }
+    }
+
+    /// The first radial cell, at the disc's edge (m).
+    fn first(&self) -> f64 {
+        let (q, n, w) = (self.ratio(), self.radial as f64, self.rs - self.rd);
+        if (q - 1.0).abs() < 1e-12 {
+            w / n
+        } else {
+            w * (q - 1.0) / (q.powf(n) - 1.0)
+        }
+    }
+
+    /// Radius of ring `i` (m): 0 inside the disc (clamped), 1 the disc's edge (clamped), `radial + 1` the hem.
+    fn radius(&self, i: usize) -> f64 {
+        let (h0, q) = (self.first(), self.ratio());
+        if i == 0 {
+            return self.rd - h0;
+        }
+        let k = (i - 1) as f64;
+        if (q - 1.0).abs() < 1e-12 {
+            self.rd + k * h0
+        } else {
+            self.rd + h0 * (q.powf(k) - 1.0) / (q - 1.0)
+        }
+    }
 }
 
 /// The flat specimen on an `m × angular` polar grid, its inner two rings clamped, and the start positions: a
@@ -121,14 +302,14 @@ fn clamped_specimen(
     fabric: &Fabric,
     s: Stiffness,
     ring: &Annulus,
-    m: usize,
-    angular: usize,
-    index: usize,
+    [m, angular]: [usize; 2],
+    (index, folds): (usize, Option<usize>),
 ) -> Result<(Model, Vec<Vec3>), LabError> {
-    let Annulus { rd, rs, hr } = *ring;
+    let Annulus { rd, rs, .. } = *ring;
+    let hr = (rs - rd) / ring.radial as f64;
     let grid = Grid::new(m, angular, hr, 2.0 * PI / angular as f64, [Topology::Free, Topology::Periodic])
-        .expect("valid polar grid");
-    let radius = |i: usize| rd - hr + i as f64 * hr;
+        .map_err(|e| LabError::Input(format!("cusick: {e}")))?;
+    let radius = |i: usize| ring.radius(i);
     let rest: Vec<Vec3> = (0..grid.len())
         .map(|k| {
             let (i, j) = grid.coords(k);
@@ -152,7 +333,10 @@ fn clamped_specimen(
             let sr = ((radius(i) - rd) / (rs - rd)).max(0.0);
             let t = j as f64 * grid.h2;
             let phase = |q: usize| (q * q) as f64 * 0.7 + index as f64 * (1.3 * q as f64 + 0.4);
-            let wobble: f64 = (3..=10).map(|q| (phase(q) + q as f64 * t).cos() / 8.0).sum();
+            let wobble: f64 = match folds {
+                Some(q) => (phase(q) + q as f64 * t).cos(),
+                None => (3..=10).map(|q| (phase(q) + q as f64 * t).cos() / 8.0).sum(),
+            };
             *p + Vec3::new(0.0, 0.0, -0.01 * sr * sr * (1.0 + 0.5 * wobble))
         })
         .collect();
@@ -160,7 +344,7 @@ fn clamped_specimen(
 }
 
 /// Damped implicit dynamics of `model` from `start` to rest; returns the positions and the steps taken.
-fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>, usize), LabError> {
+fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>, settle: &Settle) -> Result<(Vec<Vec3>, usize), LabError> {
     // Damped dynamics towards rest (heavy damping: the path does not matter, the drape does).
     let mut dyn_model = model.clone();
     let damping = 5.0 * fabric.density; // 1/s · kg/m²
@@ -171,36 +355,74 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>) -> Result<(Vec<Vec3>,
     // equilibria, and the relaxation path (not the physics) picks one.
     let params = StepParams { dt, solver: SolverKind::Auto, newton_iterations: 2, ..StepParams::default() };
     let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", source: e })?;
-    // To rest: stop when no node moves faster than 0.1 mm/s (or after 1500 steps).
     let mut steps = 0;
-    for _ in 0..1500 {
+    for _ in 0..settle.max_steps {
         stepper.step(&dyn_model, &mut state).map_err(|e| LabError::Step { test: "cusick", source: e })?;
         steps += 1;
         let vmax = (0..state.x.len()).map(|k| state.velocity(k).length()).fold(0.0, f64::max);
-        if vmax < 1e-4 {
+        if vmax < settle.rest_speed {
             break;
         }
     }
     Ok((state.x, steps))
 }
 
+/// Static Newton solves from `x` until the equilibrium residual ([`residual`], in nodal weights) is below
+/// `tolerance`: the static solver judges its own tolerance against the largest elastic force at its start
+/// (the clamp's reaction, hundreds of nodal weights), so each further solve tightens it by what the last one
+/// missed (at most four solves, quadratically convergent from the previous; a residual left above `tolerance` by
+/// round-off is reported, not an error). Returns the Newton iterations.
+fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
+    let err = |source| LabError::Solve { test: "cusick", source };
+    let mut solver = StaticSolver::new(model).map_err(err)?;
+    let (mut tol, mut iterations) = (tolerance, 0);
+    for _ in 0..4 {
+        let opts = StaticOptions { tolerance: tol.max(1e-15), max_iterations: 300 };
+        iterations += solver.solve(model, x, &opts).map_err(err)?.iterations;
+        let r = residual(model, x);
+        if r <= tolerance {
+            return Ok(iterations);
+        }
+        tol *= 0.5 * tolerance / r;
+    }
+    // At the round-off floor (measured 1e-6 to 4e-5 nodal weights on stiff or large specimens): the report
+    // gives the residual reached.
+    Ok(iterations)
+}
+
+/// Equilibrium residual of `x`: the largest nodal force imbalance relative to the largest nodal weight.
+fn residual(model: &Model, x: &[Vec3]) -> f64 {
+    let mut g = vec![Vec3::ZERO; x.len()];
+    StaticSolver::potential(model, x, Some(&mut g));
+    let weight = model.mass.iter().fold(0.0, |a: f64, m| a.max(m * 9.81));
+    g.iter().map(|v| v.length()).fold(0.0, f64::max) / weight
+}
+
+/// Shadow area (m²) of the drape `x`: the xy footprint of its Coons surface (1024² raster) plus the hole inside
+/// the clamp, and never less than the disc.
+fn shadow_area(model: &Model, x: &[Vec3], ring: &Annulus) -> f64 {
+    let (rd, hr) = (ring.rd, ring.first());
+    let mesh = CoonsSurface::new(&model.panels[0].grid, x).tessellate(4);
+    let hole = PI * (rd - hr) * (rd - hr);
+    (projected_area_xy(&mesh, 1024) + hole).max(PI * rd * rd)
+}
+
+/// The drape coefficient (%) of the drape `x`.
+fn drape_coefficient(model: &Model, x: &[Vec3], ring: &Annulus) -> f64 {
+    let a_disc = PI * ring.rd * ring.rd;
+    100.0 * (shadow_area(model, x, ring) - a_disc) / (PI * ring.rs * ring.rs - a_disc)
+}
+
 /// The drape `x` of `model` with its report: equilibrium residual, shadow, drape coefficient and folds.
 fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usize) -> Drape {
-    let Annulus { rd, rs, hr } = *ring;
     // The specimen is one polar panel.
     let grid = model.panels[0].grid;
     let (m, angular) = (grid.m, grid.n);
-    // Equilibrium residual: largest nodal force imbalance relative to the largest nodal weight.
-    let mut g = vec![Vec3::ZERO; x.len()];
-    StaticSolver::potential(&model, &x, Some(&mut g));
-    let weight = model.mass.iter().fold(0.0, |a: f64, m| a.max(m * 9.81));
-    let residual = g.iter().map(|v| v.length()).fold(0.0, f64::max) / weight;
-    let mesh = CoonsSurface::new(&grid, &x).tessellate(4);
-    let hole = PI * (rd - hr) * (rd - hr);
-    let shadow = (projected_area_xy(&mesh, 1024) + hole).max(PI * rd * rd);
-    let a_disc = PI * rd * rd;
-    let dc = 100.0 * (shadow - a_disc) / (PI * rs * rs - a_disc);
+    let shadow = shadow_area(&model, &x, ring);
+    let a_disc = PI * ring.rd * ring.rd;
+    let dc = 100.0 * (shadow - a_disc) / (PI * ring.rs * ring.rs - a_disc);
     let nodes = count_folds(&(0..angular).map(|j| x[grid.index(m - 1, j)].truncate().length()).collect::<Vec<_>>());
+    let residual = residual(&model, &x);
     let report = CusickReport {
         specimen,
         drape_coefficient: dc,
@@ -209,6 +431,9 @@ fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usi
         grid: [m, angular],
         steps,
         residual,
+        relaxed_residual: residual,
+        relaxed_drape_coefficient: dc,
+        static_iterations: 0,
     };
     Drape { report, model, x }
 }

@@ -1,15 +1,18 @@
 //! `flexsurf test cusick`: the Cusick drape meter of `flexsurf::lab::cusick` (an 18 cm support disc); runs one
-//! or more specimens in parallel, prints their drape coefficients and nodes (with mean and standard deviation),
-//! and writes a top-view picture and the mesh of each.
+//! or more specimens in parallel on one or more grid levels, prints their drape coefficients and nodes (with mean
+//! and standard deviation per level, and the Richardson estimate of the grid-converged drape coefficient), and
+//! writes a top-view picture and the mesh of each specimen of the finest level, `cusick.csv` (one row per level
+//! and specimen), `cusick_levels.csv` (one row per level, and the estimate) and their charts.
 
 use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
-use flexsurf::lab::cusick::{cusick_specimen, default_grid, Drape, DISC};
+use flexsurf::lab::cusick::{cusick_settled, default_polar, richardson, Drape, PolarGrid, Settle, DISC};
 use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
 use flexsurf::surface::mesh::TriMesh;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The arguments of `flexsurf test cusick`: the shared ones and the specimens'.
@@ -17,86 +20,320 @@ use std::path::{Path, PathBuf};
 pub struct CusickArgs {
     #[command(flatten)]
     fabric: FabricArgs,
-    /// Specimen diameter in metres (0.24, 0.30 or 0.36 in the standard).
+    /// Specimen diameter in metres: 0.24, 0.30 or 0.36 in the standard (BS 5058 / ISO 9073-9).
     #[arg(long, default_value_t = 0.30)]
     specimen: f64,
-    /// Grid level, 0 (coarse), 1 (default) or 2 (fine; for a convergence check).
-    #[arg(long, default_value_t = 1)]
+    /// Grid level, 0 (coarse), 1 (default) or 2 (fine).
+    #[arg(long, default_value_t = 1, conflicts_with = "levels")]
     level: usize,
+    /// Several grid levels, e.g. `--levels 0,1,2`: a convergence check, with the Richardson estimate of the
+    /// grid-converged drape coefficient from the two finest.
+    #[arg(long, value_delimiter = ',')]
+    levels: Option<Vec<usize>>,
+    /// An explicit grid instead of a level: radial cells outside the disc and nodes around, e.g. `--grid 12,96`
+    /// (for studies of the radial and angular resolution).
+    #[arg(long, value_delimiter = ',', conflicts_with_all = ["level", "levels"])]
+    grid: Option<Vec<usize>>,
+    /// With `--grid`: the ratio of the last radial cell (at the hem) to the first (at the disc's edge).
+    #[arg(long, default_value_t = 1.0, requires = "grid")]
+    grading: f64,
     /// How many specimens (each starts from a different small wobble of the hem; their mean and standard
     /// deviation are reported, as a drape-meter operator would).
     #[arg(long, default_value_t = 1)]
     specimens: usize,
-    /// Where to write the pictures and the meshes (default out/cusick).
+    /// The relaxation stops when no node moves faster than this (m/s); a static solve then finds the
+    /// equilibrium.
+    #[arg(long, default_value_t = Settle::default().rest_speed)]
+    rest_speed: f64,
+    /// Start every specimen from a wobble of the hem with this many folds (a study of the equilibria) instead of
+    /// the many-mode wobble that lets the fabric choose.
+    #[arg(long)]
+    folds: Option<usize>,
+    /// Report the relaxation's end as it is, without the final static solve (for studies).
+    #[arg(long)]
+    no_static: bool,
+    /// Where to write the pictures, meshes, tables and charts (default out/cusick).
     #[arg(long)]
     out: Option<PathBuf>,
 }
 
+/// One grid's specimens: the level (`None` for an explicit `--grid`), the grid, its radial and hem node
+/// spacings (m), each specimen's drape and seconds.
+struct LevelRun {
+    level: Option<usize>,
+    grid: PolarGrid,
+    spacing: [f64; 3],
+    drapes: Vec<Drape>,
+    seconds: Vec<f64>,
+}
+
+impl LevelRun {
+    fn dcs(&self) -> Vec<f64> {
+        self.drapes.iter().map(|d| d.report.drape_coefficient).collect()
+    }
+    fn nodes(&self) -> Vec<f64> {
+        self.drapes.iter().map(|d| d.report.nodes as f64).collect()
+    }
+    fn label(&self) -> String {
+        self.level.map_or_else(|| format!("grid {},{}", self.grid.radial, self.grid.angular), |l| format!("level {l}"))
+    }
+}
+
+/// Mean and sample standard deviation (0 for one value).
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let sd = if v.len() > 1 {
+        (v.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    } else {
+        0.0
+    };
+    (mean, sd)
+}
+
+/// The grids to run: (level, [radial cells, nodes around]), coarsest first.
+fn grids(args: &CusickArgs) -> Result<Vec<(Option<usize>, PolarGrid)>> {
+    if let Some(g) = &args.grid {
+        if g.len() != 2 || g[0] < 2 || g[1] < 8 {
+            bail!("--grid: {g:?} must be two numbers, radial cells (at least 2) and nodes around (at least 8)");
+        }
+        if !(1.0..=100.0).contains(&args.grading) {
+            bail!("--grading: {} must be between 1 (uniform) and 100", args.grading);
+        }
+        return Ok(vec![(None, PolarGrid { radial: g[0], angular: g[1], grading: args.grading })]);
+    }
+    let mut levels = args.levels.clone().unwrap_or_else(|| vec![args.level]);
+    levels.sort_unstable();
+    levels.dedup();
+    for &l in &levels {
+        if l > 2 {
+            let opt = if args.levels.is_some() { "--levels" } else { "--level" };
+            bail!("{opt}: {l} must be 0 (coarse), 1 (default) or 2 (fine)");
+        }
+    }
+    Ok(levels.iter().map(|&l| (Some(l), default_polar(args.specimen, l))).collect())
+}
+
 /// `flexsurf test cusick`.
 pub fn execute(args: &CusickArgs) -> Result<()> {
-    let &CusickArgs { specimen, level, specimens, .. } = args;
+    let &CusickArgs { specimen, specimens, rest_speed, .. } = args;
     let out = args.out.as_deref().unwrap_or(Path::new("out/cusick"));
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
     }
-    if level > 2 {
-        bail!("--level: {level} must be 0 (coarse), 1 (default) or 2 (fine)");
-    }
     if !(1..=10).contains(&specimens) {
         bail!("--specimens: {specimens} must be between 1 and 10");
     }
+    if !(rest_speed.is_finite() && rest_speed > 0.0) {
+        bail!("--rest-speed: {rest_speed} m/s must be positive");
+    }
+    let grids = grids(args)?;
     let (fabric, name) = args.fabric.load()?;
     let calibration = args.fabric.calibration();
     let t = std::time::Instant::now();
-    let drapes = drape_specimens(&fabric, &name, calibration, args)?;
+    let mut runs = Vec::new();
+    for &(level, grid) in &grids {
+        runs.push(drape_specimens(&fabric, &name, calibration, args, level, grid)?);
+    }
     let seconds = t.elapsed().as_secs_f64();
-    let files = write_specimens(&drapes, &name, specimen, out)?;
-    let dcs: Vec<f64> = drapes.iter().map(|d| d.report.drape_coefficient).collect();
-    let mean = dcs.iter().sum::<f64>() / dcs.len() as f64;
-    let sd = if dcs.len() > 1 {
-        (dcs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (dcs.len() - 1) as f64).sqrt()
-    } else {
-        0.0
-    };
-    let rep = drapes[0].report;
-    let chart = if specimens > 1 { Some(specimens_chart(&dcs, mean, &name, specimen, out)?) } else { None };
-    if args.fabric.json {
-        let reports: Vec<_> = drapes.iter().map(|d| d.report).collect();
-        let v = serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
-            "report": rep, "specimens": reports, "mean_drape_coefficient": mean, "sd_drape_coefficient": sd,
-            "picture": files[0].0, "mesh": files[0].1,
-            "pictures": files.iter().map(|f| &f.0).collect::<Vec<_>>(),
-            "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "chart": chart, "wall_seconds": seconds });
-        return print_json(&v);
-    }
-    println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
-    println!("specimen          {:>8.3} m on an {DISC} m disc (grid {} x {})", specimen, rep.grid[0], rep.grid[1]);
-    for (k, d) in drapes.iter().enumerate() {
-        let r = &d.report;
-        println!(
-            "specimen {:>2}: drape coefficient {:>6.2} %, {:>2} nodes; at rest after {} steps, residual {:.2e} of a \
-             node's weight",
-            k + 1,
-            r.drape_coefficient,
-            r.nodes,
-            r.steps,
-            r.residual
-        );
-    }
+    let finest = runs.last().context("no grid to run")?;
+    let files = write_specimens(&finest.drapes, &name, specimen, out)?;
+    let estimate = estimate(&runs);
+    let mut written = write_tables(&runs, estimate, out)?;
+    written.push(levels_chart(&runs, estimate, &name, specimen, out)?);
     if specimens > 1 {
-        println!("mean drape coefficient {mean:.2} % (s.d. {sd:.2} over {specimens} specimens)");
+        written.push(specimens_chart(&finest.dcs(), &name, specimen, out)?);
     }
+    if args.fabric.json {
+        return print_json(&json(&runs, estimate, &name, calibration, &files, &written, seconds));
+    }
+    print_table(&runs, estimate, &name, calibration, specimen, seconds);
     println!("wrote {} and {} (and one pair per further specimen)", files[0].0.display(), files[0].1.display());
-    if let Some(c) = chart {
-        println!("wrote {} (drape coefficient of each specimen)", c.display());
+    for w in &written {
+        println!("wrote {}", w.display());
     }
     Ok(())
 }
 
+/// The Richardson estimate of the grid-converged mean drape coefficient from the two finest levels, with the
+/// order it assumed: `None` with fewer than two levels.
+fn estimate(runs: &[LevelRun]) -> Option<(f64, f64)> {
+    if runs.len() < 2 || runs.iter().any(|r| r.level.is_none()) {
+        return None;
+    }
+    let pts: Vec<(f64, f64)> = runs.iter().map(|r| (r.spacing[0], mean_sd(&r.dcs()).0)).collect();
+    richardson(&pts).ok()
+}
+
+/// Prints the per-specimen lines and the per-level means.
+fn print_table(
+    runs: &[LevelRun],
+    estimate: Option<(f64, f64)>,
+    name: &str,
+    calibration: Calibration,
+    specimen: f64,
+    seconds: f64,
+) {
+    println!("Cusick drape of {name} ({calibration:?} calibration), {seconds:.2} s");
+    println!("specimen {:.3} m on an {DISC} m disc", specimen);
+    for run in runs {
+        let [hr, h0, hh] = run.spacing.map(|h| 1e3 * h);
+        let g = run.grid;
+        println!(
+            "{} ({} radial cells x {} around, graded {}: radially {hr:.1} mm apart on average, {h0:.1} mm at the \
+             disc; {hh:.1} mm around the hem):",
+            run.label(),
+            g.radial,
+            g.angular,
+            g.grading,
+        );
+        for (k, (d, s)) in run.drapes.iter().zip(&run.seconds).enumerate() {
+            let r = &d.report;
+            println!(
+                "  specimen {:>2}: drape coefficient {:>6.2} %, {:>2} nodes; relaxed in {} steps (DC {:.2} %, \
+                 residual {:.1e}), then {} static iterations: equilibrium residual {:.1e} of a node's weight; {:.2} s",
+                k + 1,
+                r.drape_coefficient,
+                r.nodes,
+                r.steps,
+                r.relaxed_drape_coefficient,
+                r.relaxed_residual,
+                r.static_iterations,
+                r.residual,
+                s
+            );
+        }
+        let ((m, sd), (nm, nsd)) = (mean_sd(&run.dcs()), mean_sd(&run.nodes()));
+        if run.drapes.len() > 1 {
+            println!("  mean drape coefficient {m:.2} % (s.d. {sd:.2}), nodes {nm:.1} (s.d. {nsd:.2})");
+        }
+    }
+    if let Some((dc, p)) = estimate {
+        println!("Richardson estimate of the grid-converged drape coefficient: {dc:.2} % (order {p:.2} in h)");
+    }
+}
+
+/// The JSON report.
+fn json(
+    runs: &[LevelRun],
+    estimate: Option<(f64, f64)>,
+    name: &str,
+    calibration: Calibration,
+    files: &[(PathBuf, PathBuf)],
+    written: &[PathBuf],
+    seconds: f64,
+) -> serde_json::Value {
+    let levels: Vec<_> = runs
+        .iter()
+        .map(|r| {
+            let ((m, sd), (nm, nsd)) = (mean_sd(&r.dcs()), mean_sd(&r.nodes()));
+            serde_json::json!({ "level": r.level, "grid": r.grid, "radial_spacing": r.spacing[0],
+                "edge_spacing": r.spacing[1], "hem_spacing": r.spacing[2], "mean_drape_coefficient": m, "sd_drape_coefficient": sd,
+                "mean_nodes": nm, "sd_nodes": nsd, "seconds": r.seconds,
+                "specimens": r.drapes.iter().map(|d| d.report).collect::<Vec<_>>() })
+        })
+        .collect();
+    let finest = &runs[runs.len() - 1];
+    let (mean, sd) = mean_sd(&finest.dcs());
+    serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
+        "report": finest.drapes[0].report, "specimens": finest.drapes.iter().map(|d| d.report).collect::<Vec<_>>(),
+        "mean_drape_coefficient": mean, "sd_drape_coefficient": sd, "levels": levels,
+        "richardson_drape_coefficient": estimate.map(|e| e.0), "richardson_order": estimate.map(|e| e.1),
+        "picture": files[0].0, "mesh": files[0].1,
+        "pictures": files.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "files": written, "wall_seconds": seconds })
+}
+
+/// `cusick.csv` (one row per level and specimen) and `cusick_levels.csv` (one row per level, then the
+/// Richardson estimate at spacing 0).
+fn write_tables(runs: &[LevelRun], estimate: Option<(f64, f64)>, out: &Path) -> Result<Vec<PathBuf>> {
+    let mut each = String::from(
+        "level,radial_cells,nodes_around,grading,radial_spacing_mm,edge_spacing_mm,hem_spacing_mm,specimen,drape_coefficient,nodes,\
+         relaxed_drape_coefficient,steps,static_iterations,relaxed_residual,residual,seconds\n",
+    );
+    let mut levels = String::from(
+        "level,radial_cells,nodes_around,grading,radial_spacing_mm,edge_spacing_mm,hem_spacing_mm,specimens,mean_drape_coefficient,\
+         sd_drape_coefficient,mean_nodes,sd_nodes,mean_seconds\n",
+    );
+    for run in runs {
+        let level = run.level.map_or_else(String::new, |l| l.to_string());
+        let [hr, h0, hh] = run.spacing.map(|h| 1e3 * h);
+        let g = run.grid;
+        let grid = format!("{level},{},{},{},{hr:.4},{h0:.4},{hh:.4}", g.radial, g.angular, g.grading);
+        for (k, (d, s)) in run.drapes.iter().zip(&run.seconds).enumerate() {
+            let r = &d.report;
+            let _ = writeln!(
+                each,
+                "{grid},{},{:.4},{},{:.4},{},{},{:.3e},{:.3e},{s:.3}",
+                k + 1,
+                r.drape_coefficient,
+                r.nodes,
+                r.relaxed_drape_coefficient,
+                r.steps,
+                r.static_iterations,
+                r.relaxed_residual,
+                r.residual
+            );
+        }
+        let ((m, sd), (nm, nsd), (ts, _)) = (mean_sd(&run.dcs()), mean_sd(&run.nodes()), mean_sd(&run.seconds));
+        let _ = writeln!(levels, "{grid},{},{m:.4},{sd:.4},{nm:.3},{nsd:.3},{ts:.3}", run.drapes.len());
+    }
+    if let Some((dc, _)) = estimate {
+        let _ = writeln!(levels, "richardson,,,,0,0,0,,{dc:.4},,,,");
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut paths = Vec::new();
+    for (file, text) in [("cusick.csv", each), ("cusick_levels.csv", levels)] {
+        let path = out.join(file);
+        flexsurf::io::atomic::write_atomic(&path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        paths.push(path);
+    }
+    Ok(paths)
+}
+
+/// `cusick_levels.png`: the drape coefficient against the radial node spacing, each specimen and their mean per
+/// level, with the Richardson estimate at spacing 0.
+fn levels_chart(
+    runs: &[LevelRun],
+    estimate: Option<(f64, f64)>,
+    name: &str,
+    specimen: f64,
+    out: &Path,
+) -> Result<PathBuf> {
+    use flexsurf::runner::plots::{line_chart, Series};
+    let path = out.join("cusick_levels.png");
+    let palette = [[31, 119, 180], [44, 160, 44], [148, 103, 189], [140, 86, 75], [23, 190, 207]];
+    let n = runs.iter().map(|r| r.drapes.len()).max().unwrap_or(0);
+    let mut series: Vec<Series> = (0..n)
+        .map(|k| Series {
+            name: format!("specimen {}", k + 1),
+            color: palette[k % palette.len()],
+            points: runs.iter().map(|r| (1e3 * r.spacing[0], r.drapes[k].report.drape_coefficient)).collect(),
+            dots: true,
+        })
+        .collect();
+    let mean: Vec<(f64, f64)> = runs.iter().map(|r| (1e3 * r.spacing[0], mean_sd(&r.dcs()).0)).collect();
+    series.push(Series { name: "mean".into(), color: [30, 30, 30], points: mean.clone(), dots: true });
+    if let (Some((dc, p)), Some(&last)) = (estimate, mean.last()) {
+        series.push(Series {
+            name: format!("Richardson {dc:.1} % (order {p:.1})"),
+            color: [214, 39, 40],
+            points: vec![last, (0.0, dc)],
+            dots: true,
+        });
+    }
+    let title =
+        format!("Cusick drape of {name}, {:.0} cm specimen: drape coefficient against grid spacing", 100.0 * specimen);
+    line_chart(&path, (760, 440), &title, "mean radial node spacing (mm)", "drape coefficient (%)", &series)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
 /// `cusick_specimens.png`: the drape coefficient of each specimen, with their mean.
-fn specimens_chart(dcs: &[f64], mean: f64, name: &str, specimen: f64, out: &Path) -> Result<PathBuf> {
+fn specimens_chart(dcs: &[f64], name: &str, specimen: f64, out: &Path) -> Result<PathBuf> {
     use flexsurf::runner::plots::{line_chart, Series};
     let path = out.join("cusick_specimens.png");
+    let (mean, sd) = mean_sd(dcs);
     let each = Series {
         name: "specimen".into(),
         color: [31, 119, 180],
@@ -104,7 +341,7 @@ fn specimens_chart(dcs: &[f64], mean: f64, name: &str, specimen: f64, out: &Path
         dots: true,
     };
     let avg = Series {
-        name: format!("mean {mean:.1} %"),
+        name: format!("mean {mean:.1} % (s.d. {sd:.1})"),
         color: [214, 39, 40],
         points: vec![(1.0, mean), (dcs.len() as f64, mean)],
         dots: false,
@@ -116,24 +353,39 @@ fn specimens_chart(dcs: &[f64], mean: f64, name: &str, specimen: f64, out: &Path
     Ok(path)
 }
 
-/// Drapes `args.specimens` specimens. They are independent: one thread each (results in specimen order, so the
-/// output does not depend on the thread count).
-fn drape_specimens(fabric: &Fabric, name: &str, calibration: Calibration, args: &CusickArgs) -> Result<Vec<Drape>> {
-    let &CusickArgs { specimen, level, specimens, .. } = args;
-    let (nr, na) = default_grid(specimen, level);
+/// Drapes `args.specimens` specimens on `grid`. They are independent: one thread each (results in specimen
+/// order, so the output does not depend on the thread count).
+fn drape_specimens(
+    fabric: &Fabric,
+    name: &str,
+    calibration: Calibration,
+    args: &CusickArgs,
+    level: Option<usize>,
+    grid: PolarGrid,
+) -> Result<LevelRun> {
+    let &CusickArgs { specimen, specimens, rest_speed, no_static, folds, .. } = args;
+    let equilibrium = if no_static { None } else { Settle::default().equilibrium };
+    let settle = Settle { rest_speed, equilibrium, folds, ..Settle::default() };
     let results: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..specimens)
-            .map(|k| scope.spawn(move || cusick_specimen(fabric, calibration, specimen, nr, na, k)))
+            .map(|k| {
+                scope.spawn(move || {
+                    let t = std::time::Instant::now();
+                    let d = cusick_settled(fabric, calibration, specimen, grid, k, &settle);
+                    (d, t.elapsed().as_secs_f64())
+                })
+            })
             .collect();
         handles.into_iter().map(|h| h.join()).collect()
     });
-    let mut drapes = Vec::with_capacity(specimens);
+    let (mut drapes, mut seconds) = (Vec::with_capacity(specimens), Vec::with_capacity(specimens));
     for (k, r) in results.into_iter().enumerate() {
-        let r =
+        let (r, s) =
             r.map_err(|_| anyhow::anyhow!("Cusick drape of {name}, specimen {}: the solver thread panicked", k + 1))?;
         drapes.push(r.with_context(|| format!("Cusick drape of {name}, specimen {}", k + 1))?);
+        seconds.push(s);
     }
-    Ok(drapes)
+    Ok(LevelRun { level, grid, spacing: grid.spacing(specimen), drapes, seconds })
 }
 
 /// Writes each specimen's mesh and top view into `out` (`cusick.obj`, `cusick_top.png`, then `_2`, `_3`, … for
