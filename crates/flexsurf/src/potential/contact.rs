@@ -532,22 +532,6 @@ impl ActiveSet for PenaltyContact {
         }
     }
 
-    /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
-    /// the largest Coulomb limit `μλ` of the step's contacts (largest over the nodes).
-    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
-        let Some(m) = cx.motion else { return 0.0 };
-        let eps = self.params.slip_speed * m.dt;
-        let s = self.scratch(scratch);
-        let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);
-        let mut worst: f64 = 0.0;
-        for l in &s.lagged {
-            let law = FrictionLaw { limit: l.limit, eps };
-            let u = l.tangential(y[l.node] - m.x[l.node]);
-            worst = worst.max(l.model_error(&law, u) / scale);
-        }
-        worst
-    }
-
     /// Active-set update after a solve giving the correction `delta` of `y`: a contact stays if its linearised
     /// gap at the new position is inside the layer; a node that ends inside the layer without a contact gets
     /// one, linearised at its new position.
