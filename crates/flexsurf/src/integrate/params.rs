@@ -76,9 +76,11 @@ pub struct StepParams {
     /// The linear solver of the step system.
     pub solver: SolverKind,
     /// Most Newton iterations per step on the step's incremental potential `Φ` (docs/model.md §8.5), the
-    /// linearised step (46)–(48) included as the first. The default 8 is reached only at violent events (an
-    /// impact at a large Δt); a step that reaches it is kept and counted as unconverged
-    /// ([`super::NewtonReport`], `Counters::unconverged`).
+    /// linearised step (46)–(48) included as the first. A step that reaches it is kept and counted as
+    /// unconverged ([`super::NewtonReport`], `Counters::unconverged`). Free motion converges within it (the
+    /// tumbling sheet of tests/suite/converged_step.rs); the contact steps of the ball drop do not yet: their
+    /// residual falls only linearly (issue 23's later items), so the default 4 bounds their cost (8 measured
+    /// 2602 solves on the 300-step ball drop, 4 measured 1456).
     pub newton_iterations: usize,
     /// Relative residual at which the Newton iterations stop: the residual force of the implicit equation
     /// `∇Φ(y) = 0` over the step's own force scale, both in the mass-weighted norm `√(Σ |f_k|²/m_k)` over the
@@ -105,7 +107,7 @@ impl Default for StepParams {
             dt: Self::DT,
             scheme: Scheme::Linearized,
             solver: SolverKind::Auto,
-            newton_iterations: 8,
+            newton_iterations: 4,
             newton_tolerance: 1e-6,
             active_set_rounds: 4,
             bounds: None,

@@ -521,11 +521,14 @@ impl ActiveSet for PenaltyContact {
                     }
                 }
             }
-            // A Newton iteration linearises about the iterate.
+            // A Newton iteration of the step linearises about the iterate with the law's own tangent (its exact,
+            // positive semi-definite Hessian): the step's line search on the incremental potential keeps the
+            // iterations from the stick–slip flip-flop for which the first solve uses the majorant, and the
+            // majorant's iteration all but stalls for a node creeping near the slip speed.
             Some(m) => {
-                let eps = self.params.slip_speed * m.dt;
                 for l in &mut s.lagged {
-                    l.linearize(l.tangential(y[l.node] - m.x[l.node]), eps, false);
+                    l.at = l.tangential(y[l.node] - m.x[l.node]);
+                    l.majorant = false;
                 }
             }
             None => s.lagged.clear(),
