@@ -1,7 +1,8 @@
 // Checks a run's animation.glb with two independent readers: the Khronos glTF validator (no errors, no
-// warnings) and three.js's GLTFLoader with an AnimationMixer (the cloth and the obstacles load, the clip
-// `simulation` lasts the run's simulated time, and at each written frame's time the morph weights pick that
-// frame alone).
+// warnings) and three.js's GLTFLoader with an AnimationMixer (the cloth and the obstacles load, the file holds
+// a frame at every animation step of the run (0, every `animation_every` steps, every output step of
+// summary.json's frames, the last), the clip `simulation` lasts the run's simulated time, and at each frame's
+// time the morph weights pick that frame alone).
 //
 // Usage: node glb_check.mjs RUN_DIR/animation.glb RUN_DIR/summary.json   (exit status 0 when all checks pass)
 import validator from "gltf-validator";
@@ -32,8 +33,18 @@ const cloth = meshes.find((m) => m.name === "cloth");
 check(cloth !== undefined, "three.js: the cloth mesh loads");
 check(meshes.some((m) => m.name.startsWith("obstacle_")), `three.js: obstacle meshes load (${meshes.map((m) => m.name).join(", ")})`);
 // A static solve's frames share t = 0: the file keys them at 0 s, 1 s, … and says so in its extras.
-const simulated = gltf.parser.json.extras.flexsurf.animation_times_are_simulated;
-const frames = summary.frames.map((f, k) => ({ ...f, time: simulated ? f.time : k }));
+const extras = gltf.parser.json.extras.flexsurf;
+const simulated = extras.animation_times_are_simulated;
+const frames = extras.frames.map((f, k) => ({ step: f.step, time: simulated ? f.time : k }));
+// The animation steps, derived here from the summary: 0, every animation_every steps, the output steps, the last.
+const every = summary.animation_every || summary.output_every;
+const wanted = new Set(summary.frames.map((f) => f.step));
+if (!summary.static_solve) for (let s = 0; s <= summary.steps; s += every) wanted.add(s);
+const want = [...wanted].sort((a, b) => a - b);
+const got = frames.map((f) => f.step);
+check(want.length === got.length && want.every((s, k) => s === got[k]),
+      `the file holds the ${want.length} animation steps (every ${every} steps and the output steps): ` +
+      `${got.length} frames, steps ${got.slice(0, 4).join(", ")}${got.length > 4 ? ", …, " + got[got.length - 1] : ""}`);
 const clip = gltf.animations[0];
 check(clip && Math.abs(clip.duration - frames[frames.length - 1].time) < 1e-6,
       `three.js: the clip lasts ${clip && clip.duration} s (the run: ${frames[frames.length - 1].time} s` +

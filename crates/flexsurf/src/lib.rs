@@ -84,6 +84,7 @@ pub mod ranges;
 pub mod runner;
 #[cfg(feature = "app")]
 pub mod scene;
+pub mod seam;
 pub mod sim;
 pub mod sparse;
 pub mod state;

@@ -13,6 +13,7 @@ use crate::potential::contact::{ContactParams, PenaltyContact};
 use crate::potential::external::External;
 use crate::potential::springs::Springs;
 use crate::potential::{elastic, Part, Pins, Potential, Term};
+use crate::seam::{self, PanelView, Seam, SeamedEdges, Welds};
 use crate::state::State;
 use serde::Serialize;
 use thiserror::Error;
@@ -73,8 +74,10 @@ pub struct PanelSpec {
 }
 
 /// Everything a [`Model`] is made of, filled in before [`ModelBuilder::build`] validates it and builds the
-/// potential. `pinned`, `loads` start empty-handed (no pins, zero loads) with one entry per node of the model
-/// (every panel's nodes, panel after panel).
+/// potential. `pinned`, `loads` start empty-handed (no pins, zero loads) with one entry per panel node (every
+/// panel's nodes, panel after panel); `springs` name panel nodes too. Without seams these are the model's
+/// nodes; with seams the model numbers the joined nodes once ([`crate::seam::weld`]): a joined node is pinned
+/// when either side is, and carries the sum of the sides' loads.
 #[derive(Debug, Clone)]
 pub struct ModelBuilder {
     /// The panels (one for a single sheet), in node order.
@@ -99,6 +102,8 @@ pub struct ModelBuilder {
     pub loads: Vec<Vec3>,
     /// Further terms of the potential (appended to their stage).
     pub extra_terms: Vec<Box<dyn Term>>,
+    /// Seams joining panel edges node to node ([`crate::seam`]).
+    pub seams: Vec<Seam>,
 }
 
 impl ModelBuilder {
@@ -125,6 +130,7 @@ impl ModelBuilder {
             springs: Vec::new(),
             loads: vec![Vec3::ZERO; n],
             extra_terms: Vec::new(),
+            seams: Vec::new(),
         }
     }
 
@@ -146,22 +152,21 @@ impl ModelBuilder {
         self
     }
 
-    /// Number of nodes of every panel together.
+    /// The same builder with one more seam.
+    pub fn seam(mut self, seam: Seam) -> Self {
+        self.seams.push(seam);
+        self
+    }
+
+    /// Number of panel nodes of every panel together (before seams join any).
     pub fn nodes(&self) -> usize {
         self.panels.iter().map(|p| p.grid.len()).sum()
     }
 
-    /// The panels laid out over the flat node vectors.
-    fn layout(&self) -> Vec<Panel> {
-        let mut offset = 0;
-        self.panels
-            .iter()
-            .map(|p| {
-                let panel = Panel { grid: p.grid, offset };
-                offset += p.grid.len();
-                panel
-            })
-            .collect()
+    /// The model's numbering of the panel nodes, the seams joined.
+    fn welds(&self) -> Result<Welds, ModelError> {
+        let grids: Vec<Grid> = self.panels.iter().map(|p| p.grid).collect();
+        seam::weld(&grids, &self.seams).map_err(|e| model_error("seams", e.to_string()))
     }
 
     fn validate(&self) -> Result<(), ModelError> {
@@ -218,32 +223,44 @@ impl ModelBuilder {
     /// order (membrane, bending, gravity and loads; springs; contact; then `extra_terms` in their stages).
     pub fn build(self) -> Result<Model, ModelError> {
         self.validate()?;
-        let n = self.nodes();
-        let panels = self.layout();
-        let area: Vec<f64> = self.panels.iter().flat_map(|p| rest_areas(&p.grid, &p.rest)).collect();
+        let welds = self.welds()?;
+        let n = welds.nodes;
+        let panels: Vec<Panel> = self
+            .panels
+            .iter()
+            .zip(&welds.maps)
+            .map(|(p, map)| Panel { grid: p.grid, nodes: map.clone(), rest: p.rest.clone() })
+            .collect();
+        let welded = |p: &[f64]| -> Vec<f64> { scatter_add(&panels, p, n) };
+        let area = welded(&self.panels.iter().flat_map(|p| rest_areas(&p.grid, &p.rest)).collect::<Vec<_>>());
         let mass: Vec<f64> = area.iter().map(|a| a * self.fabric.density).collect();
         let damping = area.iter().map(|a| a * self.fabric.damping).collect();
-        let mut terms = Vec::new();
-        for (spec, panel) in self.panels.iter().zip(&panels) {
-            let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
-            terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, panel.offset));
-        }
-        terms.push(Box::new(External::new(self.gravity, &mass, &self.loads)));
+        let mut terms = self.elastic_terms(&panels);
+        let loads = scatter_add(&panels, &self.loads, n);
+        terms.push(Box::new(External::new(self.gravity, &mass, &loads)));
+        let all = welds.maps.concat();
+        let node = |k: usize| all[k];
         if !self.springs.is_empty() {
-            terms.push(Box::new(Springs::new(self.springs)));
+            let springs = self.springs.iter().map(|s| Spring { node: node(s.node), ..*s }).collect();
+            terms.push(Box::new(Springs::new(springs)));
         }
         if !self.obstacles.is_empty() {
             terms.push(Box::new(PenaltyContact::new(self.obstacles, self.contact, area.clone())));
         }
         terms.extend(self.extra_terms);
-        let potential = Potential::new(n, terms, Pins::from_flags(self.pinned));
-        let rest = self.panels.into_iter().flat_map(|p| p.rest).collect();
+        let mut pinned = vec![false; n];
+        for (k, &p) in self.pinned.iter().enumerate() {
+            pinned[node(k)] |= p;
+        }
+        let potential = Potential::new(n, terms, Pins::from_flags(pinned));
+        let rest = first_of(&panels, &self.panels.iter().flat_map(|p| p.rest.iter().copied()).collect::<Vec<_>>(), n);
         Ok(Model {
             panels,
             rest,
             fabric: self.fabric,
             stiffness: self.stiffness,
             kind: self.kind,
+            seams: self.seams,
             mass,
             damping,
             area,
@@ -253,34 +270,91 @@ impl ModelBuilder {
     }
 }
 
-/// One panel of a model: a parametric grid over a contiguous range of the model's flat node vectors.
+impl ModelBuilder {
+    /// The elastic terms of every panel on its own grid and rest shape, numbered as the model's nodes, and the
+    /// bending points the seams put back across them (one more term of the same name).
+    fn elastic_terms(&self, panels: &[Panel]) -> Vec<Box<dyn Term>> {
+        let mut terms = Vec::new();
+        for (p, (spec, panel)) in self.panels.iter().zip(panels).enumerate() {
+            let seamed = SeamedEdges::of(p, &self.seams);
+            let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
+            terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, &panel.nodes, seamed));
+        }
+        if !self.seams.is_empty() {
+            let views: Vec<PanelView<'_>> =
+                panels.iter().map(|p| PanelView { grid: &p.grid, rest: &p.rest, map: &p.nodes }).collect();
+            let warp = |p: usize| (self.panels[p].options.warp(), self.panels[p].options.flat_pattern);
+            let bending = seam::seam_bending(&self.seams, &views, &self.stiffness, warp);
+            terms.push(elastic::bending_term(bending, self.kind));
+        }
+        terms
+    }
+}
+
+/// Sums per-panel-node values into the model's nodes (a joined node gets both sides' shares).
+fn scatter_add<T: Copy + std::ops::AddAssign + Default>(panels: &[Panel], values: &[T], n: usize) -> Vec<T> {
+    let mut out = vec![T::default(); n];
+    let all = panels.iter().flat_map(|p| p.nodes.iter().copied());
+    for (k, v) in all.zip(values) {
+        out[k] += *v;
+    }
+    out
+}
+
+/// Per-panel-node values onto the model's nodes, a joined node taking its first panel node's value.
+fn first_of<T: Copy + Default>(panels: &[Panel], values: &[T], n: usize) -> Vec<T> {
+    let mut out = vec![T::default(); n];
+    let mut seen = vec![false; n];
+    let all = panels.iter().flat_map(|p| p.nodes.iter().copied());
+    for (k, v) in all.zip(values) {
+        if !std::mem::replace(&mut seen[k], true) {
+            out[k] = *v;
+        }
+    }
+    out
+}
+
+/// One panel of a model: a parametric grid over the model's flat node vectors.
 ///
 /// A model holds one or more panels (a sheet, the pieces of a garment). Panel `p`'s local node `k`
-/// (`Grid::index` order) is the model's node `offset + k`; the panels follow each other without gaps, so the
-/// model has `Σ grid.len()` nodes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// (`Grid::index` order) is the model's node `global(k)`: without seams the panels follow each other without
+/// gaps (`offset + k`); a node joined by a seam to an earlier panel node has that node's number.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Panel {
     /// The panel's parametric grid.
     pub grid: Grid,
-    /// Index of the panel's first node in the model's node vectors.
-    pub offset: usize,
+    /// The model's node of each local node.
+    nodes: Vec<usize>,
+    /// The panel's own rest shape (two panels joined by a seam may place the joined node differently: flat
+    /// pieces sewn together).
+    rest: Vec<Vec3>,
 }
 
 impl Panel {
-    /// The model's node indices of this panel.
-    pub fn nodes(&self) -> std::ops::Range<usize> {
-        self.offset..self.offset + self.grid.len()
+    /// A panel of `grid` over the model's nodes `offset..offset + grid.len()`, with rest shape `rest`.
+    pub fn contiguous(grid: Grid, offset: usize, rest: Vec<Vec3>) -> Self {
+        Self { grid, nodes: (offset..offset + grid.len()).collect(), rest }
+    }
+
+    /// The model's node of each local node.
+    pub fn nodes(&self) -> &[usize] {
+        &self.nodes
     }
 
     /// The model's index of the panel's local node `k`.
     #[inline]
     pub fn global(&self, k: usize) -> usize {
-        self.offset + k
+        self.nodes[k]
     }
 
-    /// This panel's slice of a per-node vector of the model.
-    pub fn slice<'a, T>(&self, all: &'a [T]) -> &'a [T] {
-        &all[self.nodes()]
+    /// The panel's rest shape, in its grid's node order.
+    pub fn rest(&self) -> &[Vec3] {
+        &self.rest
+    }
+
+    /// This panel's values of a per-node vector of the model, in its grid's node order.
+    pub fn gather<T: Copy>(&self, all: &[T]) -> Vec<T> {
+        self.nodes.iter().map(|&k| all[k]).collect()
     }
 }
 
@@ -297,6 +371,8 @@ pub struct Model {
     pub stiffness: Stiffness,
     /// Which elastic model.
     pub kind: ModelKind,
+    /// The seams joining the panels' edges.
+    pub seams: Vec<Seam>,
     /// Lumped node masses ρ·area (kg).
     pub mass: Vec<f64>,
     /// Lumped node damping γ·area (kg/s).
@@ -315,13 +391,21 @@ impl Model {
         self.rest.len()
     }
 
-    /// The grid of a model of one panel (a single sheet); `None` for a model of several panels. For the
-    /// features that are defined on one grid (the virtual textile tests, the multigrid solver today).
+    /// The grid of a model of one panel without seams (a single sheet, its nodes the grid's); `None` for a
+    /// model of several panels or a seamed one. For the features that are defined on one grid (the virtual
+    /// textile tests, the Python arrays).
     pub fn sheet_grid(&self) -> Option<&Grid> {
         match self.panels.as_slice() {
-            [one] => Some(&one.grid),
+            [one] if self.seams.is_empty() => Some(&one.grid),
             _ => None,
         }
+    }
+
+    /// Per-panel-node values (every panel's nodes, panel after panel, as a [`ModelBuilder`] numbers them) onto
+    /// the model's nodes, a node joined by a seam taking its first panel node's value (initial positions and
+    /// velocities given per panel).
+    pub fn from_panel_nodes<T: Copy + Default>(&self, values: &[T]) -> Vec<T> {
+        first_of(&self.panels, values, self.nodes())
     }
 
     /// Total mass (kg).
@@ -401,13 +485,17 @@ impl Model {
         self.panels.iter().map(|p| diagonal(&p.grid)).fold(0.0, f64::max)
     }
 
-    /// The grid edges of every panel as model node pairs: each cell's four edges, cell by cell, panel after
-    /// panel (an edge shared by two cells comes twice).
-    pub fn edges(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+    /// The grid edges of every panel as model node pairs with their rest lengths (in the panel's own rest
+    /// shape): each cell's four edges, cell by cell, panel after panel (an edge shared by two cells comes
+    /// twice).
+    pub fn edges(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
         self.panels.iter().flat_map(|panel| {
             panel.grid.cells().flat_map(move |(i, j)| {
-                let c = panel.grid.cell(i, j).map(|k| panel.global(k));
-                [(c[0], c[1]), (c[0], c[2]), (c[1], c[3]), (c[2], c[3])]
+                let c = panel.grid.cell(i, j);
+                let edge = |p: usize, q: usize| {
+                    (panel.global(c[p]), panel.global(c[q]), (panel.rest[c[q]] - panel.rest[c[p]]).length())
+                };
+                [edge(0, 1), edge(0, 2), edge(1, 3), edge(2, 3)]
             })
         })
     }
@@ -415,8 +503,7 @@ impl Model {
     /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges of every panel.
     pub fn max_strain(&self, x: &[Vec3]) -> f64 {
         let mut worst: f64 = 0.0;
-        for (a, b) in self.edges() {
-            let l0 = (self.rest[b] - self.rest[a]).length();
+        for (a, b, l0) in self.edges() {
             let l = (x[b] - x[a]).length();
             worst = worst.max((l / l0 - 1.0).abs());
         }

@@ -75,11 +75,11 @@ fn split(c: &[[f64; 3]; 3], aligned: bool) -> ([[f64; 2]; 2], [f64; 3]) {
 }
 
 impl Bending {
-    /// Moves every node index by `by`: the kernel of a panel whose nodes start at `by` in the model.
-    pub fn offset_nodes(&mut self, by: usize) {
+    /// Renumbers the nodes: local node `k` becomes `map[k]` (a panel's nodes in the model, welded across its
+    /// seams). Where two local nodes become one model node their coefficients are summed into one slot.
+    pub fn map_nodes(&mut self, map: &[usize]) {
         for p in &mut self.points {
-            let len = p.support.len;
-            p.support.nodes[..len].iter_mut().for_each(|k| *k += by);
+            *p = p.mapped(map);
         }
     }
 }
@@ -102,11 +102,36 @@ impl Bending {
 
     /// As [`Bending::with_warp_angle`] with the warp given by a [`Warp`].
     pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
+        Self::selected(grid, rest, s, warp, |_| true, |_, _| true)
+    }
+
+    /// As [`Bending::with_warp`] with the quadrature points of the nodes `k` for which `node(k)` holds and
+    /// of the cells `(i, j)` for which `cell(i, j)` holds only (a panel leaves the points on its seams to the
+    /// seam's own strip, `crate::seam`).
+    pub(crate) fn selected(
+        grid: &Grid,
+        rest: &[Vec3],
+        s: &Stiffness,
+        warp: Warp,
+        node: impl Fn(usize) -> bool,
+        cell: impl Fn(usize, usize) -> bool,
+    ) -> Self {
         let dv = [[s.d11, s.d12, 0.0], [s.d12, s.d22, 0.0], [0.0, 0.0, s.d66]];
-        let mut points: Vec<Point> = (0..grid.len()).filter_map(|k| node_point(grid, rest, &dv, warp, k)).collect();
-        points.extend(grid.cells().map(|(i, j)| cell_point(grid, rest, &dv, warp, i, j)));
+        let mut points: Vec<Point> =
+            (0..grid.len()).filter(|&k| node(k)).filter_map(|k| node_point(grid, rest, &dv, warp, k)).collect();
+        points.extend(grid.cells().filter(|&(i, j)| cell(i, j)).map(|(i, j)| cell_point(grid, rest, &dv, warp, i, j)));
+        Self::from_points(points)
+    }
+
+    /// The term of these quadrature points.
+    fn from_points(points: Vec<Point>) -> Self {
         let len = points.iter().map(|p| p.support.len).max().unwrap_or(0);
         Self { points, strides: (len.max(1), (len * (len + 1) / 2).max(1)), pool: Pool::default() }
+    }
+
+    /// The points of several terms in one (in their order).
+    pub(crate) fn joined(parts: Vec<Bending>) -> Self {
+        Self::from_points(parts.into_iter().flat_map(|b| b.points).collect())
     }
 
     /// Sets the rest curvature `B⁰` to zero everywhere: the rest shape then only defines the metric (a garment
@@ -206,6 +231,25 @@ fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usi
 }
 
 impl Point {
+    /// The same point with local node `k` renumbered `map[k]`, coefficients of nodes that become one summed.
+    fn mapped(&self, map: &[usize]) -> Point {
+        let mut support = Support::default();
+        let (mut a, mut b, mut v) = ([0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT], [[0.0; MAX_SUPPORT]; MEASURES]);
+        for (s, &k) in self.support.nodes().iter().enumerate() {
+            let before = support.len;
+            let t = support.slot(map[k]);
+            // A new slot takes the coefficients as they are (bit for bit), a repeated node adds its own.
+            let fresh = support.len > before;
+            let put = |c: &mut f64, value: f64| *c = if fresh { value } else { *c + value };
+            put(&mut a[t], self.a[s]);
+            put(&mut b[t], self.b[s]);
+            for m in 0..MEASURES {
+                put(&mut v[m][t], self.v[m][s]);
+            }
+        }
+        Point { support, a, b, v, blocks: Vec::new(), ..self.clone() }
+    }
+
     fn new(
         support: Support,
         a: Coefs,

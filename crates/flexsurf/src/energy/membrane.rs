@@ -111,10 +111,11 @@ impl Membrane {
 
 /// The kernel interface; the [`crate::potential::Term`] impl in `potential/elastic.rs` wraps it.
 impl Membrane {
-    /// Moves every node index by `by`: the kernel of a panel whose nodes start at `by` in the model.
-    pub fn offset_nodes(&mut self, by: usize) {
+    /// Renumbers the nodes: local node `k` becomes `map[k]` (a panel's nodes in the model, welded across its
+    /// seams; a cell's four corners stay four distinct nodes, as every grid has at least three nodes a side).
+    pub fn map_nodes(&mut self, map: &[usize]) {
         for c in &mut self.cells {
-            c.nodes = c.nodes.map(|k| k + by);
+            c.nodes = c.nodes.map(|k| map[k]);
         }
     }
 

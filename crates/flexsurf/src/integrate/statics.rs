@@ -53,6 +53,29 @@ pub enum StaticError {
         /// Load factor reached (1: the full load).
         load: f64,
     },
+    /// The potential or its forces were not finite (an overflow, or a degenerate configuration such as
+    /// coincident nodes): no residual can be measured there, so none is reported as if it were one.
+    #[error(
+        "static solve failed after {iterations} Newton iterations at load factor {load:.3}: the {what} not finite \
+         ({value}) at {at}, so there is no residual to report (the last finite relative residual: {}) (hint: look \
+         for coincident or far-off nodes, an overflowing stiffness or load, or relax the sheet dynamically with \
+         `integrator.kind = \"linearized\"`)",
+        last.map_or_else(|| "none".to_string(), |r| format!("{r:.3e}"))
+    )]
+    NonFinite {
+        /// Iterations made.
+        iterations: usize,
+        /// Load factor of the failing evaluation (1: the full load).
+        load: f64,
+        /// What was not finite: `"potential is"`, `"forces are"` or `"force scale is"`.
+        what: &'static str,
+        /// The value found (`NaN`, `inf`).
+        value: f64,
+        /// Where: `"the start"` or `"the last iterate"`.
+        at: &'static str,
+        /// The last finite relative residual the solve reached (`None` when it had none).
+        last: Option<f64>,
+    },
     /// The total potential is unbounded below (shown along a rigid translation): there is no equilibrium.
     #[error(
         "static solve: no equilibrium: the total potential decreases without bound (a rigid translation of \
@@ -125,8 +148,9 @@ pub struct StaticReport {
 enum Outcome {
     /// Converged to a stable equilibrium: (iterations, residual, potential, escapes).
     Converged(usize, f64, f64, usize),
-    /// Ran out of iterations or stalled: (iterations, residual).
-    Failed(usize, f64),
+    /// Ran out of iterations, stalled or met a non-finite point: (iterations); the error measures the residual
+    /// where it stopped ([`StaticSolver::diagnose`]).
+    Failed(usize),
     /// The iterates ran away along a direction where `Π` falls for ever: (distance, net force).
     Runaway(f64, f64),
 }
@@ -229,6 +253,14 @@ struct Judged {
     scale: f64,
 }
 
+/// The largest absolute component of `g` (the residual's norm), NaN when any component is NaN: `f64::max`
+/// alone drops NaN, which made a solve whose forces were all NaN report a residual of exactly 0.
+fn max_abs(g: &[Vec3]) -> f64 {
+    g.iter()
+        .flat_map(|v| v.to_array())
+        .fold(0.0, |a: f64, c| if a.is_nan() || c.is_nan() { f64::NAN } else { a.max(c.abs()) })
+}
+
 /// Relative diagonal shift that keeps free rigid modes solvable and is the threshold of "negative" curvature.
 const EPS_SHIFT: f64 = 1e-12;
 
@@ -240,6 +272,8 @@ pub struct StaticSolver {
     load_grad: Vec<Vec3>,
     /// The right-hand side of a solve (the solution is written over the caller's vector).
     b: Vec<Vec3>,
+    /// The last finite relative residual of the solve in progress (for the error of a non-finite one).
+    last_res: Option<f64>,
 }
 
 /// Most outer iterations of a static solve with friction (re-lagging the normal forces at the equilibrium).
@@ -257,6 +291,7 @@ impl StaticSolver {
             ws: Workspace::new(&model.potential),
             b: vec![Vec3::ZERO; n],
             load_grad: vec![Vec3::ZERO; n],
+            last_res: None,
         })
     }
 
@@ -341,6 +376,16 @@ impl StaticSolver {
             return Err(StaticError::NonConservative { term });
         }
         let load = Self::force_scale(model, x);
+        self.last_res = None;
+        // A start where nothing is finite has no residual, and no load step changes that.
+        let bad = if load.is_finite() {
+            self.non_finite(model, x, 1.0, load)
+        } else {
+            Some(("force scale (the largest elastic force or load) is", load))
+        };
+        if let Some((what, value)) = bad {
+            return Err(StaticError::NonFinite { iterations: 0, load: 1.0, what, value, at: "the start", last: None });
+        }
         let start = x.to_vec();
         let budget = opts.max_iterations;
         // The full load first, with a share of the budget when continuation can take over.
@@ -359,10 +404,8 @@ impl StaticSolver {
                 escapes,
             }),
             Outcome::Runaway(drift, force) => Err(StaticError::NoEquilibrium { drift, force }),
-            Outcome::Failed(it, residual) if first == budget => {
-                Err(self.diagnose(model, x, &start, it, residual, 1.0, load))
-            }
-            Outcome::Failed(it, _) => {
+            Outcome::Failed(it) if first == budget => Err(self.diagnose(model, x, &start, it, 1.0, load)),
+            Outcome::Failed(it) => {
                 x.copy_from_slice(&start);
                 self.continuation(model, x, load, opts, it)
             }
@@ -406,7 +449,7 @@ impl StaticSolver {
             let tol = if last { opts.tolerance } else { intermediate };
             let left = opts.max_iterations.saturating_sub(used);
             if left == 0 {
-                return Err(self.diagnose(model, x, &start, used, f64::NAN, lam, load));
+                return Err(self.diagnose(model, x, &start, used, target, load));
             }
             // A step that Newton does not finish quickly is cut.
             let cap = left.min(STEP_CAP);
@@ -432,27 +475,26 @@ impl StaticSolver {
                     }
                 }
                 Outcome::Runaway(drift, force) => return Err(StaticError::NoEquilibrium { drift, force }),
-                Outcome::Failed(it, residual) => {
+                Outcome::Failed(it) => {
                     used += it;
                     inc *= 0.5;
                     if inc < 1e-4 {
-                        return Err(self.diagnose(model, x, &start, used, residual, lam, load));
+                        return Err(self.diagnose(model, x, &start, used, target, load));
                     }
                 }
             }
         }
     }
 
-    /// The error of a failed solve: no equilibrium if `Π` is unbounded below along a rigid translation, else
-    /// not converged (the residual relative to `force_scale`, evaluated here when not given).
-    #[allow(clippy::too_many_arguments)]
+    /// The error of a failed solve that stopped at `x` while solving at load factor `load`: no equilibrium if
+    /// `Π` is unbounded below along a rigid translation, else not converged with the residual of `x` (relative
+    /// to `force_scale`, measured here), or non-finite when `Π` or its forces at `x` are not finite.
     fn diagnose(
         &mut self,
         model: &Model,
         x: &[Vec3],
         start: &[Vec3],
         iterations: usize,
-        residual: f64,
         load: f64,
         force_scale: f64,
     ) -> StaticError {
@@ -462,13 +504,24 @@ impl StaticSolver {
         if let Some((drift, force)) = self.unbounded(model, start) {
             return StaticError::NoEquilibrium { drift, force };
         }
-        let residual = if residual.is_finite() {
-            residual
-        } else {
-            self.eval(model, x, load, Want::GRADIENT);
-            self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / force_scale
-        };
-        StaticError::NotConverged { iterations, residual, load }
+        match self.non_finite(model, x, load, force_scale) {
+            None => StaticError::NotConverged { iterations, residual: max_abs(&self.ws.grad) / force_scale, load },
+            Some((what, value)) => {
+                StaticError::NonFinite { iterations, load, what, value, at: "the last iterate", last: self.last_res }
+            }
+        }
+    }
+
+    /// Evaluates `Π` and its gradient at `x` at load factor `load` (the gradient left in the workspace): what is
+    /// not finite there and its value, or `None` when both are finite.
+    fn non_finite(&mut self, model: &Model, x: &[Vec3], load: f64, force_scale: f64) -> Option<(&'static str, f64)> {
+        let pi = self.eval(model, x, load, Want::GRADIENT);
+        let residual = max_abs(&self.ws.grad) / force_scale;
+        match (pi.is_finite(), residual.is_finite()) {
+            (true, true) => None,
+            (false, _) => Some(("potential is", pi)),
+            (true, false) => Some(("forces are", residual)),
+        }
     }
 
     /// A rigid translation of the free nodes along the net force on them that lowers `Π` linearly for ever
@@ -505,10 +558,20 @@ impl StaticSolver {
     fn force_scale(model: &Model, x: &[Vec3]) -> f64 {
         let mut grad = vec![Vec3::ZERO; x.len()];
         model.elastic(x, Some(&mut grad));
-        grad.iter()
-            .map(|g| g.length())
-            .fold(model.potential.load_scale(None, model.length_scale()), f64::max)
-            .max(f64::MIN_POSITIVE)
+        // NaN forces make a NaN scale (`f64::max` alone would drop them).
+        let scale =
+            grad.iter().map(|g| g.length()).fold(model.potential.load_scale(None, model.length_scale()), |a, f| {
+                if a.is_nan() || f.is_nan() {
+                    f64::NAN
+                } else {
+                    a.max(f)
+                }
+            });
+        if scale.is_nan() {
+            scale
+        } else {
+            scale.max(f64::MIN_POSITIVE)
+        }
     }
 
     /// Factorises the assembled matrix plus `s I` (added in place, then removed); true on success.
@@ -554,7 +617,7 @@ impl StaticSolver {
             nw.it += 1;
             let scale = self.scale();
             if !self.factorise(model, x, &mut nw, scale) {
-                return Ok(Outcome::Failed(nw.it, nw.res));
+                return Ok(Outcome::Failed(nw.it));
             }
             let s = (nw.mu * scale).max(EPS_SHIFT * scale);
             let gp: f64 = nw.grad.iter().zip(&nw.step).map(|(g, p)| g.dot(*p)).sum();
@@ -573,7 +636,7 @@ impl StaticSolver {
                 return Ok(o);
             }
         }
-        Ok(Outcome::Failed(nw.it, nw.res))
+        Ok(Outcome::Failed(nw.it))
     }
 
     /// A new point `x`: evaluates `Π`, its gradient and exact Hessian there, settles a watchdog, and stops on
@@ -582,14 +645,16 @@ impl StaticSolver {
         nw.op = Operator::Exact;
         nw.pi = self.eval(model, x, nw.lam, Want { grad: true, hess: Some(nw.op) });
         nw.grad.copy_from_slice(&self.ws.grad);
-        nw.res = nw.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / nw.load;
-        if !nw.pi.is_finite() || !nw.res.is_finite() {
+        nw.res = max_abs(&nw.grad) / nw.load;
+        if nw.pi.is_finite() && nw.res.is_finite() {
+            self.last_res = Some(nw.res);
+        } else {
             return Ok(match nw.watch.take() {
                 Some(w) => {
                     self.restore(x, &w, &mut nw.mu, &mut nw.since_watch);
                     Flow::Next
                 }
-                None => Flow::Done(Outcome::Failed(nw.it, nw.res)),
+                None => Flow::Done(Outcome::Failed(nw.it)),
             });
         }
         if let Some(w) = &mut nw.watch {
@@ -671,7 +736,7 @@ impl StaticSolver {
     /// else convergence within round-off, else a larger shift.
     fn unresolved(&mut self, model: &Model, x: &mut [Vec3], nw: &mut Newton) -> Result<Flow, StaticError> {
         let pt = self.eval(model, &nw.trial, nw.lam, Want::GRADIENT);
-        let rt = self.ws.grad.iter().map(|g| g.abs().max_element()).fold(0.0, f64::max) / nw.load;
+        let rt = max_abs(&self.ws.grad) / nw.load;
         if pt.is_finite() && rt < 0.5 * nw.res {
             x.copy_from_slice(&nw.trial);
             nw.fresh = true;
@@ -686,7 +751,7 @@ impl StaticSolver {
             return Ok(Flow::Next);
         }
         if nw.mu > 1e6 {
-            return Ok(Flow::Done(Outcome::Failed(nw.it, nw.res)));
+            return Ok(Flow::Done(Outcome::Failed(nw.it)));
         }
         nw.mu = (nw.mu * 10.0).max(1e-10);
         nw.fresh = false;
@@ -730,7 +795,7 @@ impl StaticSolver {
                 return Flow::Done(if nw.res <= nw.tol.sqrt() {
                     Outcome::Converged(nw.it, nw.res, pi, nw.escapes)
                 } else {
-                    Outcome::Failed(nw.it, nw.res)
+                    Outcome::Failed(nw.it)
                 });
             }
         }

@@ -9,6 +9,7 @@ use crate::energy::{terzopoulos, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::Vec3;
+use crate::seam::SeamedEdges;
 use crate::sparse::BlockPattern;
 use serde::{Deserialize, Serialize};
 
@@ -48,7 +49,7 @@ pub struct ElasticOptions {
 }
 
 impl ElasticOptions {
-    fn warp(&self) -> Warp {
+    pub(crate) fn warp(&self) -> Warp {
         match self.warp_direction {
             Some(d) => Warp::Direction(d),
             None => Warp::Angle(self.warp_angle),
@@ -65,33 +66,45 @@ pub fn terms(
     kind: ModelKind,
     options: &ElasticOptions,
 ) -> Vec<Box<dyn Term>> {
-    panel_terms(grid, rest, stiffness, kind, options, 0)
+    let nodes: Vec<usize> = (0..grid.len()).collect();
+    panel_terms(grid, rest, stiffness, kind, options, &nodes, SeamedEdges::default())
 }
 
 /// The elastic terms of one panel of a model: [`terms`] on the panel's grid and rest shape (`rest` in the
-/// panel's own node order), acting on the model's nodes `offset..offset + grid.len()`.
+/// panel's own node order), acting on the model's nodes `nodes[k]` of its local nodes `k`; the bending points
+/// on its `seamed` edges are left to the seams (`crate::seam`).
 pub fn panel_terms(
     grid: &Grid,
     rest: &[Vec3],
     stiffness: &Stiffness,
     kind: ModelKind,
     options: &ElasticOptions,
-    offset: usize,
+    nodes: &[usize],
+    seamed: SeamedEdges,
 ) -> Vec<Box<dyn Term>> {
     let mut membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
-    let mut bending = Bending::with_warp(grid, rest, stiffness, options.warp());
+    let mut bending = if seamed == SeamedEdges::default() {
+        Bending::with_warp(grid, rest, stiffness, options.warp())
+    } else {
+        let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
+        Bending::selected(grid, rest, stiffness, options.warp(), node, cell)
+    };
     if options.flat_pattern {
         bending.flatten_rest_curvature();
     }
-    if offset > 0 {
-        membrane.offset_nodes(offset);
-        bending.offset_nodes(offset);
+    if nodes.iter().enumerate().any(|(k, &g)| k != g) {
+        membrane.map_nodes(nodes);
+        bending.map_nodes(nodes);
     }
-    let bending: Box<dyn Term> = match kind {
+    vec![Box::new(membrane), bending_term(bending, kind)]
+}
+
+/// The bending term of `kind` on these quadrature points.
+pub fn bending_term(bending: Bending, kind: ModelKind) -> Box<dyn Term> {
+    match kind {
         ModelKind::Tfs => Box::new(bending),
         ModelKind::Terzopoulos => Box::new(TerzopoulosBending(bending)),
-    };
-    vec![Box::new(membrane), bending]
+    }
 }
 
 /// `impl Term` for an elastic kernel type with inherent `pairs`, `bind` and `evaluate(x, sink) -> f64`: the

@@ -98,8 +98,7 @@ fn display_stencil(grid: &Grid, k: usize) -> Vec<([usize; 4], [f64; 4], [f64; 2]
 /// Largest `|ℓ/ℓ₀ − 1|` over the grid edges of its panel at each node.
 pub fn node_strain(model: &Model, x: &[Vec3]) -> Vec<f64> {
     let mut s = vec![0.0_f64; x.len()];
-    for (a, b) in model.edges() {
-        let l0 = (model.rest[b] - model.rest[a]).length();
+    for (a, b, l0) in model.edges() {
         if l0 <= 0.0 {
             continue;
         }
@@ -138,13 +137,13 @@ pub fn panels_to_display<T>(panels: &[Panel], k: usize, values: &[T]) -> Vec<T>
 where
     T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
 {
-    panels.iter().flat_map(|p| to_display(&p.grid, k, p.slice(values))).collect()
+    panels.iter().flat_map(|p| to_display(&p.grid, k, &p.gather(values))).collect()
 }
 
 /// The display mesh of the node positions `x`: every one of `panels` Coons-tessellated with `k`
 /// subdivisions, merged in panel order (for one panel, its tessellation itself).
 pub fn display_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
-    let mut meshes = panels.iter().map(|p| CoonsSurface::new(&p.grid, p.slice(x)).tessellate(k));
+    let mut meshes = panels.iter().map(|p| CoonsSurface::new(&p.grid, &p.gather(x)).tessellate(k));
     let mut mesh = meshes.next().unwrap_or_default();
     meshes.for_each(|m| mesh.append(&m));
     mesh
@@ -254,7 +253,7 @@ mod tests {
     #[test]
     fn panels_are_merged_in_order_and_one_panel_is_its_own_tessellation() {
         let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 3, 0.2, 0.3).unwrap());
-        let panels = [Panel { grid: a, offset: 0 }, Panel { grid: b, offset: 9 }];
+        let panels = [Panel::contiguous(a, 0, a.flat_positions(0.0)), Panel::contiguous(b, 9, b.flat_positions(0.0))];
         let x: Vec<Vec3> = (0..21).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
         let k = 2;
         // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 2 cells: 7 × 5.

@@ -28,6 +28,7 @@ pub fn run_info(scene: &Scene, summary: &Summary) -> serde_json::Value {
         "dt": summary.dt,
         "steps": summary.steps,
         "output_every": summary.output_every,
+        "animation_every": summary.animation_every,
         "simulated_seconds": summary.simulated_seconds,
     })
 }

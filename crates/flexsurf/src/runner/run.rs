@@ -6,7 +6,7 @@
 use super::checkpoint::{self, Checkpoint};
 use super::fields::display_mesh;
 use super::manifest::Folder;
-use super::outputs::{self, output_steps, Context, Output, Outputs};
+use super::outputs::{self, animation_steps, output_steps, Context, Output, Outputs};
 use super::summary::{self, Finished};
 use super::{fingerprint, io_err, remove_if_present, Provenance, RunError, RunOptions, RunOutput, SUMMARY_FILE};
 use crate::integrate::statics::{StaticOptions, StaticReport, StaticSolver};
@@ -59,8 +59,13 @@ pub(super) fn run<'a>(
     };
     let mut folder = Folder::open(out, &fp, options.overwrite, resume.is_some())?;
     // A static solve writes the initial state and the equilibrium (as step 1).
-    let steps = if is_static { vec![0, 1] } else { output_steps(scene.steps, scene.output_every) };
-    let cx = Context { scene, out: out.to_path_buf(), steps };
+    let (steps, animation) = if is_static {
+        (vec![0, 1], vec![0, 1])
+    } else {
+        let (n, every) = (scene.steps, scene.output_every);
+        (output_steps(n, every), animation_steps(n, every, scene.animation_every))
+    };
+    let cx = Context { scene, out: out.to_path_buf(), steps, animation };
     let mut list = outputs::standard(&cx);
     list.extend(extra);
     let outputs = Outputs::new(cx, list);

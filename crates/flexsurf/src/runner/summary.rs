@@ -78,6 +78,9 @@ pub struct Summary {
     pub steps: usize,
     /// Frame cadence (steps).
     pub output_every: usize,
+    /// The animation's cadence (steps): `animation.glb` and the VTK series hold every animation step (0, every
+    /// this many steps, every output step and the last).
+    pub animation_every: usize,
     /// `steps · dt` (s).
     pub simulated_seconds: f64,
     /// Wall time of the time stepping only (s), from [`sim::RunStats`].
@@ -163,7 +166,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: scene.solver().for_panels(nodes, model.panels.len()).name().to_string(),
+        solver: scene.solver().resolve(nodes).name().to_string(),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),
@@ -176,6 +179,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         dt: scene.dt,
         steps: stats.steps,
         output_every: scene.output_every,
+        animation_every: scene.animation_every,
         simulated_seconds: state.time,
         wall_seconds: stats.wall_seconds,
         steps_per_second: if stats.wall_seconds > 0.0 { stats.steps as f64 / stats.wall_seconds } else { 0.0 },

@@ -24,10 +24,54 @@ impl Default for Limits {
     }
 }
 
+/// Frames per simulated second of a default animation ([`animation_every`]).
+pub const ANIMATION_FPS: f64 = 20.0;
+/// Most frames of a default animation after its first.
+pub const ANIMATION_MAX_FRAMES: usize = 60;
+/// Most bytes of the later frames of a default animation in `animation.glb`.
+pub const ANIMATION_MAX_BYTES: u64 = 24 << 20;
+/// Bytes of one display vertex in one later frame of `animation.glb`: its position and normal offsets (24)
+/// and its strain, contact pressure and velocity (20), all `f32`.
+pub const GLB_BYTES_PER_VERTEX: u64 = 44;
+/// Bytes of one display vertex of one animation frame kept in memory (and in checkpoints) until the run ends.
+const ANIMATION_BYTES_PER_VERTEX: u64 = 52;
+
+/// The animation's cadence (steps): `given` (`output.animation_every`), else the steps nearest to
+/// 1/[`ANIMATION_FPS`] s at `dt`, thinned so that `steps` steps of `vertices` display vertices make at most
+/// [`ANIMATION_MAX_FRAMES`] frames and [`ANIMATION_MAX_BYTES`] of frame data.
+pub fn animation_every(given: Option<usize>, dt: f64, steps: usize, vertices: u64) -> usize {
+    if let Some(every) = given {
+        return every.max(1);
+    }
+    let rate = 1.0 / (ANIMATION_FPS * dt);
+    // `as` saturates; a non-finite or tiny rate (a huge Δt) is every step.
+    let by_rate = if rate.is_finite() && rate >= 1.0 { rate.round() as usize } else { 1 };
+    let frame = GLB_BYTES_PER_VERTEX.saturating_mul(vertices).max(1);
+    let most = (ANIMATION_MAX_BYTES / frame).clamp(1, ANIMATION_MAX_FRAMES as u64) as usize;
+    by_rate.max(steps.div_ceil(most)).max(1)
+}
+
+/// Display vertices of sheets of `sizes` nodes tessellated with `s` subdivisions (free edges: an upper bound for
+/// periodic ones), in saturating arithmetic.
+fn display_vertices(sizes: &[(String, [usize; 2])], s: u64) -> u64 {
+    let side = |n: usize| (n as u64).saturating_mul(s).saturating_add(1);
+    sizes.iter().fold(0u64, |t, (_, [m, n])| t.saturating_add(side(*m).saturating_mul(side(*n))))
+}
+
+/// The cadences and the memory estimate of a run ([`check`]).
+pub(crate) struct Budget {
+    /// `time.output_every` (default: the step count).
+    pub(crate) output_every: usize,
+    /// The animation's cadence ([`animation_every`]).
+    pub(crate) animation_every: usize,
+    /// The memory estimate.
+    pub(crate) estimate: Estimate,
+}
+
 /// Checks the size of the run: the steps, the frames and the nodes (in checked arithmetic), and the estimate
 /// of its memory against `limits`. Called by [`SceneSpec::build_with`] before anything is read or built, from
-/// the sizes alone. Returns the frame cadence (`time.output_every`, default: the step count) and the estimate.
-pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<(usize, Estimate), SceneError> {
+/// the sizes alone. Returns the frame and animation cadences and the estimate.
+pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<Budget, SceneError> {
     let steps = spec.time.steps;
     v.at_least("time.steps", steps, 1)?;
     v.require("time.steps", steps <= ranges::STEPS, || {
@@ -47,8 +91,13 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
         (None, Some(g)) => vec![("garment.nodes".into(), g.nodes)],
         (None, None) => Vec::new(),
     };
+    if let Some(a) = spec.output.animation_every {
+        v.at_least("output.animation_every", a, 1)?;
+    }
+    let vertices = display_vertices(&sizes, spec.output.coons_subdivisions.max(1) as u64);
+    let animation = animation_every(spec.output.animation_every, spec.time.dt, steps, vertices);
     let Some((key, [m, n])) = sizes.iter().max_by_key(|(_, [m, n])| m.saturating_mul(*n)).cloned() else {
-        return Ok((every, Estimate::default()));
+        return Ok(Budget { output_every: every, animation_every: animation, estimate: Estimate::default() });
     };
     let key = key.as_str();
     // Every sheet's nodes together, the largest sheet's sides for the factor's estimate.
@@ -57,7 +106,10 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
         .try_fold(0usize, |t, (_, [a, b])| a.checked_mul(*b).and_then(|ab| t.checked_add(ab)))
         .filter(|&t| t <= ranges::NODES)
         .ok_or_else(|| v.bad(key, format!("[{m}, {n}] is more than the {} nodes a sheet may have", ranges::NODES)))?;
-    let e = estimate(total, m, n, spec);
+    let mut e = estimate(total, m, n, spec);
+    // The animation's frames stay in memory until the run ends (the steps at its cadence and the frames').
+    let kept = (steps / animation + steps / every + 2) as u64;
+    e.frames = e.frames.saturating_add(kept.saturating_mul(vertices).saturating_mul(ANIMATION_BYTES_PER_VERTEX));
     if e.total() > limits.max_memory {
         return Err(v.bad(
             key,
@@ -70,7 +122,7 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
             ),
         ));
     }
-    Ok((every, e))
+    Ok(Budget { output_every: every, animation_every: animation, estimate: e })
 }
 
 /// The estimated memory of a run (bytes), by part.
@@ -82,7 +134,7 @@ pub struct Estimate {
     pub matrix: u64,
     /// The sparse Cholesky factor, or the multigrid hierarchy (whichever the run's solver needs).
     pub factor: u64,
-    /// One tessellated frame and the snapshot meshes kept for the picture.
+    /// One tessellated frame, the snapshot meshes kept for the picture and the animation's frames.
     pub frames: u64,
     /// The snapshot pictures and their panel.
     pub pictures: u64,

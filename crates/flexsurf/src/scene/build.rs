@@ -35,6 +35,8 @@ pub struct Scene {
     pub steps: usize,
     /// Frame cadence (steps).
     pub output_every: usize,
+    /// The animation's cadence (steps): `output.animation_every` or its default ([`super::budget::animation_every`]).
+    pub animation_every: usize,
     /// The time-stepping scheme (or a static solve) and the linear solver.
     pub integrator: IntegratorSpec,
     /// Calibration used.
@@ -113,7 +115,7 @@ impl SceneSpec {
         let file = scene_path;
         let warnings = Warnings::default();
         let v = Validator::new(file, &warnings);
-        let Checked { parts, dt, output_every, condition, material, .. } = self.checked(&v, limits)?;
+        let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
         let (model, initial, garment) = self.assemble(&v, parts)?;
         let integrator = self.integrator;
         let state = match integrator.kind.method(dt, integrator.solver) {
@@ -132,6 +134,7 @@ impl SceneSpec {
             dt,
             steps: self.time.steps,
             output_every,
+            animation_every,
             integrator,
             calibration: self.calibration,
             material,

@@ -476,6 +476,10 @@ pub struct OutputSpec {
     pub image_size: [u32; 2],
     /// Mesh format of the frames: `obj` (default), `ply` or `gltf`.
     pub format: FrameFormat,
+    /// A frame of the animation (`animation.glb`, the VTK series, the viewer) every this many steps, besides
+    /// every output step; default: about 20 frames per simulated second (every 5 steps at Δt = 0.01 s), thinned
+    /// to at most 60 frames and 24 MiB of frame data (docs/scenes.md).
+    pub animation_every: Option<usize>,
 }
 
 impl Default for OutputSpec {
@@ -484,6 +488,7 @@ impl Default for OutputSpec {
             coons_subdivisions: defaults::COONS_SUBDIVISIONS,
             image_size: defaults::IMAGE_SIZE,
             format: FrameFormat::Obj,
+            animation_every: None,
         }
     }
 }

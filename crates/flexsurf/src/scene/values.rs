@@ -99,6 +99,7 @@ pub(crate) struct Checked<'s> {
     pub(crate) parts: Parts<'s>,
     pub(crate) dt: f64,
     pub(crate) output_every: usize,
+    pub(crate) animation_every: usize,
     pub(crate) condition: InitialCondition,
     pub(crate) material: String,
     pub(crate) estimate: Estimate,
@@ -108,7 +109,7 @@ impl SceneSpec {
     /// Checks every value (sizes and memory first, from the sizes alone: nothing large is allocated for a scene
     /// that fails them) and returns the parts of the model.
     pub(crate) fn checked(&self, v: &Validator<'_>, limits: &Limits) -> Result<Checked<'_>, SceneError> {
-        let (output_every, estimate) = budget::check(self, v, limits)?;
+        let budget::Budget { output_every, animation_every, estimate } = budget::check(self, v, limits)?;
         let dt = v.number(&ranges::DT, "time.dt", self.time.dt)?;
         // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
         let mut obstacles = Vec::with_capacity(self.obstacles.len());
@@ -135,7 +136,7 @@ impl SceneSpec {
         let (pins, springs) = self.constraints(v, &body.grids())?;
         self.check_output(v)?;
         let parts = Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, pins, springs };
-        Ok(Checked { parts, dt, output_every, condition, material: material.name, estimate })
+        Ok(Checked { parts, dt, output_every, animation_every, condition, material: material.name, estimate })
     }
 
     /// The checked `[contact]`; the default stiffness follows the fabric's `density` and `gravity`.

@@ -17,6 +17,7 @@ mod panels;
 mod resume;
 mod scenarios;
 mod scenes;
+mod seams;
 mod skirt;
 mod solvers;
 mod sparsity;

@@ -18,7 +18,8 @@ fn scratch(tag: &str) -> PathBuf {
     flexsurf::testing::scratch("outputs", tag)
 }
 
-/// A short, coarse ball drop: 11 × 11 nodes, 60 steps, frames every 15 (steps 0, 15, 30, 45, 60).
+/// A short, coarse ball drop: 11 × 11 nodes, 60 steps, frames and the animation every 15 (steps 0, 15, 30, 45,
+/// 60).
 fn short_ball_drop(out: &Path) -> flexsurf::runner::RunOutput {
     run_scene(&short_ball_drop_scene(), out, |_| {}).unwrap()
 }
@@ -32,6 +33,7 @@ fn short_ball_drop_scene() -> Scene {
     spec.time.output_every = Some(15);
     spec.output.image_size = [160, 120];
     spec.output.coons_subdivisions = 2;
+    spec.output.animation_every = Some(15);
     spec.build(&path).unwrap()
 }
 
@@ -291,5 +293,59 @@ fn an_added_output_claims_its_files_records_and_resumes() {
     assert!(o.summary.interrupted);
     let e = run_scene_with_outputs(&s, &again, &resume, dummy(&again), |_| {}).unwrap_err().to_string();
     assert!(e.contains("dummy"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Issue 22: the demo wrote 4 frames 1 s apart (its `output_every = 100`), so the viewer's "play" blended over
+/// 1 s a fall that takes 0.4 s. The animation now has its own cadence: at Δt = 0.01 s, 1 / (20 frames a second
+/// × 0.01 s) = 5 steps, while the frame files and the pictures keep the output steps.
+#[test]
+fn regression_demo_animation_had_4_frames_1_s_apart() {
+    let path = repo().join("scenes/ball_drop.toml");
+    let mut spec = SceneSpec::load(&path).unwrap();
+    // The demo's scene as shipped: 300 steps make 61 animation frames, the 4 output steps among them.
+    let demo = spec.build(&path).unwrap();
+    assert_eq!((demo.steps, demo.output_every, demo.animation_every), (300, 100, 5));
+    let steps = flexsurf::runner::outputs::animation_steps(300, 100, 5);
+    assert_eq!(steps.len(), 61);
+    assert!([0, 100, 200, 300].iter().all(|s| steps.contains(s)));
+    // The first 0.6 s of it (the fall and the drape), run without the preset's air damping (so that the free
+    // fall below is ½ g t² exactly).
+    spec.time.steps = 60;
+    spec.material.damping = Some(0.0);
+    spec.output.image_size = [64, 48];
+    let s = spec.build(&path).unwrap();
+    let d = scratch("demo-animation");
+    let out = run_scene(&s, &d, |_| {}).unwrap();
+    assert_eq!(out.summary.animation_every, 5);
+    let files: Vec<usize> = out.summary.frames.iter().map(|f| f.step).collect();
+    assert_eq!(files, [0, 60], "the frame files stay at the output steps");
+    let bytes = std::fs::read(d.join("animation.glb")).unwrap();
+    let gltf = gltf::Gltf::from_slice(&bytes).expect("a valid glTF binary");
+    let extras: serde_json::Value =
+        serde_json::from_str(gltf.document.as_json().extras.as_ref().unwrap().get()).unwrap();
+    let frames = extras["flexsurf"]["frames"].as_array().unwrap();
+    let at: Vec<(u64, f64)> =
+        frames.iter().map(|f| (f["step"].as_u64().unwrap(), f["time"].as_f64().unwrap())).collect();
+    assert_eq!(at.len(), 13);
+    for (k, (step, time)) in at.iter().enumerate() {
+        assert_eq!(*step, 5 * k as u64);
+        assert!((time - 0.05 * k as f64).abs() < 1e-12, "frame {k} at {time} s");
+    }
+    // The lowest point of each frame: the first frame is flat at 0.35 m, so it is 0.35 m plus the lowest offset
+    // of the frame's morph target (the accessor's bound).
+    let cloth = gltf.document.nodes().find(|n| n.name() == Some("cloth")).unwrap();
+    let prim = cloth.mesh().unwrap().primitives().next().unwrap();
+    let z = |bound: Option<gltf::json::Value>| 0.35 + bound.unwrap().as_array().unwrap()[2].as_f64().unwrap();
+    let low: Vec<f64> = prim.morph_targets().map(|t| z(t.positions().unwrap().min())).collect();
+    // Frame 1 (t = 0.05 s) is in free fall (the centre meets the contact layer at √(2 · 0.045 / 9.81) = 0.096 s):
+    // every vertex ½ g t² = 0.0122625 m down.
+    let top1 = z(prim.morph_targets().next().unwrap().positions().unwrap().max());
+    assert!((low[0] - (0.35 - 0.0122625)).abs() < 1e-6 && (top1 - low[0]).abs() < 1e-6, "{} {top1}", low[0]);
+    // The fall is seen: the lowest point goes down in each of the 8 frames of the first 0.4 s.
+    assert!(low[..8].windows(2).all(|w| w[1] < w[0]), "lowest points {low:?}");
+    assert!(low[7] < 0.0, "after 0.4 s the edges hang below the ball's centre: {low:?}");
+    let pvd = std::fs::read_to_string(d.join("animation.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet ").count(), 13, "the VTK series has the animation's frames");
     std::fs::remove_dir_all(&d).unwrap();
 }

@@ -64,7 +64,7 @@ fn two_identical_sheets_fall_as_one_does() {
     floor(&mut two);
     let two = two.build().unwrap();
     assert_eq!(two.panels.len(), 2);
-    assert_eq!(two.panels[1].offset, grid.len());
+    assert_eq!(two.panels[1].global(0), grid.len());
     assert_eq!(two.nodes(), 2 * grid.len());
     assert!((two.total_mass() - 2.0 * one.total_mass()).abs() < 1e-15 * one.total_mass());
 
@@ -150,20 +150,86 @@ fn a_builder_with_a_wrong_rest_shape_names_the_panel() {
     assert!(e.message.contains("panel 1"), "{e}");
 }
 
+/// The step matrix of `model` with its sheet `lift` above the floor, after three steps.
+fn step_matrix(model: &Model, x: Vec<Vec3>) -> flexsurf::sparse::BlockMatrix {
+    let mut state = drop(model, x, 3);
+    state.v.iter_mut().for_each(|v| *v = Vec3::ZERO);
+    let mut stepper = Stepper::new(model, &StepParams::with_dt(0.005)).unwrap();
+    stepper.assemble(model, &state);
+    stepper.matrix().clone()
+}
+
+/// Multigrid coarsens each panel on its own grid (a node joined by a seam with the first panel that has
+/// it): on the step matrices of two separate sheets and of a closed tube (a free grid seamed to itself),
+/// with pinned nodes, it solves as Cholesky does, in few iterations; `auto` takes it for any model past the
+/// size rule.
 #[test]
-fn auto_takes_cholesky_for_several_panels_and_multigrid_refuses_them() {
-    use flexsurf::integrate::linsolve::{LinearSolver, SolverKind};
-    let big = 200_000;
-    assert_eq!(SolverKind::Auto.for_panels(big, 1), SolverKind::Multigrid);
-    assert_eq!(SolverKind::Auto.for_panels(big, 2), SolverKind::Cholesky);
-    assert_eq!(SolverKind::Multigrid.for_panels(10, 2), SolverKind::Multigrid);
+fn multigrid_coarsens_each_panel_and_solves_as_cholesky_does() {
+    use flexsurf::integrate::linsolve::{LinearSolver, Reuse, SolverKind};
+    use flexsurf::seam::{Edge, Seam, SeamSide};
+    assert_eq!(SolverKind::Auto.resolve(200_000), SolverKind::Multigrid);
     let (fabric, stiffness) = cotton();
-    let grid = Grid::sheet(5, 5, 0.2, 0.2).unwrap();
-    let model = ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G)
-        .panel(grid, grid.flat_positions(1.0), ElasticOptions::default())
-        .build()
-        .unwrap();
-    let e = LinearSolver::new(SolverKind::Multigrid, model.potential.pattern(), &model.panels).err().unwrap();
-    assert!(e.to_string().contains("one panel"), "{e}");
-    assert!(LinearSolver::new(SolverKind::Auto, model.potential.pattern(), &model.panels).is_ok());
+    let grid = Grid::sheet(33, 29, 0.4, 0.3).unwrap();
+    let rest: Vec<Vec3> = grid.flat_positions(0.05);
+    let mut two = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, G).panel(
+        grid,
+        shifted(&rest, Vec3::new(0.5, 0.1, 0.2)),
+        ElasticOptions::default(),
+    );
+    floor(&mut two);
+    two.pinned[7] = true;
+    let two = two.build().unwrap();
+    let tube_grid = Grid::sheet(41, 25, 0.8, 0.3).unwrap();
+    let tube_rest: Vec<Vec3> = (0..tube_grid.len())
+        .map(|k| {
+            let (i, j) = tube_grid.coords(k);
+            let a = std::f64::consts::TAU * i as f64 / 40.0;
+            Vec3::new(0.127 * a.cos(), 0.2 + 0.3 * j as f64 / 24.0, 0.13 + 0.127 * a.sin())
+        })
+        .collect();
+    let side = |edge| SeamSide { panel: 0, edge, reversed: false };
+    let mut tube = ModelBuilder::new(tube_grid, tube_rest.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .seam(Seam { a: side(Edge::U1Start), b: side(Edge::U1End) });
+    floor(&mut tube);
+    tube.pinned[tube_grid.index(3, 24)] = true;
+    let tube = tube.build().unwrap();
+    // The same tube on a periodic grid.
+    let ring =
+        Grid::new(40, 25, 0.02, 0.3 / 24.0, [flexsurf::grid::Topology::Periodic, flexsurf::grid::Topology::Free]);
+    let ring = ring.unwrap();
+    let ring_rest = tube.from_panel_nodes(&tube_rest);
+    let mut periodic = ModelBuilder::new(ring, ring_rest.clone(), fabric, stiffness, ModelKind::Tfs, G);
+    floor(&mut periodic);
+    periodic.pinned[ring.index(3, 24)] = true;
+    let periodic = periodic.build().unwrap();
+    let cases = [
+        ("two sheets", &two, [rest.clone(), shifted(&rest, Vec3::new(0.5, 0.1, 0.2))].concat()),
+        ("periodic tube", &periodic, ring_rest.clone()),
+        ("seamed tube", &tube, ring_rest),
+    ];
+    let mut counts = Vec::new();
+    for (name, model, x) in cases {
+        let a = step_matrix(model, x);
+        let pattern = model.potential.pattern();
+        let n = pattern.nodes();
+        let b: Vec<Vec3> =
+            (0..n).map(|k| Vec3::new((k % 7) as f64 - 3.0, (k % 5) as f64, 1.0 - (k % 3) as f64)).collect();
+        let fixed = model.pinned();
+        let solve = |kind| {
+            let mut x = vec![Vec3::ZERO; n];
+            let stats =
+                LinearSolver::new(kind, pattern, &model.panels).unwrap().solve(&a, fixed, &b, &mut x, Reuse::Fresh);
+            (x, stats.unwrap().iterations)
+        };
+        let (direct, _) = solve(SolverKind::Cholesky);
+        let (x, iterations) = solve(SolverKind::Multigrid);
+        let scale = direct.iter().map(|v| v.length()).fold(0.0, f64::max);
+        let err = x.iter().zip(&direct).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+        assert!(err <= 1e-7 * scale, "{name}: multigrid is {err:e} from Cholesky (of {scale:e})");
+        counts.push(iterations);
+    }
+    // The seam coarsens as a free edge (each side's coarse grid ends at it): no more than a quarter more
+    // iterations than the periodic grid's wrapping coarse levels.
+    assert!(counts[0] <= 20, "two sheets: {} multigrid iterations", counts[0]);
+    assert!(4 * counts[2] <= 5 * counts[1], "seamed tube {} iterations, periodic tube {}", counts[2], counts[1]);
 }

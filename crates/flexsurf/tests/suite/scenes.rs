@@ -286,8 +286,12 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
             "manifest.json",
             "snapshots.png",
             "summary.json",
+            // The animation's steps: every 5 (Δt = 0.01 s: 20 frames a simulated second) and the output steps.
             "vtk/frame_00000.vtu",
+            "vtk/frame_00005.vtu",
             "vtk/frame_00008.vtu",
+            "vtk/frame_00010.vtu",
+            "vtk/frame_00015.vtu",
             "vtk/frame_00016.vtu",
             "vtk/frame_00020.vtu",
             "vtk/obstacles.vtu"

@@ -89,7 +89,8 @@ fn every_solver_solves_the_stencil_plus_the_extra_blocks() {
     couple(&pattern, &mut a, 3, 20, 1.5);
     let fixed = vec![false; 25];
     let reference = dense_solve(a.to_dense(&pattern), flat(&b));
-    let panels = [Panel { grid: Grid::sheet(5, 5, 1.0, 1.0).unwrap(), offset: 0 }];
+    let grid = Grid::sheet(5, 5, 1.0, 1.0).unwrap();
+    let panels = [Panel::contiguous(grid, 0, grid.flat_positions(0.0))];
     for kind in [SolverKind::Cholesky, SolverKind::Pcg, SolverKind::Multigrid] {
         let mut solver = LinearSolver::new(kind, &pattern, &panels).unwrap();
         let mut x = vec![Vec3::ZERO; 25];

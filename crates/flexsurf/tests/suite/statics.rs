@@ -366,3 +366,52 @@ fn no_equilibrium_only_when_there_is_none() {
     }
     assert!(StripModel::q_of(StripModel::length_for(30.0)) > 29.999);
 }
+
+/// Issue 22: a failing static solve reported "relative residual 0.000e0". The residual's norm folded the forces
+/// with `f64::max`, which drops NaN, so a start whose forces were all NaN (a frame of far-off nodes whose
+/// elastic energy overflows) measured 0 and, after load continuation gave up, was "not converged, residual 0".
+/// Now such a solve says that the potential or forces are not finite, and a solve cut short reports the residual
+/// of the point it stopped at, recomputed here from the public potential.
+#[test]
+fn regression_failing_static_solve_reported_residual_0() {
+    // (1) The hammock of tests/suite/hardening.rs, started from a frame whose nodes lie 1e100 m apart (its
+    // elastic forces overflow to inf) or 1e160 m (NaN): both were "within 0 Newton iterations: relative residual
+    // 0.000e0 reached at load factor 0.000".
+    let d = flexsurf::testing::scratch("statics", "residual-0");
+    let scene = "[sheet]\nsize = [0.6, 0.2]\nnodes = [9, 5]\ncenter = [0.0, 0.0, 0.306]\n[time]\nsteps = 1\n\
+        [initial]\npositions = \"far.obj\"\n[integrator]\nkind = \"static\"\n[[pin]]\nset = \"edge_u1_0\"\n\
+        [[pin]]\nset = \"edge_u1_1\"\n[output]\nimage_size = [32, 24]\ncoons_subdivisions = 1\n";
+    std::fs::write(d.join("scene.toml"), scene).unwrap();
+    for (spacing, value) in [(0.075e100, "(inf)"), (0.075e160, "(NaN)")] {
+        let mut obj = String::new();
+        for j in 0..5 {
+            for i in 0..9 {
+                obj += &format!("v {:e} {} 0.3\n", i as f64 * spacing, j as f64 * 0.05);
+            }
+        }
+        std::fs::write(d.join("far.obj"), obj).unwrap();
+        let s = flexsurf::scene::load(&d.join("scene.toml")).unwrap();
+        let e = flexsurf::runner::run_scene(&s, &d.join(value), |_| {}).unwrap_err();
+        let text = e.to_string();
+        eprintln!("{text}");
+        assert!(matches!(e, flexsurf::runner::RunError::Static(StaticError::NonFinite { iterations: 0, .. })), "{e:?}");
+        assert!(text.contains("not finite") && text.contains(value) && text.contains("at the start"), "{text}");
+        assert!(!text.contains("0.000e0"), "{text}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+
+    // (2) Cut short (the cantilever of `no_equilibrium_only_when_there_is_none`, 5 iterations): the residual
+    // reported is that of the point left in `x`, |∂Π/∂x|∞ over the free nodes divided by the largest nodal
+    // weight (the strip starts straight, unstressed, so its largest elastic force is 0).
+    let mut strip = StripModel::new(StripModel::length_for(30.0), 66, Vec3::X);
+    let err = strip.solve(&StaticOptions { max_iterations: 5, ..Default::default() }).unwrap_err();
+    let StaticError::NotConverged { iterations: 5, residual, .. } = err else { panic!("{err:?}") };
+    let mut grad = vec![Vec3::ZERO; strip.x.len()];
+    StaticSolver::potential(&strip.model, &strip.x, Some(&mut grad));
+    let free = strip.model.pinned().iter().zip(&grad).filter(|(&p, _)| !p);
+    let force = free.map(|(_, g)| g.abs().max_element()).fold(0.0, f64::max);
+    let weight = strip.model.mass.iter().fold(0.0, |a: f64, &m| a.max(m)) * G;
+    let expected = force / weight;
+    assert!(expected > 1e-3, "the strip is far from its equilibrium after 5 iterations: {expected}");
+    assert!((residual / expected - 1.0).abs() < 1e-9, "reported {residual}, recomputed {expected}");
+}

@@ -32,7 +32,7 @@ fn each_sheet_is_a_panel_in_node_order() {
     let model = &scene.model;
     assert_eq!(model.panels.len(), 2);
     assert_eq!((model.panels[0].grid.m, model.panels[0].grid.n), (9, 9));
-    assert_eq!((model.panels[1].grid.m, model.panels[1].grid.n, model.panels[1].offset), (7, 5, 81));
+    assert_eq!((model.panels[1].grid.m, model.panels[1].grid.n, model.panels[1].global(0)), (7, 5, 81));
     assert_eq!(model.nodes(), 81 + 35);
     // The second sheet's first corner: (−0.15, −0.1) of its pattern turned 90° about z, about its centre.
     let corner = scene.state.x[81];

@@ -146,31 +146,76 @@ pub(crate) struct LineSmoother {
     masked: Vec<bool>,
 }
 
+/// Couplings farther apart than this along a line split it (a line closed on itself through a seam).
+const FAR: usize = 4;
+
+/// Each node's segment and position in it (`u32::MAX`: none).
+fn positions(n: usize, lines: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
+    let (mut seg_of, mut pos) = (vec![u32::MAX; n], vec![0u32; n]);
+    for (s, nodes) in lines.iter().enumerate() {
+        for (k, &p) in nodes.iter().enumerate() {
+            seg_of[p as usize] = s as u32;
+            pos[p as usize] = k as u32;
+        }
+    }
+    (seg_of, pos)
+}
+
+/// Per segment, the widest coupling along it (positions apart), and the pairs of segments that couple.
+fn couplings(pattern: &BlockPattern, lines: &[Vec<u32>]) -> (Vec<usize>, Vec<(u32, u32)>) {
+    let n = pattern.nodes();
+    let (seg_of, pos) = positions(n, lines);
+    let rows = pattern.block_rows();
+    let mut reach = vec![0; lines.len()];
+    let mut edges = Vec::new();
+    for j in 0..n {
+        let (s, e) = pattern.column(j);
+        for &i in &rows[s..e] {
+            let (si, sj) = (seg_of[i], seg_of[j]);
+            if si == u32::MAX || sj == u32::MAX {
+                continue;
+            }
+            if si == sj {
+                let r = &mut reach[si as usize];
+                *r = (*r).max((pos[i] as i64 - pos[j] as i64).unsigned_abs() as usize);
+            } else {
+                edges.push((si.min(sj), si.max(sj)));
+            }
+        }
+    }
+    (reach, edges)
+}
+
+/// The lines with every one whose couplings reach farther than [`FAR`] along it split in halves (a grid's
+/// stencils reach two nodes; a line that closes on itself through a seam couples its two ends), until none
+/// does.
+fn split_far(pattern: &BlockPattern, mut lines: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
+    loop {
+        let (reach, _) = couplings(pattern, &lines);
+        if reach.iter().zip(&lines).all(|(&r, l)| r <= FAR || l.len() < 4) {
+            return lines;
+        }
+        lines = lines
+            .into_iter()
+            .zip(reach)
+            .flat_map(|(l, r)| {
+                if r <= FAR || l.len() < 4 {
+                    vec![l]
+                } else {
+                    let half = l.len() / 2;
+                    vec![l[..half].to_vec(), l[half..].to_vec()]
+                }
+            })
+            .collect();
+    }
+}
+
 impl Family {
     fn new(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Self {
-        let n = pattern.nodes();
-        let (mut seg_of, mut pos) = (vec![u32::MAX; n], vec![0u32; n]);
-        for (s, nodes) in lines.iter().enumerate() {
-            for (k, &p) in nodes.iter().enumerate() {
-                seg_of[p as usize] = s as u32;
-                pos[p as usize] = k as u32;
-            }
-        }
+        let lines = split_far(pattern, lines);
         // The widest coupling along a segment, and which segments couple, from the pattern.
-        let rows = pattern.block_rows();
-        let mut reach = 0;
-        let mut edges = Vec::new();
-        for j in 0..n {
-            let (s, e) = pattern.column(j);
-            for &i in &rows[s..e] {
-                let (si, sj) = (seg_of[i], seg_of[j]);
-                if si == sj {
-                    reach = reach.max((pos[i] as i64 - pos[j] as i64).unsigned_abs() as usize);
-                } else {
-                    edges.push((si.min(sj), si.max(sj)));
-                }
-            }
-        }
+        let (reaches, mut edges) = couplings(pattern, &lines);
+        let reach = reaches.into_iter().max().unwrap_or(0);
         edges.sort_unstable();
         edges.dedup();
         let count = lines.len();
@@ -213,7 +258,7 @@ impl Family {
 
 /// The lines along direction `d` (0: `u1`, fixed `j`; 1: `u2`, fixed `i`) of an `m × n` grid, periodic ones
 /// split in two.
-fn lines(m: usize, n: usize, d: usize, topology: Topology) -> Vec<Vec<u32>> {
+pub(crate) fn grid_lines(m: usize, n: usize, d: usize, topology: Topology) -> Vec<Vec<u32>> {
     let (count, len) = if d == 0 { (n, m) } else { (m, n) };
     let node = |line: usize, k: usize| if d == 0 { (k + m * line) as u32 } else { (line + m * k) as u32 };
     let mut out = Vec::new();
@@ -231,10 +276,11 @@ fn lines(m: usize, n: usize, d: usize, topology: Topology) -> Vec<Vec<u32>> {
 }
 
 impl LineSmoother {
-    /// The smoother of an `m × n` level with `pattern`; `masked` nodes are never changed.
-    pub(crate) fn new(pattern: &BlockPattern, m: usize, n: usize, topology: [Topology; 2], masked: &[bool]) -> Self {
-        let families =
-            [Family::new(pattern, lines(m, n, 0, topology[0])), Family::new(pattern, lines(m, n, 1, topology[1]))];
+    /// The smoother of a level with `pattern` relaxing `lines` (the `u1` lines and the `u2` lines of its
+    /// panels, each node on one line of each); `masked` nodes are never changed.
+    pub(crate) fn new(pattern: &BlockPattern, lines: [Vec<Vec<u32>>; 2], masked: &[bool]) -> Self {
+        let [first, second] = lines;
+        let families = [Family::new(pattern, first), Family::new(pattern, second)];
         Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec() }
     }
 

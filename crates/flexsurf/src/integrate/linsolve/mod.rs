@@ -100,28 +100,12 @@ impl SolverKind {
         }
     }
 
-    /// The concrete solver for a model of `nodes` nodes in `panels` panels: [`SolverKind::resolve`], except
-    /// that `auto` takes Cholesky for several panels (the multigrid hierarchy is built on one grid).
-    pub fn for_panels(self, nodes: usize, panels: usize) -> SolverKind {
-        match (self, self.resolve(nodes)) {
-            (SolverKind::Auto, SolverKind::Multigrid) if panels > 1 => SolverKind::Cholesky,
-            (_, kind) => kind,
-        }
-    }
-
     /// A solver of this kind for `pattern` on the model's `panels` (its analysis done): the one table of the
-    /// linear solvers. The multigrid hierarchy is built on one grid, so `auto` takes Cholesky for a model of
-    /// several panels and `multigrid` refuses one.
+    /// linear solvers. Multigrid coarsens each panel on its own grid.
     pub fn solver(self, pattern: &BlockPattern, panels: &[Panel]) -> Result<Box<dyn BlockSolver>, LinearError> {
-        Ok(match self.for_panels(pattern.nodes(), panels.len()) {
+        Ok(match self.resolve(pattern.nodes()) {
             SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
-            SolverKind::Multigrid => match panels {
-                [one] => Box::new(Multigrid::new(pattern, &one.grid)?),
-                _ => {
-                    let message = format!("the multigrid solver works on one panel; the model has {}", panels.len());
-                    return Err(LinearError::Symbolic(message));
-                }
-            },
+            SolverKind::Multigrid => Box::new(Multigrid::new(pattern, panels)?),
             SolverKind::Pcg => Box::new(Pcg::new(pattern)),
         })
     }

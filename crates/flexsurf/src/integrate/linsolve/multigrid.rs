@@ -19,10 +19,11 @@
 //!   step's increment) and stop at the relative residual [`super::ITERATIVE_TOLERANCE`].
 
 use super::cholesky::Cholesky;
-use super::lines::LineSmoother;
+use super::lines::{grid_lines, LineSmoother};
 use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::grid::{Grid, Topology};
 use crate::math::{Mat3, Vec3};
+use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
 use std::time::Instant;
 
@@ -93,6 +94,71 @@ struct Recipe {
     weight: Vec<f32>,
 }
 
+/// One panel's grid on one level, and the level's node of each of its nodes that it owns (a node joined by a
+/// seam belongs to the first panel that has it; the coarse levels' panels own all their nodes, panel after
+/// panel).
+#[derive(Debug, Clone)]
+struct Shape {
+    m: usize,
+    n: usize,
+    topology: [Topology; 2],
+    nodes: Vec<Option<u32>>,
+}
+
+impl Shape {
+    /// The panels of a model on the finest level.
+    fn of_panels(panels: &[Panel]) -> Vec<Shape> {
+        let mut owned = std::collections::BTreeSet::new();
+        let shape = |p: &Panel| {
+            let nodes = p.nodes().iter().map(|&k| owned.insert(k).then_some(k as u32)).collect();
+            Shape { m: p.grid.m, n: p.grid.n, topology: p.grid.topology, nodes }
+        };
+        panels.iter().map(shape).collect()
+    }
+
+    /// Grids of `(m, n, topology)` owning their nodes, panel after panel.
+    fn contiguous(grids: impl Iterator<Item = (usize, usize, [Topology; 2])>) -> Vec<Shape> {
+        let mut offset = 0u32;
+        grids
+            .map(|(m, n, topology)| {
+                let nodes = (offset..offset + (m * n) as u32).map(Some).collect();
+                offset += (m * n) as u32;
+                Shape { m, n, topology, nodes }
+            })
+            .collect()
+    }
+
+    /// Owned nodes.
+    fn owned(&self) -> usize {
+        self.nodes.iter().flatten().count()
+    }
+
+    /// The `u1` lines and the `u2` lines of every panel, over the nodes it owns.
+    fn lines(shapes: &[Shape]) -> [Vec<Vec<u32>>; 2] {
+        [0, 1].map(|d| {
+            shapes
+                .iter()
+                .flat_map(|s| {
+                    grid_lines(s.m, s.n, d, s.topology[d])
+                        .into_iter()
+                        .map(|l| l.iter().filter_map(|&k| s.nodes[k as usize]).collect::<Vec<u32>>())
+                })
+                .filter(|l| !l.is_empty())
+                .collect()
+        })
+    }
+
+    /// The two directions' halvings, or `None` when neither direction can be halved.
+    fn halve(&self) -> Option<(Transfer1d, Transfer1d)> {
+        let t1 = Transfer1d::halve(self.m, self.topology[0]);
+        let t2 = Transfer1d::halve(self.n, self.topology[1]);
+        if t1.is_none() && t2.is_none() {
+            return None;
+        }
+        Some((t1.unwrap_or_else(|| Transfer1d::identity(self.m)), t2.unwrap_or_else(|| Transfer1d::identity(self.n))))
+    }
+}
+
 /// One level below the finest: its operator, the transfer from the level above, its smoother and vectors.
 struct Level {
     pattern: BlockPattern,
@@ -112,7 +178,8 @@ struct Level {
 pub struct Multigrid {
     /// The finest level's system with the fixed unknowns eliminated, and conjugate gradients on it.
     system: Reduced,
-    grid: Grid,
+    /// The panels on the finest level.
+    shapes: Vec<Shape>,
     /// The finest level's smoother (and its matrix by rows), built at the first solve.
     fine: Option<LineSmoother>,
     coarse: Coarse,
@@ -134,18 +201,29 @@ impl Multigrid {
     /// Most conjugate-gradient iterations of one solve.
     pub const MAX_ITERATIONS: usize = 200;
 
-    /// Buffers for `pattern` on `grid` (the hierarchy is built at the first solve, for its fixed set).
-    pub fn new(pattern: &BlockPattern, grid: &Grid) -> Result<Self, LinearError> {
+    /// Buffers for `pattern` on a model's `panels` (the hierarchy is built at the first solve, for its fixed
+    /// set): each panel is coarsened on its own grid, a node joined by a seam with the first panel that has it;
+    /// the Galerkin products carry every coupling between panels to the coarse levels.
+    pub fn new(pattern: &BlockPattern, panels: &[Panel]) -> Result<Self, LinearError> {
+        Self::on_shapes(pattern, Shape::of_panels(panels))
+    }
+
+    /// As [`Multigrid::new`] for one grid whose nodes are the pattern's.
+    pub fn on_grid(pattern: &BlockPattern, grid: &Grid) -> Result<Self, LinearError> {
+        Self::on_shapes(pattern, Shape::contiguous(std::iter::once((grid.m, grid.n, grid.topology))))
+    }
+
+    fn on_shapes(pattern: &BlockPattern, shapes: Vec<Shape>) -> Result<Self, LinearError> {
         let n = pattern.nodes();
-        if grid.len() != n {
+        let owned: usize = shapes.iter().map(Shape::owned).sum();
+        if owned != n || shapes.iter().flat_map(|s| s.nodes.iter().flatten()).any(|&k| k as usize >= n) {
             return Err(LinearError::Symbolic(format!(
-                "the multigrid solver needs one unknown per grid node ({} nodes, {n} unknowns)",
-                grid.len()
+                "the multigrid solver needs one unknown per panel node ({owned} nodes, {n} unknowns)"
             )));
         }
         Ok(Self {
             system: Reduced::new(pattern),
-            grid: *grid,
+            shapes,
             fine: None,
             coarse: Coarse { levels: Vec::new(), coarsest: None, fine_r: vec![Vec3::ZERO; n], line_rhs: Vec::new() },
             built_fixed: Vec::new(),
@@ -161,22 +239,30 @@ impl Multigrid {
     fn build(&mut self, fixed: &[bool]) -> Result<(), LinearError> {
         let c = &mut self.coarse;
         c.levels.clear();
-        let (mut m, mut n) = (self.grid.m, self.grid.n);
-        let topology = self.grid.topology;
-        self.fine = Some(LineSmoother::new(self.system.pattern(), m, n, topology, fixed));
+        let mut shapes = self.shapes.clone();
+        self.fine = Some(LineSmoother::new(self.system.pattern(), Shape::lines(&shapes), fixed));
         let mut free: Vec<bool> = fixed.iter().map(|&f| !f).collect();
-        while m * n > Self::COARSEST_NODES {
-            let t1 = Transfer1d::halve(m, topology[0]);
-            let t2 = Transfer1d::halve(n, topology[1]);
-            if t1.is_none() && t2.is_none() {
+        let mut nodes = self.system.pattern().nodes();
+        while nodes > Self::COARSEST_NODES {
+            let transfers: Vec<(Transfer1d, Transfer1d)> = match shapes.iter().map(Shape::halve).collect() {
+                Some(t) => t,
+                None if shapes.len() == 1 => break,
+                // Several panels: halve those that can, keep the others.
+                None => shapes
+                    .iter()
+                    .map(|s| s.halve().unwrap_or_else(|| (Transfer1d::identity(s.m), Transfer1d::identity(s.n))))
+                    .collect(),
+            };
+            let coarse =
+                Shape::contiguous(shapes.iter().zip(&transfers).map(|(s, t)| (t.0.coarse, t.1.coarse, s.topology)));
+            let coarse_nodes: usize = coarse.iter().map(Shape::owned).sum();
+            if coarse_nodes == nodes {
                 break;
             }
-            let t1 = t1.unwrap_or_else(|| Transfer1d::identity(m));
-            let t2 = t2.unwrap_or_else(|| Transfer1d::identity(n));
             let fine = c.levels.last().map_or(self.system.pattern(), |l| &l.pattern);
-            let level = Level::new(fine, &free, m, n, &t1, &t2, topology);
+            let level = Level::new(fine, &free, &shapes, &transfers, &coarse);
             free = vec![true; level.pattern.nodes()];
-            (m, n) = (t1.coarse, t2.coarse);
+            (shapes, nodes) = (coarse, coarse_nodes);
             c.levels.push(level);
         }
         c.coarsest = match c.levels.last() {
@@ -256,24 +342,21 @@ impl Level {
         }
     }
 
-    /// The level below a fine level of `m × n` nodes (`free`: nodes with a row in `P`) with the transfers of
-    /// its two directions.
+    /// The level below a fine level of panels `shapes` (`free`: nodes with a row in `P`) with the transfers of
+    /// each panel's two directions, onto the panels `coarse`.
     fn new(
         fine: &BlockPattern,
         free: &[bool],
-        m: usize,
-        n: usize,
-        t1: &Transfer1d,
-        t2: &Transfer1d,
-        topology: [Topology; 2],
+        shapes: &[Shape],
+        transfers: &[(Transfer1d, Transfer1d)],
+        coarse: &[Shape],
     ) -> Self {
-        let mc = t1.coarse;
-        let nodes = mc * t2.coarse;
-        let (p_start, p_node, p_weight) = prolongation(free, m, n, t1, t2);
+        let nodes = coarse.iter().map(Shape::owned).sum();
+        let (p_start, p_node, p_weight) = prolongation(free, shapes, transfers, coarse);
         let parents =
             |k: usize| (p_start[k] as usize..p_start[k + 1] as usize).map(|e| (p_node[e] as usize, p_weight[e]));
         let (pattern, recipe) = recipe(nodes, galerkin_entries(fine, parents));
-        let smoother = LineSmoother::new(&pattern, mc, t2.coarse, topology, &vec![false; nodes]);
+        let smoother = LineSmoother::new(&pattern, Shape::lines(coarse), &vec![false; nodes]);
         Self {
             a: BlockMatrix::zeros(&pattern),
             pattern,
@@ -328,26 +411,37 @@ impl Level {
     }
 }
 
-/// The rows of `P` of a fine level of `m × n` nodes (`free`: the nodes that have one): the tensor product of
-/// the two directions' parents, as (row starts, coarse nodes, weights).
-fn prolongation(free: &[bool], m: usize, n: usize, t1: &Transfer1d, t2: &Transfer1d) -> (Vec<u32>, Vec<u32>, Vec<f64>) {
-    let mc = t1.coarse;
-    let mut p_start = Vec::with_capacity(m * n + 1);
-    let mut p_node = Vec::new();
-    let mut p_weight = Vec::new();
-    p_start.push(0u32);
-    for j in 0..n {
-        for i in 0..m {
-            if free[i + m * j] {
-                for &(ci, wi) in t1.parents(i) {
-                    for &(cj, wj) in t2.parents(j) {
-                        p_node.push((ci + mc * cj) as u32);
-                        p_weight.push(wi * wj);
-                    }
+/// The rows of `P` of a fine level of panels `shapes` (`free`: the nodes that have one) onto the panels
+/// `coarse`: for each node, the tensor product of its owning panel's two directions' parents, as (row starts,
+/// coarse nodes, weights) in the fine level's node order.
+fn prolongation(
+    free: &[bool],
+    shapes: &[Shape],
+    transfers: &[(Transfer1d, Transfer1d)],
+    coarse: &[Shape],
+) -> (Vec<u32>, Vec<u32>, Vec<f64>) {
+    let mut rows: Vec<Vec<(u32, f64)>> = vec![Vec::new(); free.len()];
+    for ((s, (t1, t2)), c) in shapes.iter().zip(transfers).zip(coarse) {
+        let mc = t1.coarse;
+        for (local, node) in s.nodes.iter().enumerate() {
+            let Some(k) = node.map(|k| k as usize).filter(|&k| free[k]) else { continue };
+            let (i, j) = (local % s.m, local / s.m);
+            for &(ci, wi) in t1.parents(i) {
+                for &(cj, wj) in t2.parents(j) {
+                    rows[k].push((c.nodes[ci + mc * cj].expect("coarse panels own their nodes"), wi * wj));
                 }
             }
-            p_start.push(p_node.len() as u32);
         }
+    }
+    let mut p_start = Vec::with_capacity(free.len() + 1);
+    p_start.push(0u32);
+    let (mut p_node, mut p_weight) = (Vec::new(), Vec::new());
+    for row in rows {
+        for (node, w) in row {
+            p_node.push(node);
+            p_weight.push(w);
+        }
+        p_start.push(p_node.len() as u32);
     }
     (p_start, p_node, p_weight)
 }
@@ -483,7 +577,7 @@ mod tests {
         for topology in [[Topology::Free; 2], [Topology::Periodic, Topology::Free]] {
             let (pattern, a, grid) = step_matrix(41, topology);
             let fixed = vec![false; pattern.nodes()];
-            let mut mg = Multigrid::new(&pattern, &grid).unwrap();
+            let mut mg = Multigrid::on_grid(&pattern, &grid).unwrap();
             mg.build(&fixed).unwrap();
             mg.coarse.refill(&a).unwrap();
             let level = &mg.coarse.levels[0];
@@ -517,7 +611,7 @@ mod tests {
         let mut x_direct = vec![Vec3::ZERO; b.len()];
         Cholesky::new(&pattern).unwrap().solve(&a, &fixed, &b, &mut x_direct, Reuse::Fresh).unwrap();
         let mut x = vec![Vec3::ZERO; b.len()];
-        let stats = Multigrid::new(&pattern, &grid).unwrap().solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
+        let stats = Multigrid::on_grid(&pattern, &grid).unwrap().solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
         let scale = x_direct.iter().map(|w| w.length()).fold(0.0, f64::max);
         let err = x.iter().zip(&x_direct).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
         assert!(

@@ -1,5 +1,6 @@
 //! `animation.glb` at the end of a run: the animated glTF of [`crate::io::glb`] (the display surface of every
-//! panel, merged into the one cloth mesh, at every output step) with the obstacles. It needs every frame, so
+//! panel, merged into the one cloth mesh, at every animation step: `output.animation_every`, every output step
+//! among them) with the obstacles. It needs every frame, so
 //! the frames' display fields are kept in memory (single precision: about 52 bytes per display vertex and
 //! frame) and in checkpoints.
 

@@ -7,8 +7,12 @@
 //! - [`frames`]: a Coons-tessellated frame at every output step (`frames/frame_NNNNN.obj`, `.ply` or `.gltf`);
 //! - [`energy`]: `energy.csv`, one row per step, appended and flushed as the run goes, and `energy.png`;
 //! - [`snapshots`]: `snapshots.png`, shaded pictures of up to [`MAX_SNAPSHOTS`] output steps;
-//! - [`vtk`]: the ParaView series `vtk/frame_NNNNN.vtu`, `animation.pvd` and `vtk/obstacles.vtu`;
-//! - [`glb`]: `animation.glb`, the animated glTF of every output step, written at the end.
+//! - [`vtk`]: the ParaView series `vtk/frame_NNNNN.vtu` at every animation step, `animation.pvd` and
+//!   `vtk/obstacles.vtu`;
+//! - [`glb`]: `animation.glb`, the animated glTF of every animation step, written at the end.
+//!
+//! The output steps (`time.output_every`) have a frame file and may be pictured; the animation steps
+//! (`output.animation_every`, every output step among them) are the frames of the animation and its fields.
 //!
 //! Adding an output is one file here (a type implementing [`Output`]) and one line in [`standard`].
 
@@ -45,7 +49,8 @@ pub trait Output {
     /// state [`Output::save`] gave at the checkpoint.
     fn start(&mut self, saved: Option<&OutputState>) -> Result<(), RunError>;
 
-    /// Records a step (every step; [`Frame::mesh`] is there at the output steps).
+    /// Records a step (every step; [`Frame::mesh`] is there at the output steps, [`Frame::fields`] at the
+    /// animation steps).
     fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError>;
 
     /// Its state for a checkpoint: what [`Output::start`] needs to go on byte-identically.
@@ -90,31 +95,36 @@ impl OutputState {
     }
 }
 
-/// What the outputs of a run share: the scene, the folder and the output steps.
+/// What the outputs of a run share: the scene, the folder, the output steps and the animation steps.
 #[derive(Debug, Clone)]
 pub struct Context<'a> {
     /// The scene run.
     pub scene: &'a Scene,
     /// The output folder.
     pub out: PathBuf,
-    /// The output steps (sorted): the steps with a frame.
+    /// The output steps (sorted): the steps with a frame file.
     pub steps: Vec<usize>,
+    /// The animation steps (sorted, every output step among them): the frames of the animation.
+    pub animation: Vec<usize>,
 }
 
-/// One recorded step: the state and, at an output step, its display mesh and fields.
+/// One recorded step: the state and, at an output step, its display mesh; at an animation step, its fields.
 pub struct Frame<'a> {
     /// The state reached.
     pub state: &'a State,
     /// The Coons-tessellated display mesh of every panel (merged), at an output step only.
     pub mesh: Option<&'a TriMesh>,
+    /// The same mesh at every animation step (an output step included).
+    display: Option<&'a TriMesh>,
     scene: &'a Scene,
     fields: OnceCell<FrameFields>,
 }
 
 impl Frame<'_> {
-    /// The display fields of an output step, computed once for all outputs; `None` between output steps.
+    /// The display fields of an animation step (every output step is one), computed once for all outputs;
+    /// `None` between animation steps.
     pub fn fields(&self) -> Option<&FrameFields> {
-        let mesh = self.mesh?;
+        let mesh = self.display?;
         let k = self.scene.output.coons_subdivisions.max(1);
         Some(self.fields.get_or_init(|| frame_fields(&self.scene.model, self.state, mesh, k)))
     }
@@ -162,13 +172,19 @@ impl<'a> Outputs<'a> {
         Ok(())
     }
 
-    /// Records `state` in every output, with its display mesh at an output step.
+    /// Records `state` in every output, with its display mesh at an animation step (and as the frame's mesh at
+    /// an output step).
     pub fn record(&mut self, state: &State) -> Result<(), RunError> {
         let scene = self.cx.scene;
         let k = scene.output.coons_subdivisions;
-        let mesh =
-            self.cx.steps.binary_search(&state.step).is_ok().then(|| display_mesh(&scene.model.panels, &state.x, k));
-        let frame = Frame { state, mesh: mesh.as_ref(), scene, fields: OnceCell::new() };
+        let display = self
+            .cx
+            .animation
+            .binary_search(&state.step)
+            .is_ok()
+            .then(|| display_mesh(&scene.model.panels, &state.x, k));
+        let mesh = display.as_ref().filter(|_| self.cx.steps.binary_search(&state.step).is_ok());
+        let frame = Frame { state, mesh, display: display.as_ref(), scene, fields: OnceCell::new() };
         self.list.iter_mut().try_for_each(|o| o.record(&frame))
     }
 
@@ -197,6 +213,15 @@ pub fn output_steps(steps: usize, every: usize) -> Vec<usize> {
     v
 }
 
+/// The animation steps of a run: 0, every `animation_every` steps, every output step and the last step.
+pub fn animation_steps(steps: usize, output_every: usize, animation_every: usize) -> Vec<usize> {
+    let mut v = output_steps(steps, animation_every);
+    v.extend(output_steps(steps, output_every));
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -206,5 +231,12 @@ mod tests {
         assert_eq!(output_steps(300, 100), vec![0, 100, 200, 300]);
         assert_eq!(output_steps(250, 100), vec![0, 100, 200, 250]);
         assert_eq!(output_steps(5, 0), vec![0, 1, 2, 3, 4, 5]);
+    }
+
+    #[test]
+    fn animation_steps_hold_every_output_step() {
+        assert_eq!(animation_steps(12, 5, 4), vec![0, 4, 5, 8, 10, 12]);
+        assert_eq!(animation_steps(300, 100, 5).len(), 61);
+        assert_eq!(animation_steps(7, 7, 100), vec![0, 7]);
     }
 }

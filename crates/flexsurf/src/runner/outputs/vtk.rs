@@ -1,4 +1,4 @@
-//! The ParaView series of a run, written as it goes: `vtk/frame_NNNNN.vtu` at every output step (the display
+//! The ParaView series of a run, written as it goes: `vtk/frame_NNNNN.vtu` at every animation step (the display
 //! surface of every panel, merged, with point data `velocity`, `strain`, `contact_pressure` and `uv`),
 //! `vtk/obstacles.vtu` once at the start, and `animation.pvd`, the time series, rewritten after every frame (so
 //! a run in progress opens too, and the viewer shows it).
@@ -19,7 +19,7 @@ pub const VTK_DIR: &str = "vtk";
 /// The obstacles' `.vtu`, relative to the output folder.
 pub const OBSTACLES_VTU: &str = "vtk/obstacles.vtu";
 
-/// The `.vtu` of the output step `step`, relative to the output folder.
+/// The `.vtu` of the animation step `step`, relative to the output folder.
 pub fn vtu_file(step: usize) -> String {
     format!("{VTK_DIR}/frame_{step:05}.vtu")
 }
@@ -34,6 +34,7 @@ pub(super) fn scene_obstacles(scene: &Scene) -> Vec<(String, TriMesh, bool)> {
 pub struct VtkSeries<'a> {
     scene: &'a Scene,
     out: PathBuf,
+    /// The animation steps: one `.vtu` each.
     steps: Vec<usize>,
     topology: DisplayTopology,
     /// The series so far: (time, file).
@@ -44,7 +45,7 @@ impl<'a> VtkSeries<'a> {
     /// The series of the run `cx`.
     pub fn new(cx: &Context<'a>) -> Self {
         let topology = display_topology(&cx.scene.model.panels, cx.scene.output.coons_subdivisions.max(1));
-        Self { scene: cx.scene, out: cx.out.clone(), steps: cx.steps.clone(), topology, pvd: Vec::new() }
+        Self { scene: cx.scene, out: cx.out.clone(), steps: cx.animation.clone(), topology, pvd: Vec::new() }
     }
 
     fn write_obstacles(&self) -> Result<(), RunError> {
