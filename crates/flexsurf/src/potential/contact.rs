@@ -521,18 +521,31 @@ impl ActiveSet for PenaltyContact {
                     }
                 }
             }
-            // A Newton iteration of the step linearises about the iterate with the law's own tangent (its exact,
-            // positive semi-definite Hessian): the step's line search on the incremental potential keeps the
-            // iterations from the stick–slip flip-flop for which the first solve uses the majorant, and the
-            // majorant's iteration all but stalls for a node creeping near the slip speed.
+            // A Newton iteration linearises about the iterate.
             Some(m) => {
+                let eps = self.params.slip_speed * m.dt;
                 for l in &mut s.lagged {
-                    l.at = l.tangential(y[l.node] - m.x[l.node]);
-                    l.majorant = false;
+                    l.linearize(l.tangential(y[l.node] - m.x[l.node]), eps, false);
                 }
             }
             None => s.lagged.clear(),
         }
+    }
+
+    /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
+    /// the largest Coulomb limit `μλ` of the step's contacts (largest over the nodes).
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
+        let Some(m) = cx.motion else { return 0.0 };
+        let eps = self.params.slip_speed * m.dt;
+        let s = self.scratch(scratch);
+        let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);
+        let mut worst: f64 = 0.0;
+        for l in &s.lagged {
+            let law = FrictionLaw { limit: l.limit, eps };
+            let u = l.tangential(y[l.node] - m.x[l.node]);
+            worst = worst.max(l.model_error(&law, u) / scale);
+        }
+        worst
     }
 
     /// Active-set update after a solve giving the correction `delta` of `y`: a contact stays if its linearised
@@ -648,6 +661,10 @@ impl ActiveSet for PenaltyContact {
 
     fn active(&self, scratch: &Scratch) -> usize {
         scratch.get::<ContactScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
+    }
+
+    fn engaged(&self, scratch: &Scratch) -> bool {
+        scratch.get::<ContactScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
     }
 
     /// Deepest penetration below any obstacle's surface (0 when none), in metres.

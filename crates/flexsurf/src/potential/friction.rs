@@ -34,6 +34,10 @@ use crate::math::{outer, Mat3, Vec3};
 /// re-solve per Newton iteration).
 pub const MODEL_TOLERANCE: f64 = 0.05;
 
+/// Friction model error (relative to the largest `μλ`) above which a step makes a Newton correction: a slip reversed or
+/// stopped within the step that the re-solves did not settle.
+pub const NEWTON_TOLERANCE: f64 = 1.0;
+
 /// The smoothed friction of one node: value, gradient and Hessian of `μ λ f₀(|u|)` with respect to the
 /// node's position, for the tangential displacement `u` (already projected with `p`).
 #[derive(Debug, Clone, Copy, PartialEq)]

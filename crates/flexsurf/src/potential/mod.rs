@@ -246,18 +246,30 @@ pub trait Term: Send + Sync + Debug + TermClone {
 }
 
 /// The capability of a term whose support depends on the configuration (contact): it finds the support
-/// before an evaluation, refines it after a solve, and carries
+/// before an evaluation, refines it after a solve, measures how far its linear model is off, and carries
 /// Coulomb friction (lagged in a step, re-lagged by the static solver).
 pub trait ActiveSet {
     /// Finds the configuration-dependent support at `x` (contact detection) into `scratch`.
     fn prepare(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch);
     /// After a solve proposing `x + delta`, updates the support; true if it changed.
     fn refine(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, scratch: &mut Scratch) -> bool;
+    /// How far the term at `x` is from the linear model of it that the last assembly solved with (a lagged
+    /// or linearised law, friction), relative to the term's own force scale; 0 for terms whose model is their
+    /// Newton linearisation. A step makes Newton corrections while this exceeds its tolerance.
+    fn model_error(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
+        0.0
+    }
     /// A node whose straight path from `from` to `to` passed through an obstacle (continuous detection after a
     /// step); `None` when none did.
     fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize>;
     /// How many constraints are active in `scratch` (touching contacts).
     fn active(&self, scratch: &Scratch) -> usize;
+    /// Whether the support in `scratch` holds anything a step's solve used: a contact record (touching, or
+    /// predicted from the motion) or lagged friction. Such a step takes the contact steps' Newton rule
+    /// ([`crate::integrate::Stepper::step`]).
+    fn engaged(&self, scratch: &Scratch) -> bool {
+        self.active(scratch) > 0
+    }
     /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
     fn violation(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64;
     /// Forgets the warm start and the support (the next evaluation starts cold); what a static solve lagged
@@ -624,6 +636,20 @@ impl Potential {
     /// Every term's [`Term::coulomb`] limits at `x`.
     pub fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
         self.active_sets().flat_map(|(_, a)| a.coulomb(x)).collect()
+    }
+
+    /// Largest [`Term::model_error`] over every term at `x`.
+    pub fn model_error(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
+        let mut worst: f64 = 0.0;
+        for (t, a) in self.active_sets() {
+            worst = worst.max(a.model_error(x, cx, &mut ws.scratch[t]));
+        }
+        worst
+    }
+
+    /// Whether any term's active set in `ws` holds a contact record or lagged friction ([`ActiveSet::engaged`]).
+    pub fn engaged(&self, ws: &Workspace) -> bool {
+        self.active_sets().any(|(t, a)| a.engaged(&ws.scratch[t]))
     }
 
     /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.

@@ -57,8 +57,9 @@ pub struct Checkpoint {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CountersSaved {
     seconds: [f64; 4],
-    /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps.
-    counts: [usize; 7],
+    /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps, contact
+    /// steps.
+    counts: [usize; 8],
     /// The largest final relative Newton residual.
     residual_max: f64,
 }
@@ -67,7 +68,16 @@ impl From<Counters> for CountersSaved {
     fn from(c: Counters) -> Self {
         Self {
             seconds: [c.assembly, c.contact, c.factorization, c.solve],
-            counts: [c.steps, c.solves, c.iterations, c.factorizations, c.resolves, c.corrections, c.unconverged],
+            counts: [
+                c.steps,
+                c.solves,
+                c.iterations,
+                c.factorizations,
+                c.resolves,
+                c.corrections,
+                c.unconverged,
+                c.contact_steps,
+            ],
             residual_max: c.residual_max,
         }
     }
@@ -76,7 +86,7 @@ impl From<Counters> for CountersSaved {
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
         let [assembly, contact, factorization, solve] = c.seconds;
-        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged] = c.counts;
+        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps] = c.counts;
         Counters {
             assembly,
             contact,
@@ -89,6 +99,7 @@ impl From<CountersSaved> for Counters {
             resolves,
             corrections,
             unconverged,
+            contact_steps,
             residual_max: c.residual_max,
         }
     }
