@@ -5,12 +5,14 @@
 //! call [`ModelBuilder::build`]. Afterwards it is read by the integrators; between steps a script may move a
 //! pinned node ([`Model::move_pin`]) or a spring's target ([`Model::set_spring_target`]), nothing else.
 
+use crate::contact::proximity::Faces;
 use crate::contact::Obstacle;
 use crate::grid::Grid;
 use crate::material::{Fabric, Stiffness};
 use crate::math::{finite, Vec3};
 use crate::potential::contact::{ContactParams, PenaltyContact};
 use crate::potential::external::External;
+use crate::potential::self_contact::{SelfContact, SelfContactParams};
 use crate::potential::springs::Springs;
 use crate::potential::{elastic, Part, Pins, Potential, Term};
 use crate::seam::{self, PanelView, Seam, SeamedEdges, Welds};
@@ -104,6 +106,8 @@ pub struct ModelBuilder {
     pub extra_terms: Vec<Box<dyn Term>>,
     /// Seams joining panel edges node to node ([`crate::seam`]).
     pub seams: Vec<Seam>,
+    /// Contact of the sheet with itself and between panels (`None`: off).
+    pub self_contact: Option<SelfContactParams>,
 }
 
 impl ModelBuilder {
@@ -131,6 +135,7 @@ impl ModelBuilder {
             loads: vec![Vec3::ZERO; n],
             extra_terms: Vec::new(),
             seams: Vec::new(),
+            self_contact: None,
         }
     }
 
@@ -216,6 +221,34 @@ impl ModelBuilder {
         }
         sign("contact.offset", &ranges::CONTACT_OFFSET, c.offset)?;
         sign("contact.friction", &ranges::FRICTION, c.friction)?;
+        self.validate_self_contact()
+    }
+
+    /// Self-contact's stiffness and thickness are positive, and the thickness under half the shortest rest
+    /// edge (closer elements than that are grid neighbours, which never count as contacts).
+    fn validate_self_contact(&self) -> Result<(), ModelError> {
+        let Some(p) = self.self_contact else { return Ok(()) };
+        if !(p.stiffness > 0.0 && p.stiffness.is_finite()) {
+            return Err(model_error("self_contact.stiffness", format!("{} is not a positive stiffness", p.stiffness)));
+        }
+        let shortest = self
+            .panels
+            .iter()
+            .flat_map(|p| {
+                p.grid.cells().flat_map(move |(i, j)| {
+                    let c = p.grid.cell(i, j);
+                    [(0, 1), (0, 2), (1, 3), (2, 3)].map(|(a, b)| (p.rest[c[b]] - p.rest[c[a]]).length())
+                })
+            })
+            .fold(f64::INFINITY, f64::min);
+        if !(p.thickness > 0.0 && p.thickness < 0.5 * shortest) {
+            let message = format!(
+                "{} m is not a thickness between 0 and half the shortest grid edge ({:.4} m)",
+                p.thickness,
+                0.5 * shortest
+            );
+            return Err(model_error("self_contact.thickness", message));
+        }
         Ok(())
     }
 
@@ -246,6 +279,9 @@ impl ModelBuilder {
         }
         if !self.obstacles.is_empty() {
             terms.push(Box::new(PenaltyContact::new(self.obstacles, self.contact, area.clone())));
+        }
+        if let Some(params) = self.self_contact {
+            terms.push(Box::new(SelfContact::new(faces(&panels, n), params, area.clone())));
         }
         terms.extend(self.extra_terms);
         let mut pinned = vec![false; n];
@@ -289,6 +325,11 @@ impl ModelBuilder {
         }
         terms
     }
+}
+
+/// The triangulated surface of every panel over the model's `n` nodes.
+fn faces(panels: &[Panel], n: usize) -> Faces {
+    Faces::new(n, panels.iter().flat_map(|p| p.grid.cells().map(move |(i, j)| p.grid.cell(i, j).map(|k| p.global(k)))))
 }
 
 /// Sums per-panel-node values into the model's nodes (a joined node gets both sides' shares).

@@ -271,3 +271,110 @@ pub fn scratch(suite: &str, tag: &str) -> std::path::PathBuf {
     }
     d
 }
+
+/// The first pair of triangles of `triangles` (node indices into `x`) that share no vertex and intersect,
+/// found with exact orientation predicates (Shewchuk's adaptive arithmetic, the `robust` crate), independently
+/// of the simulator's contact code: two triangles not in one plane intersect exactly when an edge of one
+/// meets the other; touching and degenerate configurations count as intersecting. Candidate pairs come from
+/// sweeping the triangles' boxes along `x`.
+pub fn intersecting_triangles(triangles: &[[usize; 3]], x: &[Vec3]) -> Option<(usize, usize)> {
+    let lo_hi = |t: &[usize; 3]| {
+        let p = t.map(|k| x[k]);
+        (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]))
+    };
+    let boxes: Vec<(Vec3, Vec3)> = triangles.iter().map(lo_hi).collect();
+    let mut order: Vec<usize> = (0..triangles.len()).collect();
+    order.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
+    for (i, &a) in order.iter().enumerate() {
+        for &b in &order[i + 1..] {
+            if boxes[b].0.x > boxes[a].1.x {
+                break;
+            }
+            let overlap = boxes[a].0.cmple(boxes[b].1).all() && boxes[b].0.cmple(boxes[a].1).all();
+            let shared = triangles[a].iter().any(|k| triangles[b].contains(k));
+            if overlap && !shared && triangles_meet(triangles[a].map(|k| x[k]), triangles[b].map(|k| x[k])) {
+                return Some((a.min(b), a.max(b)));
+            }
+        }
+    }
+    None
+}
+
+/// Exact orientation of `d` against the plane of `a, b, c`.
+fn orient(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f64 {
+    let p = |v: Vec3| robust::Coord3D { x: v.x, y: v.y, z: v.z };
+    robust::orient3d(p(a), p(b), p(c), p(d))
+}
+
+/// Whether segment `a b` meets triangle `t` (touching included; a segment in the triangle's plane in the
+/// plane's projection).
+fn segment_meets_triangle(a: Vec3, b: Vec3, t: [Vec3; 3]) -> bool {
+    let (oa, ob) = (orient(t[0], t[1], t[2], a), orient(t[0], t[1], t[2], b));
+    if (oa > 0.0 && ob > 0.0) || (oa < 0.0 && ob < 0.0) {
+        return false;
+    }
+    if oa == 0.0 && ob == 0.0 {
+        return coplanar_meet(&[a, b], &t);
+    }
+    let s = [orient(a, b, t[0], t[1]), orient(a, b, t[1], t[2]), orient(a, b, t[2], t[0])];
+    s.iter().all(|&v| v >= 0.0) || s.iter().all(|&v| v <= 0.0)
+}
+
+/// Whether two triangles meet: an edge of either meets the other (in one plane: in the plane's projection).
+fn triangles_meet(p: [Vec3; 3], q: [Vec3; 3]) -> bool {
+    if q.iter().all(|&v| orient(p[0], p[1], p[2], v) == 0.0) {
+        return coplanar_meet(&p, &q);
+    }
+    let edges = [(0, 1), (1, 2), (2, 0)];
+    edges.iter().any(|&(i, j)| segment_meets_triangle(p[i], p[j], q))
+        || edges.iter().any(|&(i, j)| segment_meets_triangle(q[i], q[j], p))
+}
+
+type Point2 = robust::Coord<f64>;
+
+/// Whether two segments of a plane meet (touching and overlapping collinear segments included).
+fn segments_meet(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
+    let o = |p, q, r| robust::orient2d(p, q, r);
+    let (s1, s2, s3, s4) = (o(a, b, c), o(a, b, d), o(c, d, a), o(c, d, b));
+    if s1 == 0.0 && s2 == 0.0 {
+        // Collinear: their extents overlap along the line.
+        let along = |p: Point2| if (b.x - a.x).abs() >= (b.y - a.y).abs() { p.x } else { p.y };
+        let (lo1, hi1) = (along(a).min(along(b)), along(a).max(along(b)));
+        let (lo2, hi2) = (along(c).min(along(d)), along(c).max(along(d)));
+        return lo1 <= hi2 && lo2 <= hi1;
+    }
+    s1 * s2 <= 0.0 && s3 * s4 <= 0.0
+}
+
+/// Two polygons of one plane (a segment or a triangle each), projected along the plane normal's largest axis:
+/// an edge of one meets an edge of the other, or a vertex of one lies in the other (a triangle).
+fn coplanar_meet(p: &[Vec3], q: &[Vec3]) -> bool {
+    let t = if p.len() == 3 { p } else { q };
+    let n = (t[1] - t[0]).cross(t[2] - t[0]).abs();
+    let drop = if n.x >= n.y && n.x >= n.z {
+        0
+    } else if n.y >= n.z {
+        1
+    } else {
+        2
+    };
+    let flat = |v: &Vec3| {
+        let a = v.to_array();
+        let (u, w) = [(1, 2), (0, 2), (0, 1)][drop];
+        Point2 { x: a[u], y: a[w] }
+    };
+    let (p, q): (Vec<Point2>, Vec<Point2>) = (p.iter().map(flat).collect(), q.iter().map(flat).collect());
+    let edges =
+        |v: &[Point2]| -> Vec<(Point2, Point2)> { (0..v.len()).map(|i| (v[i], v[(i + 1) % v.len()])).collect() };
+    let inside = |v: Point2, t: &[Point2]| {
+        if t.len() < 3 {
+            return false;
+        }
+        let o = |a, b| robust::orient2d(a, b, v);
+        let s = [o(t[0], t[1]), o(t[1], t[2]), o(t[2], t[0])];
+        s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
+    };
+    edges(&p).iter().any(|&(a, b)| edges(&q).iter().any(|&(c, d)| segments_meet(a, b, c, d)))
+        || q.iter().any(|&v| inside(v, &p))
+        || p.iter().any(|&v| inside(v, &q))
+}

@@ -15,6 +15,7 @@ use trimesh::TriMeshBody;
 pub mod mannequin;
 pub mod nurbs;
 pub mod plane;
+pub mod proximity;
 pub mod shape;
 pub mod sphere;
 pub mod trimesh;

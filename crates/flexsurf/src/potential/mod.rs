@@ -21,6 +21,7 @@ pub mod elastic;
 pub mod external;
 pub mod friction;
 pub mod inertia;
+pub mod self_contact;
 pub mod springs;
 
 use crate::contact::Obstacle;

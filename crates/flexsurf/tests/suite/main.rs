@@ -18,6 +18,7 @@ mod resume;
 mod scenarios;
 mod scenes;
 mod seams;
+mod self_contact;
 mod skirt;
 mod solvers;
 mod sparsity;

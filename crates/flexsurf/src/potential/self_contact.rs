@@ -1,0 +1,252 @@
+//! Contact of the sheet with itself and between panels (issue 19): penalty contact between the triangulated
+//! surface's elements ([`crate::contact::proximity`]) that come within the contact thickness `δ` of each
+//! other, a node and a triangle or two edges, in the same step and the same records as obstacle contact.
+//!
+//! Each close pair is one [`Contact`] with a four-node [`Stencil`]: the weights of its closest points (a node
+//! minus the barycentric point of a triangle, the difference of two edges' points), so that `Σ wₖ xₖ` is the
+//! vector between them. The sheet is two-sided, so the direction is taken from the step's start (the pair's
+//! difference vector there, whose side cannot have changed: no crossing is ever accepted), and the gap
+//! `n·Σ wₖ xₖ` is linear in the positions: energy `½ c a (δ − gap)²`, its gradient and its Gauss–Newton
+//! stiffness `c a n nᵀ` spread over the stencil by `wₖ wₗ` (action equals reaction: the weights sum to zero).
+//! The active set is found at the step's start and target, and refined after each solve as for obstacles.
+//!
+//! **Intersection-free.** After a step, every pair is followed along the straight paths of its nodes by
+//! conservative advancement ([`Faces::first_touch`]): a pair that would come within `10⁻³ δ` of touching
+//! fails the step as tunnelled, and the stepper retakes it as two half steps. So the triangulated surface
+//! never passes through itself; the displayed Coons surface stays within its deviation from the triangles
+//! (second order in the grid spacing) of it, so a thickness larger than that deviation keeps it clear too.
+
+use super::contact::{Contact, Other, Stencil};
+use super::friction::MODEL_TOLERANCE;
+use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
+use crate::contact::proximity::{Closest, Faces, Pair};
+use crate::energy::Sink;
+use crate::math::Vec3;
+use serde::Serialize;
+
+/// Self-contact parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SelfContactParams {
+    /// Penalty `c` (N/m³: pressure per compression of the layer).
+    pub stiffness: f64,
+    /// Contact thickness `δ` (m): two elements of the sheet push apart closer than this.
+    pub thickness: f64,
+}
+
+/// Self-contact of the panels' surface.
+#[derive(Debug, Clone)]
+pub struct SelfContact {
+    faces: Faces,
+    params: SelfContactParams,
+    area: Vec<f64>,
+}
+
+/// The term's scratch: the active pairs and the configuration their directions come from.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct SelfScratch {
+    pairs: Vec<Pair>,
+    contacts: Vec<Contact>,
+    /// The step's start (or the static solve's configuration): the pairs' sides.
+    start: Vec<Vec3>,
+}
+
+/// Fraction of the thickness at which continuous detection calls two elements touching.
+pub const TOUCH: f64 = 1e-3;
+
+impl SelfContact {
+    /// Self-contact of `faces` under `params`, nodes of rest area `area`.
+    pub fn new(faces: Faces, params: SelfContactParams, area: Vec<f64>) -> Self {
+        Self { faces, params, area }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &SelfContactParams {
+        &self.params
+    }
+
+    /// The surface's faces.
+    pub fn faces(&self) -> &Faces {
+        &self.faces
+    }
+
+    fn scratch<'s>(&self, scratch: &'s mut Scratch) -> &'s mut SelfScratch {
+        scratch.get_or(SelfScratch::default)
+    }
+
+    /// The active contacts held in `scratch`.
+    pub fn contacts<'s>(&self, scratch: &'s mut Scratch) -> &'s [Contact] {
+        &self.scratch(scratch).contacts
+    }
+
+    /// The contact of a close pair, its direction from `start`.
+    fn record(&self, c: &Closest, start: &[Vec3]) -> Contact {
+        let stencil = Stencil::of(&c.nodes, &c.weights);
+        let before = stencil.point(start);
+        let normal = if before.length() > 1e-12 * self.params.thickness {
+            before.normalize()
+        } else {
+            c.delta.normalize_or(Vec3::Z)
+        };
+        // A node carries its own area; an edge pair the mean of its four nodes' halves.
+        let area = match c.pair {
+            Pair::PointFace(p, _) => self.area[p],
+            Pair::EdgeEdge(..) => 0.125 * c.nodes.iter().map(|&k| self.area[k]).sum::<f64>(),
+        };
+        let stiffness = self.params.stiffness * area;
+        let distance = normal.dot(c.delta);
+        Contact {
+            stencil,
+            other: Other::Sheet,
+            normal,
+            force: stiffness * (self.params.thickness - distance),
+            stiffness,
+            distance,
+            reference: c.delta,
+        }
+    }
+
+    /// Adds the close pairs of `x` not yet held, as contacts; returns the largest force one would have had at
+    /// `at` (the proposal a solve missed them at).
+    fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
+        let mut missed: f64 = 0.0;
+        let fresh: Vec<Closest> = self
+            .faces
+            .close(x, self.params.thickness)
+            .into_iter()
+            .filter(|c| s.pairs.binary_search(&c.pair).is_err())
+            .collect();
+        for c in &fresh {
+            let contact = self.record(c, &s.start);
+            missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
+            s.contacts.push(contact);
+            s.pairs.push(c.pair);
+        }
+        if !fresh.is_empty() {
+            sort(s);
+        }
+        missed
+    }
+}
+
+/// Keeps the pairs and their contacts sorted by pair.
+fn sort(s: &mut SelfScratch) {
+    let mut both: Vec<(Pair, Contact)> = s.pairs.drain(..).zip(s.contacts.drain(..)).collect();
+    both.sort_by_key(|a| a.0);
+    (s.pairs, s.contacts) = both.into_iter().unzip();
+}
+
+impl Term for SelfContact {
+    fn info(&self) -> TermInfo {
+        TermInfo::new("self contact", Stage::Contact, Part::Contact)
+    }
+
+    fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let s = self.scratch(scratch);
+        let mut total = 0.0;
+        for c in &s.contacts {
+            let e = c.energy();
+            sink.energy += e;
+            total += e;
+        }
+        for c in &s.contacts {
+            c.add_to(cx, sink);
+        }
+        total
+    }
+
+    fn active_set(&self) -> Option<&dyn ActiveSet> {
+        Some(self)
+    }
+
+    fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
+        match scratch.get::<SelfScratch>() {
+            Some(c) => {
+                postcard::to_stdvec(c).map(Some).map_err(|e| format!("cannot encode the self-contact state: {e}"))
+            }
+            None if scratch.0.is_none() => Ok(None),
+            None => Err("the self-contact term's scratch is of another kind".into()),
+        }
+    }
+
+    fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
+        match saved {
+            None => scratch.clear(),
+            Some(bytes) => {
+                let s: SelfScratch =
+                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the self-contact state: {e}"))?;
+                let n = self.area.len();
+                let fits = s.pairs.len() == s.contacts.len()
+                    && (s.start.is_empty() || s.start.len() == n)
+                    && s.contacts
+                        .iter()
+                        .all(|c| (1..=4).contains(&c.stencil.len) && c.stencil.nodes.iter().all(|&k| k < n));
+                if !fits {
+                    return Err(format!("the saved self-contact state does not fit the model ({n} nodes)"));
+                }
+                scratch.set(s);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ActiveSet for SelfContact {
+    /// The close pairs at `y` and, in the first assembly of a step, at its target `ŷ`; their directions from
+    /// the step's start.
+    fn prepare(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) {
+        let s = self.scratch(scratch);
+        match cx.motion {
+            Some(m) if m.predict => s.start = m.x.to_vec(),
+            Some(_) if s.start.len() == y.len() => {}
+            _ => s.start = y.to_vec(),
+        }
+        s.pairs.clear();
+        s.contacts.clear();
+        self.add_close(s, y, y);
+        if let Some(m) = cx.motion.filter(|m| m.predict) {
+            self.add_close(s, m.target, y);
+        }
+    }
+
+    /// After a solve proposing `y + delta`: a contact stays while its gap there is inside the layer; the pairs
+    /// close at the proposal join. True when the forces the solve got wrong exceed the tolerance of the
+    /// step's largest contact force (as for obstacles).
+    fn refine(&self, y: &[Vec3], delta: &[Vec3], _cx: &Context, scratch: &mut Scratch) -> bool {
+        let s = self.scratch(scratch);
+        let z: Vec<Vec3> = y.iter().zip(delta).map(|(a, b)| *a + *b).collect();
+        let largest = s.contacts.iter().map(|c| c.force.abs()).fold(0.0, f64::max);
+        let tolerance = MODEL_TOLERANCE * largest;
+        let thickness = self.params.thickness;
+        let mut changed = false;
+        let mut kept = Vec::with_capacity(s.contacts.len());
+        for (pair, c) in s.pairs.iter().zip(&s.contacts) {
+            let gap = c.gap(c.stencil.point(&z));
+            if gap < thickness {
+                kept.push((*pair, *c));
+            } else if c.stiffness * (gap - thickness) > tolerance {
+                changed = true;
+            }
+        }
+        (s.pairs, s.contacts) = kept.into_iter().unzip();
+        let missed = self.add_close(s, &z, &z);
+        changed || (missed > tolerance && missed > 0.0)
+    }
+
+    /// The first node of a pair whose elements would come within `10⁻³ δ` of each other on the straight
+    /// paths from `from` to `to`.
+    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
+        self.faces.first_touch(from, to, TOUCH * self.params.thickness).map(|(pair, _)| match pair {
+            Pair::PointFace(p, _) => p,
+            Pair::EdgeEdge(e, _) => self.faces.edges[e][0],
+        })
+    }
+
+    fn active(&self, scratch: &Scratch) -> usize {
+        scratch.get::<SelfScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
+    }
+
+    /// Self-contact has no penetration to measure: its distances are unsigned and no crossing is accepted.
+    fn violation(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
+        0.0
+    }
+}
