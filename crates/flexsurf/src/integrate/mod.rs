@@ -14,7 +14,8 @@
 //!
 //! That solve is the first Newton iteration on the incremental potential; for the linearised and the BDF2
 //! scheme, Newton corrections with a line search on `Φ` follow until the residual is small relative to the
-//! step's own forces ([`Stepper::step`]).
+//! step's own forces in a step without contact, and at most one correction, at an impact, in a contact step
+//! ([`Stepper::step`]).
 //!
 //! The parameters of a step are one [`StepParams`]; a run is a [`Method`]: a dynamic integration or a static
 //! solve ([`statics`]).
@@ -427,13 +428,14 @@ impl Stepper {
     }
 
     /// Advances `state` by `params.dt`: Newton's method on the step's incremental potential `Φ` (docs/model.md
-    /// §8.5). The first iteration is the linearised step (46)–(48) with the positive semi-definite `K(x_t)`;
-    /// while the residual of the implicit equation at the iterate, relative to the step's own force scale
-    /// (inertial, elastic and other forces at the start, the weight as a floor; mass-weighted norms), exceeds
-    /// [`StepParams::newton_tolerance`], a correction follows with the matrix at the iterate, taken by a line
-    /// search that never raises `Φ` (at most [`StepParams::newton_iterations`] iterations in all; the outcome
-    /// is [`StepInfo::newton`]). Large rotations within one step then leave no spurious stretch to brake them.
-    /// Contact is implicit: the penalty stiffness is in the matrix for every node inside
+    /// §8.5). The first iteration is the linearised step (46)–(48) with the positive semi-definite `K(x_t)`.
+    /// In a step without contact, while the residual of the implicit equation at the iterate, relative to each
+    /// panel's own force scale (inertial, elastic and other forces at the start, the weight as a floor;
+    /// mass-weighted norms), exceeds [`StepParams::newton_tolerance`], a correction follows with the matrix at
+    /// the iterate, taken by a line search that never raises `Φ` (at most [`StepParams::newton_iterations`]
+    /// iterations in all): large rotations within one step then leave no spurious stretch to brake them. A
+    /// contact step makes at most one correction, at an impact ([`StepParams::contact_correction`]), and is not
+    /// converged. The outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every node inside
     /// the contact layer at the start of the step or predicted to enter it, and the active set is corrected by
     /// re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
     ///
