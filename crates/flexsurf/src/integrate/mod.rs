@@ -12,9 +12,15 @@
 //!   (stable only below about `h/√(A11/ρ)`, 9e-5 s on the 1 m, 21×21 demo sheet) and detects its own
 //!   divergence.
 //!
+//! That solve is the first Newton iteration on the incremental potential; for the linearised and the BDF2
+//! scheme, Newton corrections with a line search on `Φ` follow until the residual is small relative to the
+//! step's own forces in a step without contact, and at most one correction, at an impact, in a contact step
+//! ([`Stepper::step`]).
+//!
 //! The parameters of a step are one [`StepParams`]; a run is a [`Method`]: a dynamic integration or a static
 //! solve ([`statics`]).
 
+mod descent;
 pub mod linsolve;
 pub mod params;
 pub mod statics;
@@ -25,7 +31,7 @@ use crate::energy::Operator;
 use crate::math::{finite, Vec3};
 use crate::model::{Energies, Model};
 use crate::potential::inertia::Inertia;
-use crate::potential::{Motion, Stage, Values, Want, Workspace};
+use crate::potential::{Motion, Values, Want, Workspace};
 use crate::state::State;
 use linsolve::{LinearError, LinearSolver, Reuse};
 pub use params::{Bounds, Method, Scheme, StepParams};
@@ -101,8 +107,16 @@ pub struct Counters {
     pub factorizations: usize,
     /// Re-solves of a Newton iteration because an active set (contact, friction) changed.
     pub resolves: usize,
-    /// Newton corrections after the linearised step.
+    /// Newton corrections after the linearised step (Newton iterations beyond the first of each step).
     pub corrections: usize,
+    /// Steps whose Newton iterations stopped above [`StepParams::newton_tolerance`] (at the iteration cap,
+    /// where no step along the solved increment lowered the incremental potential, or a contact step, which is
+    /// not iterated to the tolerance: [`NewtonReport::contact`]).
+    pub unconverged: usize,
+    /// Steps that took the contact steps' Newton rule ([`NewtonReport::contact`]).
+    pub contact_steps: usize,
+    /// Largest final relative residual of a step's Newton iterations ([`NewtonReport::residual`]).
+    pub residual_max: f64,
 }
 
 impl Counters {
@@ -118,6 +132,9 @@ impl Counters {
         self.factorizations += other.factorizations;
         self.resolves += other.resolves;
         self.corrections += other.corrections;
+        self.unconverged += other.unconverged;
+        self.contact_steps += other.contact_steps;
+        self.residual_max = self.residual_max.max(other.residual_max);
     }
 }
 
@@ -134,6 +151,36 @@ pub struct StepInfo {
     pub max_penetration: f64,
     /// This step's seconds per stage (`steps` = 1, `solves` its linear solves).
     pub timings: Counters,
+    /// How the step's Newton iterations ended.
+    pub newton: NewtonReport,
+}
+
+/// How the Newton iterations of a step on its incremental potential ended (docs/model.md §8.5).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct NewtonReport {
+    /// Newton iterations, the linearised step included (of both half steps, for a split step).
+    pub iterations: usize,
+    /// The final residual of the implicit equation relative to the step's force scale
+    /// ([`StepParams::newton_tolerance`]); 0 where it is not measured (the lagged scheme, a potential with a
+    /// non-conservative term: neither has the Jacobian Newton needs, so they make the linearised step alone).
+    pub residual: f64,
+    /// The residual reached the tolerance.
+    pub converged: bool,
+    /// The step had an active contact or friction set after its first solve and took the contact steps' rule
+    /// (at most one correction, [`StepParams::contact_correction`]) instead of iterating to the tolerance.
+    pub contact: bool,
+}
+
+impl NewtonReport {
+    /// The report of a step taken as `self` and then `other` (two half steps).
+    fn then(self, other: NewtonReport) -> NewtonReport {
+        NewtonReport {
+            iterations: self.iterations + other.iterations,
+            residual: self.residual.max(other.residual),
+            converged: self.converged && other.converged,
+            contact: self.contact || other.contact,
+        }
+    }
 }
 
 /// Scratch buffers and the solver of one run (rapier's "pipeline" pattern: no physics state lives here).
@@ -151,6 +198,15 @@ pub struct Stepper {
     /// The first increment of the last step: the iterative solvers' starting guess for the next.
     guess: Vec<Vec3>,
     y: Vec<Vec3>,
+    /// The iterate a line search starts from, and the gradient of `Φ` there.
+    y0: Vec<Vec3>,
+    g0: Vec<Vec3>,
+    /// Each node's panel (a seam-joined node: the first panel that has it; 0 for a model without panels).
+    panel_of: Vec<u32>,
+    /// Each panel's force scale for this step ([`Stepper::force_scale`]).
+    scales: Vec<f64>,
+    /// Each panel's largest nodal weight or load: the scale of the contact steps' correction threshold.
+    weights: Vec<f64>,
     history: History,
     /// The length of the (sub-)step being taken.
     h: f64,
@@ -159,6 +215,9 @@ pub struct Stepper {
     /// Contact seconds spent refining active sets inside the solves (counted as contact, not as solve).
     refine_seconds: f64,
 }
+
+/// Most trial points of a Newton correction's line search ([`Stepper::line_search`]).
+const LINE_SEARCH_STEPS: usize = 12;
 
 /// Most halvings of a step that failed (divergence or a node through an obstacle) before the error is reported.
 pub const MAX_HALVINGS: usize = 8;
@@ -224,9 +283,26 @@ impl Stepper {
     pub fn new(model: &Model, params: &StepParams) -> Result<Self, StepError> {
         let pattern = model.potential.pattern();
         let n = model.nodes();
+        let panels = model.panels.len().max(1);
+        let mut panel_of = vec![u32::MAX; n];
+        for (p, panel) in model.panels.iter().enumerate() {
+            for &k in panel.nodes() {
+                if panel_of[k] == u32::MAX {
+                    panel_of[k] = p as u32;
+                }
+            }
+        }
+        panel_of.iter_mut().filter(|p| **p == u32::MAX).for_each(|p| *p = 0);
+        let mut weights = vec![0.0; panels];
+        if let Some(ext) = model.potential.find::<crate::potential::external::External>() {
+            for (k, &w) in ext.nodal_scales().iter().enumerate() {
+                let p = panel_of[k] as usize;
+                weights[p] = f64::max(weights[p], w);
+            }
+        }
         Ok(Self {
             params: *params,
-            bounds: params.bounds.unwrap_or_else(|| Bounds::for_model(model)),
+            bounds: params.bounds.unwrap_or_else(|| Bounds::for_model(model, params.dt)),
             counters: Counters::default(),
             solver: LinearSolver::new(params.solver, pattern, &model.panels)
                 .map_err(|cause| StepError::Linear { step: 0, cause })?,
@@ -235,6 +311,11 @@ impl Stepper {
             delta: vec![Vec3::ZERO; n],
             guess: vec![Vec3::ZERO; n],
             y: vec![Vec3::ZERO; n],
+            y0: vec![Vec3::ZERO; n],
+            g0: vec![Vec3::ZERO; n],
+            panel_of,
+            scales: vec![0.0; panels],
+            weights,
             history: History::default(),
             h: params.dt,
             split: (0, 0),
@@ -283,14 +364,19 @@ impl Stepper {
     /// `newton`: the iteration of the step (0: the linearised step, started from the last step's increment;
     /// a correction starts from zero); a re-solve starts from the solution before it. Returns the set-up
     /// (factorisation) seconds.
-    fn solve_with_active_sets(&mut self, model: &Model, state: &State, newton: usize) -> Result<f64, StepError> {
+    fn solve_with_active_sets(
+        &mut self,
+        model: &Model,
+        state: &State,
+        newton: usize,
+        op: Operator,
+    ) -> Result<f64, StepError> {
         let mut tf = 0.0;
-        let want = Want { grad: true, hess: Some(self.operator()) };
+        let want = Want { grad: true, hess: Some(op) };
         if newton == 0 {
             self.delta.copy_from_slice(&self.guess);
         } else {
             self.delta.iter_mut().for_each(|d| *d = Vec3::ZERO);
-            self.counters.corrections += 1;
         }
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
         for round in 0..=self.params.active_set_rounds {
@@ -341,11 +427,15 @@ impl Stepper {
         &self.rhs
     }
 
-    /// Advances `state` by `params.dt`. The first iteration is the linearised step (46)–(48) with the
-    /// positive semi-definite `K(x_t)`; while the residual of the implicit equation at the new positions exceeds
-    /// [`StepParams::newton_tolerance`] times the largest nodal weight, Newton corrections follow (at most
-    /// [`StepParams::newton_iterations`] iterations in all): large rotations within one step then do not show up
-    /// as spurious stretch. Contact is implicit: the penalty stiffness is in the matrix for every node inside
+    /// Advances `state` by `params.dt`: Newton's method on the step's incremental potential `Φ` (docs/model.md
+    /// §8.5). The first iteration is the linearised step (46)–(48) with the positive semi-definite `K(x_t)`.
+    /// In a step without contact, while the residual of the implicit equation at the iterate, relative to each
+    /// panel's own force scale (inertial, elastic and other forces at the start, the weight as a floor;
+    /// mass-weighted norms), exceeds [`StepParams::newton_tolerance`], a correction follows with the matrix at
+    /// the iterate, taken by a line search that never raises `Φ` (at most [`StepParams::newton_iterations`]
+    /// iterations in all): large rotations within one step then leave no spurious stretch to brake them. A
+    /// contact step makes at most one correction, at an impact ([`StepParams::contact_correction`]), and is not
+    /// converged. The outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every node inside
     /// the contact layer at the start of the step or predicted to enter it, and the active set is corrected by
     /// re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
     ///
@@ -390,6 +480,7 @@ impl Stepper {
         self.split.1 += 2;
         info.timings.add(&second.timings);
         info.timings.steps = 1;
+        info.newton = info.newton.then(second.newton);
         info.max_penetration = second.max_penetration;
         // Back to the history of the whole step.
         state.x_prev.copy_from_slice(&saved.x);
@@ -406,9 +497,9 @@ impl Stepper {
         let before = self.counters;
         let step = state.step + 1;
         let first = self.assemble(model, state);
-        let force_scale = model.potential.load_scale(Some(Stage::Field), model.length_scale());
+        self.force_scale(model, state);
         let mut t_assembly = t0.elapsed().as_secs_f64();
-        let (tf, t_solve) = self.iterate(model, state, force_scale, &mut t_assembly)?;
+        let (tf, t_solve, newton) = self.iterate(model, state, &mut t_assembly)?;
         let tv = Instant::now();
         let max_penetration = self.advance(model, state, step)?;
         let contact_time = self.ws.contact_seconds - contact_before;
@@ -424,6 +515,9 @@ impl Stepper {
             factorizations: self.counters.factorizations - before.factorizations,
             resolves: self.counters.resolves - before.resolves,
             corrections: self.counters.corrections - before.corrections,
+            unconverged: usize::from(!newton.converged),
+            contact_steps: usize::from(newton.contact),
+            residual_max: newton.residual,
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;
@@ -434,56 +528,206 @@ impl Stepper {
             contact_energy: first.contact,
             max_penetration,
             timings,
+            newton,
         })
     }
 
-    /// The Newton iterations of a step from the assembled first system; returns the factorisation and the
-    /// solve seconds.
+    /// The Newton iterations of a step on its incremental potential `Φ` from the assembled first system: the
+    /// linearised step; then, for a step without contact (no active set after the first solve), while the
+    /// residual relative to the step's force scale exceeds [`StepParams::newton_tolerance`] (at most
+    /// [`StepParams::newton_iterations`] iterations in all), a correction solved with the matrix at the iterate
+    /// and taken by [`Stepper::line_search`], which never raises `Φ`; for a contact step,
+    /// [`Stepper::contact_corrections`]. Returns the factorisation and the solve seconds and the outcome.
     fn iterate(
         &mut self,
         model: &Model,
         state: &State,
-        force_scale: f64,
         t_assembly: &mut f64,
-    ) -> Result<(f64, f64), StepError> {
-        let n = model.nodes();
-        let (mut tf, mut t_solve) = (0.0, 0.0);
-        let mut model_error = 0.0;
-        for iter in 0..self.params.newton_iterations.max(1) {
-            if iter > 0 {
-                let ta = Instant::now();
-                // Residual first (gradient and contact forces only); the matrix only if a correction is due.
-                self.assemble_at(model, state, false, Want::GRADIENT);
-                let res = (0..n).filter(|&k| !model.pinned()[k]).map(|k| self.rhs[k].length()).fold(0.0, f64::max);
-                if res <= self.params.newton_tolerance * force_scale
-                    && model_error <= crate::potential::friction::NEWTON_TOLERANCE
-                {
-                    *t_assembly += ta.elapsed().as_secs_f64();
-                    break;
-                }
-                self.assemble_at(model, state, false, Want { grad: true, hess: Some(self.operator()) });
-                *t_assembly += ta.elapsed().as_secs_f64();
-            }
-            let ts = Instant::now();
-            tf += self.solve_with_active_sets(model, state, iter)?;
-            for k in 0..n {
-                let d = self.delta[k];
-                if !finite(d) {
-                    return Err(self.diverged(state.step + 1, format!("non-finite position at node {k}")));
-                }
-                self.y[k] += d;
-            }
-            t_solve += ts.elapsed().as_secs_f64();
-            // Newton corrections need a consistent Jacobian: not for the lagged secant operator, nor for a
-            // force that is not the gradient of an energy (Terzopoulos).
-            if self.params.scheme == Scheme::Lagged || !model.potential.conservative() || force_scale == 0.0 {
-                break;
-            }
-            // How far the lagged laws (friction) are from the linear model just solved with.
-            let cx = model.potential.context(Some(self.history.motion(model, state, self.h, false)));
-            model_error = model.potential.model_error(&self.y, &cx, &mut self.ws);
+    ) -> Result<(f64, f64, NewtonReport), StepError> {
+        let ts = Instant::now();
+        let mut tf = self.solve_with_active_sets(model, state, 0, self.operator())?;
+        self.check_increment(state)?;
+        for (y, d) in self.y.iter_mut().zip(&self.delta) {
+            *y += *d;
         }
-        Ok((tf, t_solve))
+        let mut t_solve = ts.elapsed().as_secs_f64();
+        let mut report = NewtonReport { iterations: 1, residual: 0.0, converged: true, contact: false };
+        // Newton needs a consistent Jacobian: not the lagged secant operator, nor a force that is not the
+        // gradient of an energy (Terzopoulos).
+        if self.params.scheme == Scheme::Lagged || !model.potential.conservative() {
+            return Ok((tf, t_solve, report));
+        }
+        if model.potential.engaged(&self.ws) {
+            report.contact = true;
+            return self.contact_corrections(model, state, report, (tf, t_solve), t_assembly);
+        }
+        let ta = Instant::now();
+        let mut phi = self.assemble_at(model, state, false, Want::GRADIENT).total;
+        let mut res = self.relative_residual(model);
+        *t_assembly += ta.elapsed().as_secs_f64();
+        let tol = self.params.newton_tolerance;
+        while (res > tol || res.is_nan()) && report.iterations < self.params.newton_iterations {
+            tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
+            report.iterations += 1;
+            self.counters.corrections += 1;
+            let ta = Instant::now();
+            let found = self.line_search(model, state, phi, res);
+            *t_assembly += ta.elapsed().as_secs_f64();
+            match found {
+                Some((p, r)) => (phi, res) = (p, r),
+                None => break,
+            }
+        }
+        report.residual = res;
+        report.converged = res <= tol;
+        Ok((tf, t_solve, report))
+    }
+
+    /// The Newton rule of a contact step (an active contact or friction set after the first solve): at most one
+    /// correction, taken whole, when a node's residual force exceeds [`StepParams::contact_correction`] times
+    /// the largest nodal weight of its panel, or when the lagged friction's linear model is off by more than
+    /// its Coulomb limit (a slip reversed or stopped within the step that the re-solves did not settle). These
+    /// iterations converge only linearly (the draped sheet's compressed membrane, whose positive semi-definite
+    /// Hessian drops the negative geometric stiffness and whose exact one is indefinite or nearly singular
+    /// along the wrinkling modes; the contact set changing at the layer's edge; friction's stick zone of
+    /// width `ε_v Δt`): docs/model.md §8.5. The residual relative to the step's force scale is measured after
+    /// the last solve and reported, the step counted converged only where it is within the tolerance.
+    fn contact_corrections(
+        &mut self,
+        model: &Model,
+        state: &State,
+        mut report: NewtonReport,
+        (mut tf, mut t_solve): (f64, f64),
+        t_assembly: &mut f64,
+    ) -> Result<(f64, f64, NewtonReport), StepError> {
+        let friction_error = |s: &mut Self| {
+            let cx = model.potential.context(Some(s.history.motion(model, state, s.h, false)));
+            model.potential.model_error(&s.y, &cx, &mut s.ws)
+        };
+        let mut model_error = friction_error(self);
+        loop {
+            // Residual first (gradient and contact forces only); the matrix only if a correction is due.
+            let ta = Instant::now();
+            self.assemble_at(model, state, false, Want::GRADIENT);
+            *t_assembly += ta.elapsed().as_secs_f64();
+            report.residual = self.relative_residual(model);
+            report.converged = report.residual <= self.params.newton_tolerance;
+            let fixed = model.pinned();
+            let threshold = self.params.contact_correction;
+            let large = (0..self.rhs.len())
+                .any(|k| !fixed[k] && self.rhs[k].length() > threshold * self.weights[self.panel_of[k] as usize]);
+            let due = large || model_error > crate::potential::friction::NEWTON_TOLERANCE;
+            if !due || report.iterations >= self.params.newton_iterations.min(2) {
+                return Ok((tf, t_solve, report));
+            }
+            tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
+            for (y, d) in self.y.iter_mut().zip(&self.delta) {
+                *y += *d;
+            }
+            report.iterations += 1;
+            self.counters.corrections += 1;
+            model_error = friction_error(self);
+        }
+    }
+
+    /// Solves a Newton correction at the iterate `y` with the step's operator (its gradient kept in `g0`).
+    /// Returns the factorisation seconds. (The exact Hessian, with the positive semi-definite one where it does
+    /// not factorise, was measured on the ball drop: its resting contact steps then converge quadratically, but
+    /// its impact steps stall as before and half its contact steps stay unconverged at 4 iterations.)
+    fn correction(
+        &mut self,
+        model: &Model,
+        state: &State,
+        newton: usize,
+        t_assembly: &mut f64,
+        t_solve: &mut f64,
+    ) -> Result<f64, StepError> {
+        let op = self.operator();
+        let ta = Instant::now();
+        self.assemble_at(model, state, false, Want { grad: true, hess: Some(op) });
+        self.g0.copy_from_slice(&self.ws.grad);
+        *t_assembly += ta.elapsed().as_secs_f64();
+        let ts = Instant::now();
+        let tf = self.solve_with_active_sets(model, state, newton, op)?;
+        self.check_increment(state)?;
+        *t_solve += ts.elapsed().as_secs_f64();
+        Ok(tf)
+    }
+
+    /// A non-finite increment fails the step.
+    fn check_increment(&self, state: &State) -> Result<(), StepError> {
+        match self.delta.iter().position(|d| !finite(*d)) {
+            Some(k) => Err(self.diverged(state.step + 1, format!("non-finite position at node {k}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// Moves the iterate `y` (where `Φ = phi`, the relative residual is `res` and the gradient `g0`) along the
+    /// solved increment to `y + α Δ`, `α` = 1 first, then shortened by the parabola through `Φ` along it
+    /// ([`descent::backtrack`]), to the first point that lowers `Φ` by the Armijo fraction of its linear
+    /// model (where `Φ` cannot resolve the decrease: the first that lowers the residual). Returns `Φ` and the
+    /// relative residual there, the gradient assembled; `None`, with `y` unchanged, when no step longer than
+    /// about 1e-6 does (Newton stops there).
+    fn line_search(&mut self, model: &Model, state: &State, phi: f64, res: f64) -> Option<(f64, f64)> {
+        let fixed = model.pinned();
+        let slope: f64 = (0..self.y.len()).filter(|&k| !fixed[k]).map(|k| self.g0[k].dot(self.delta[k])).sum();
+        self.y0.copy_from_slice(&self.y);
+        let mut alpha = 1.0;
+        for _ in 0..LINE_SEARCH_STEPS {
+            for k in 0..self.y.len() {
+                self.y[k] = self.y0[k] + self.delta[k] * alpha;
+            }
+            let trial = self.assemble_at(model, state, false, Want::GRADIENT).total;
+            let r = self.relative_residual(model);
+            let accept = if descent::resolvable(0.5 * alpha * slope, phi) {
+                trial <= phi + descent::ARMIJO * alpha * slope
+            } else {
+                trial.is_finite() && r < res
+            };
+            if accept {
+                return Some((trial, r));
+            }
+            alpha *= descent::backtrack(phi, alpha * slope, trial);
+        }
+        self.y.copy_from_slice(&self.y0);
+        None
+    }
+
+    /// Each panel's force scale for the step (into `scales`), in the mass-weighted norm
+    /// `‖f‖ = √(Σ |f_k|²/m_k)` over the panel's free nodes: the largest of the inertial force
+    /// `m α (x_t − ŷ) + c β (x_t − z)` at the start of the step, the other forces of the first assembly there
+    /// (elastic, loads, springs, contact, friction) and the panel's weight `|g| √(Σ m)` (the floor for a sheet at
+    /// rest). Called right after [`Stepper::assemble`].
+    fn force_scale(&mut self, model: &Model, state: &State) {
+        let h = &self.history;
+        let panels = self.scales.len();
+        let (mut inertial, mut others, mut mass) = (vec![0.0; panels], vec![0.0; panels], vec![0.0; panels]);
+        for k in (0..state.x.len()).filter(|&k| !model.pinned()[k] && model.mass[k] > 0.0) {
+            let (m, p) = (model.mass[k], self.panel_of[k] as usize);
+            let f =
+                (state.x[k] - h.target[k]) * (m * h.alpha) + (state.x[k] - h.center[k]) * (model.damping[k] * h.beta);
+            inertial[p] += f.length_squared() / m;
+            others[p] += (self.ws.grad[k] - f).length_squared() / m;
+            mass[p] += m;
+        }
+        let g = model.gravity.length();
+        for (p, scale) in self.scales.iter_mut().enumerate() {
+            let weight = g * f64::sqrt(mass[p]);
+            *scale = inertial[p].sqrt().max(others[p].sqrt()).max(weight).max(f64::MIN_POSITIVE);
+        }
+    }
+
+    /// The residual of the last assembly (`rhs`) in the mass-weighted norm over each panel's free nodes,
+    /// relative to the panel's force scale ([`Stepper::force_scale`]); the largest over the panels, so that a
+    /// panel's convergence does not depend on another's forces.
+    fn relative_residual(&self, model: &Model) -> f64 {
+        let fixed = model.pinned();
+        let mut r = vec![0.0; self.scales.len()];
+        for k in (0..self.rhs.len()).filter(|&k| !fixed[k] && model.mass[k] > 0.0) {
+            r[self.panel_of[k] as usize] += self.rhs[k].length_squared() / model.mass[k];
+        }
+        // A NaN residual stays NaN (f64::max would drop it).
+        r.iter().zip(&self.scales).map(|(r, s)| r.sqrt() / s).fold(0.0, |a, b| if b.is_nan() || b > a { b } else { a })
     }
 
     /// Checks the speed bound, the paths through obstacles and the strain bound, then moves `state` to the new

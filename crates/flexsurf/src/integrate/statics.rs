@@ -27,6 +27,7 @@
 //! force relative to the largest load. A potential with a non-conservative term (the Terzopoulos force) has no
 //! `Π` to minimise and is refused.
 
+use super::descent::{self, ARMIJO};
 use super::linsolve::{LinearSolver, Reuse, SolverKind};
 use crate::energy::Operator;
 use crate::math::{diag, Vec3};
@@ -164,8 +165,6 @@ const STEP_CAP: usize = 15;
 const STEP_QUICK: usize = 6;
 /// Saddle escapes of one Newton solve at most.
 const MAX_ESCAPES: usize = 8;
-/// Sufficient decrease of `Π` (fraction of the model's).
-const ARMIJO: f64 = 1e-4;
 /// Tentative Newton steps of a watchdog.
 const WATCH_STEPS: usize = 4;
 /// Accepted steps after a failed watchdog before the next one.
@@ -628,10 +627,10 @@ impl StaticSolver {
             for k in 0..x.len() {
                 nw.trial[k] = x[k] + nw.step[k];
             }
-            let flow = if pred.is_nan() || pred >= 0.0 || -pred <= 1e-14 * nw.pi.abs().max(f64::MIN_POSITIVE) {
-                self.unresolved(model, x, &mut nw)?
-            } else {
+            let flow = if descent::resolvable(pred, nw.pi) {
                 self.judge(model, x, &mut nw, Judged { gp, pp, pred, scale })
+            } else {
+                self.unresolved(model, x, &mut nw)?
             };
             if let Flow::Done(o) = flow {
                 return Ok(o);
@@ -786,8 +785,7 @@ impl StaticSolver {
             (nw.fresh, nw.mu) = (true, 0.0);
         } else {
             // Rejected: the step that the quadratic fit of Π along p would take sets the new shift.
-            let fit = if pt.is_finite() { -gp / (2.0 * (pt - pi - gp)) } else { 0.0 };
-            let alpha = if fit.is_finite() && fit > 0.0 { fit.clamp(0.1, 0.5) } else { 0.1 };
+            let alpha = descent::backtrack(pi, gp, pt);
             let gn: f64 = nw.grad.iter().map(|g| g.length_squared()).sum::<f64>().sqrt();
             let need = gn / (alpha * pp.sqrt()) / scale;
             nw.mu = (mu * 4.0).max(need.min(mu * 1e3 + 1e-10)).max(1e-10);

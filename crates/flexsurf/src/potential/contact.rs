@@ -663,6 +663,10 @@ impl ActiveSet for PenaltyContact {
         scratch.get::<ContactScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
     }
 
+    fn engaged(&self, scratch: &Scratch) -> bool {
+        scratch.get::<ContactScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
+    }
+
     /// Deepest penetration below any obstacle's surface (0 when none), in metres.
     fn violation(&self, x: &[Vec3], _cx: &Context, scratch: &mut Scratch) -> f64 {
         let offset = self.params.offset.max(0.0);

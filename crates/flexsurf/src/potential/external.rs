@@ -9,6 +9,8 @@ use crate::math::Vec3;
 #[derive(Debug, Clone, PartialEq)]
 pub struct External {
     force: Vec<Vec3>,
+    /// Each node's weight or load, the larger (N).
+    nodal: Vec<f64>,
     weight_scale: f64,
     load_scale: f64,
 }
@@ -17,14 +19,21 @@ impl External {
     /// Gravity `g` on the lumped masses `mass` plus the loads `loads` (N).
     pub fn new(gravity: Vec3, mass: &[f64], loads: &[Vec3]) -> Self {
         let force = mass.iter().zip(loads).map(|(&m, &p)| gravity * m + p).collect();
+        let nodal = mass.iter().zip(loads).map(|(&m, p)| (gravity * m).length().max(p.length())).collect();
         let weight_scale = mass.iter().map(|&m| (gravity * m).length()).fold(0.0, f64::max);
         let load_scale = loads.iter().map(|p| p.length()).fold(0.0, f64::max);
-        Self { force, weight_scale, load_scale }
+        Self { force, nodal, weight_scale, load_scale }
     }
 
     /// The force on each node (N).
     pub fn forces(&self) -> &[Vec3] {
         &self.force
+    }
+
+    /// Each node's weight `|m_k g|` or load `|p_k|`, the larger (N): the largest over a panel's nodes is the
+    /// scale of the contact steps' correction threshold ([`crate::integrate::StepParams::contact_correction`]).
+    pub fn nodal_scales(&self) -> &[f64] {
+        &self.nodal
     }
 }
 

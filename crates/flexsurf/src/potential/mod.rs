@@ -265,6 +265,12 @@ pub trait ActiveSet {
     fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize>;
     /// How many constraints are active in `scratch` (touching contacts).
     fn active(&self, scratch: &Scratch) -> usize;
+    /// Whether the support in `scratch` holds anything a step's solve used: a contact record (touching, or
+    /// predicted from the motion) or lagged friction. Such a step takes the contact steps' Newton rule
+    /// ([`crate::integrate::Stepper::step`]).
+    fn engaged(&self, scratch: &Scratch) -> bool {
+        self.active(scratch) > 0
+    }
     /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
     fn violation(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64;
     /// Forgets the warm start and the support (the next evaluation starts cold); what a static solve lagged
@@ -640,6 +646,11 @@ impl Potential {
             worst = worst.max(a.model_error(x, cx, &mut ws.scratch[t]));
         }
         worst
+    }
+
+    /// Whether any term's active set in `ws` holds a contact record or lagged friction ([`ActiveSet::engaged`]).
+    pub fn engaged(&self, ws: &Workspace) -> bool {
+        self.active_sets().any(|(t, a)| a.engaged(&ws.scratch[t]))
     }
 
     /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.

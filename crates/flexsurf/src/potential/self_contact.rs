@@ -245,6 +245,10 @@ impl ActiveSet for SelfContact {
         scratch.get::<SelfScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
     }
 
+    fn engaged(&self, scratch: &Scratch) -> bool {
+        scratch.get::<SelfScratch>().is_some_and(|s| !s.contacts.is_empty())
+    }
+
     /// Self-contact has no penetration to measure: its distances are unsigned and no crossing is accepted.
     fn violation(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
         0.0

@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -57,15 +57,28 @@ pub struct Checkpoint {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CountersSaved {
     seconds: [f64; 4],
-    /// Steps, solves, iterations, factorisations, re-solves, Newton corrections.
-    counts: [usize; 6],
+    /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps, contact
+    /// steps.
+    counts: [usize; 8],
+    /// The largest final relative Newton residual.
+    residual_max: f64,
 }
 
 impl From<Counters> for CountersSaved {
     fn from(c: Counters) -> Self {
         Self {
             seconds: [c.assembly, c.contact, c.factorization, c.solve],
-            counts: [c.steps, c.solves, c.iterations, c.factorizations, c.resolves, c.corrections],
+            counts: [
+                c.steps,
+                c.solves,
+                c.iterations,
+                c.factorizations,
+                c.resolves,
+                c.corrections,
+                c.unconverged,
+                c.contact_steps,
+            ],
+            residual_max: c.residual_max,
         }
     }
 }
@@ -73,7 +86,7 @@ impl From<Counters> for CountersSaved {
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
         let [assembly, contact, factorization, solve] = c.seconds;
-        let [steps, solves, iterations, factorizations, resolves, corrections] = c.counts;
+        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps] = c.counts;
         Counters {
             assembly,
             contact,
@@ -85,6 +98,9 @@ impl From<CountersSaved> for Counters {
             factorizations,
             resolves,
             corrections,
+            unconverged,
+            contact_steps,
+            residual_max: c.residual_max,
         }
     }
 }

@@ -4,6 +4,7 @@
 //! `cargo test --profile ci -p flexsurf --test suite derivatives::` (docs/testing.md).
 
 mod contact_records;
+mod converged_step;
 mod cusick_convergence;
 mod derivatives;
 mod dynamics;
