@@ -138,8 +138,17 @@ impl SceneSpec {
         let (pins, springs) = self.constraints(v, &body.grids())?;
         self.check_output(v)?;
         let self_contact = self.self_contact(v, material.fabric.density, gravity)?;
-        let parts =
-            Parts { body, fabric: material.fabric, stiffness, gravity, obstacles, contact, self_contact, pins, springs };
+        let parts = Parts {
+            body,
+            fabric: material.fabric,
+            stiffness,
+            gravity,
+            obstacles,
+            contact,
+            self_contact,
+            pins,
+            springs,
+        };
         Ok(Checked { parts, dt, output_every, animation_every, condition, material: material.name, estimate })
     }
 
