@@ -210,6 +210,36 @@ impl Contact {
     }
 }
 
+/// The energy of `contacts` into `sink` (value, gradient, stiffness: each record's [`Contact::add_to`]);
+/// returns it. The one assembly of a list of records, whatever term holds it.
+pub fn add_all(contacts: &[Contact], cx: &Context, sink: &mut Sink) -> f64 {
+    let mut total = 0.0;
+    for c in contacts {
+        let e = c.energy();
+        sink.energy += e;
+        total += e;
+    }
+    for c in contacts {
+        c.add_to(cx, sink);
+    }
+    total
+}
+
+/// Whether every record's stencil is valid for a model of `nodes` nodes (a checkpoint's is checked before use).
+pub(crate) fn records_fit(contacts: &[Contact], nodes: usize) -> bool {
+    contacts.iter().all(|c| (1..=4).contains(&c.stencil.len) && c.stencil.nodes.iter().all(|&k| k < nodes))
+}
+
+/// A term's scratch of type `T` encoded for a checkpoint (`None`: an empty scratch); `what` names the state in
+/// messages.
+pub(crate) fn save_scratch<T: Serialize + 'static>(scratch: &Scratch, what: &str) -> Result<Option<Vec<u8>>, String> {
+    match scratch.get::<T>() {
+        Some(c) => postcard::to_stdvec(c).map(Some).map_err(|e| format!("cannot encode the {what}: {e}")),
+        None if scratch.0.is_none() => Ok(None),
+        None => Err(format!("the {what} is of another kind")),
+    }
+}
+
 /// Active contacts of positions `x` (node areas `area`), deepest obstacle per node.
 pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &[Vec3], out: &mut Vec<Contact>) {
     let mut cache = ContactCache::new(obstacles.len(), x.len());
@@ -334,10 +364,7 @@ impl ContactScratch {
         self.cache.fits(obstacles, nodes)
             && self.predicted.len() == nodes
             && self.has_contact.len() == nodes
-            && self
-                .contacts
-                .iter()
-                .all(|c| (1..=4).contains(&c.stencil.len) && c.stencil.nodes.iter().all(|&k| k < nodes))
+            && records_fit(&self.contacts, nodes)
             && self.lagged.iter().all(|l| l.node < nodes)
     }
 }
@@ -388,15 +415,7 @@ impl Term for PenaltyContact {
 
     fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let s = self.scratch(scratch);
-        let mut total = 0.0;
-        for c in &s.contacts {
-            let e = c.energy();
-            sink.energy += e;
-            total += e;
-        }
-        for c in &s.contacts {
-            c.add_to(cx, sink);
-        }
+        let mut total = add_all(&s.contacts, cx, sink);
         match (cx.motion, &s.statics) {
             (None, Some(f)) => total += static_friction(f, y, cx, sink),
             (Some(m), _) => total += step_friction(&s.lagged, self.params.slip_speed * m.dt, y, m.x, cx, sink),
@@ -410,11 +429,7 @@ impl Term for PenaltyContact {
     }
 
     fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
-        match scratch.get::<ContactScratch>() {
-            Some(c) => postcard::to_stdvec(c).map(Some).map_err(|e| format!("cannot encode the contact state: {e}")),
-            None if scratch.0.is_none() => Ok(None),
-            None => Err("the contact term's scratch is of another kind".into()),
-        }
+        save_scratch::<ContactScratch>(scratch, "contact state")
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {

@@ -16,7 +16,7 @@
 //! never passes through itself; the displayed Coons surface stays within its deviation from the triangles
 //! (second order in the grid spacing) of it, so a thickness larger than that deviation keeps it clear too.
 
-use super::contact::{Contact, Other, Stencil};
+use super::contact::{add_all, records_fit, save_scratch, Contact, Other, Stencil};
 use super::friction::MODEL_TOLERANCE;
 use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::proximity::{Closest, Faces, Pair};
@@ -141,17 +141,7 @@ impl Term for SelfContact {
     }
 
     fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
-        let s = self.scratch(scratch);
-        let mut total = 0.0;
-        for c in &s.contacts {
-            let e = c.energy();
-            sink.energy += e;
-            total += e;
-        }
-        for c in &s.contacts {
-            c.add_to(cx, sink);
-        }
-        total
+        add_all(&self.scratch(scratch).contacts, cx, sink)
     }
 
     fn active_set(&self) -> Option<&dyn ActiveSet> {
@@ -159,13 +149,7 @@ impl Term for SelfContact {
     }
 
     fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
-        match scratch.get::<SelfScratch>() {
-            Some(c) => {
-                postcard::to_stdvec(c).map(Some).map_err(|e| format!("cannot encode the self-contact state: {e}"))
-            }
-            None if scratch.0.is_none() => Ok(None),
-            None => Err("the self-contact term's scratch is of another kind".into()),
-        }
+        save_scratch::<SelfScratch>(scratch, "self-contact state")
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
@@ -177,9 +161,7 @@ impl Term for SelfContact {
                 let n = self.area.len();
                 let fits = s.pairs.len() == s.contacts.len()
                     && (s.start.is_empty() || s.start.len() == n)
-                    && s.contacts
-                        .iter()
-                        .all(|c| (1..=4).contains(&c.stencil.len) && c.stencil.nodes.iter().all(|&k| k < n));
+                    && records_fit(&s.contacts, n);
                 if !fits {
                     return Err(format!("the saved self-contact state does not fit the model ({n} nodes)"));
                 }
