@@ -52,11 +52,11 @@ pub enum StepError {
         /// What to try.
         hint: &'static str,
     },
-    /// A node passed through an obstacle within the step although continuous detection gave it a contact (the
-    /// active-set re-solves ran out).
+    /// A node passed through an obstacle, or two elements of the sheet met (self-contact), within the step
+    /// although continuous detection gave it a contact (the active-set re-solves and the step's halvings ran out).
     #[error(
-        "node {node} passed through an obstacle at step {step}: the contact re-solves did not settle; try a \
-         smaller dt or a stiffer contact"
+        "node {node} passed through an obstacle or met another part of the sheet at step {step}: the contact \
+         re-solves did not settle even in halved steps; try a smaller dt or a stiffer contact (or self_contact)"
     )]
     Tunnelled {
         /// Step.
