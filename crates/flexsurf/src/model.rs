@@ -231,16 +231,8 @@ impl ModelBuilder {
         if !(p.stiffness > 0.0 && p.stiffness.is_finite()) {
             return Err(model_error("self_contact.stiffness", format!("{} is not a positive stiffness", p.stiffness)));
         }
-        let shortest = self
-            .panels
-            .iter()
-            .flat_map(|p| {
-                p.grid.cells().flat_map(move |(i, j)| {
-                    let c = p.grid.cell(i, j);
-                    [(0, 1), (0, 2), (1, 3), (2, 3)].map(|(a, b)| (p.rest[c[b]] - p.rest[c[a]]).length())
-                })
-            })
-            .fold(f64::INFINITY, f64::min);
+        let shortest =
+            self.panels.iter().flat_map(|p| cell_edges(&p.grid, &p.rest)).map(|e| e.2).fold(f64::INFINITY, f64::min);
         if !(p.thickness > 0.0 && p.thickness < 0.5 * shortest) {
             let message = format!(
                 "{} m is not a thickness between 0 and half the shortest grid edge ({:.4} m)",
@@ -325,6 +317,15 @@ impl ModelBuilder {
         }
         terms
     }
+}
+
+/// The grid edges of `grid` as local node pairs with their lengths in `rest`: each cell's four edges, cell by
+/// cell (an edge shared by two cells comes twice).
+fn cell_edges<'a>(grid: &'a Grid, rest: &'a [Vec3]) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+    grid.cells().flat_map(move |(i, j)| {
+        let c = grid.cell(i, j);
+        [(0, 1), (0, 2), (1, 3), (2, 3)].map(|(a, b)| (c[a], c[b], (rest[c[b]] - rest[c[a]]).length()))
+    })
 }
 
 /// The triangulated surface of every panel over the model's `n` nodes.
@@ -531,14 +532,14 @@ impl Model {
     /// twice).
     pub fn edges(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
         self.panels.iter().flat_map(|panel| {
-            panel.grid.cells().flat_map(move |(i, j)| {
-                let c = panel.grid.cell(i, j);
-                let edge = |p: usize, q: usize| {
-                    (panel.global(c[p]), panel.global(c[q]), (panel.rest[c[q]] - panel.rest[c[p]]).length())
-                };
-                [edge(0, 1), edge(0, 2), edge(1, 3), edge(2, 3)]
-            })
+            cell_edges(&panel.grid, &panel.rest).map(|(a, b, l)| (panel.global(a), panel.global(b), l))
         })
+    }
+
+    /// The triangulated surface of every panel (each cell split along its `(i, j)–(i+1, j+1)` diagonal), as
+    /// self-contact sees it.
+    pub fn faces(&self) -> Faces {
+        faces(&self.panels, self.nodes())
     }
 
     /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` over all grid edges of every panel.

@@ -239,27 +239,17 @@ fn combine(nodes: &[usize; 4], weights: &[f64; 4], x: &[Vec3]) -> Vec3 {
     nodes.iter().zip(weights).fold(Vec3::ZERO, |acc, (&k, &w)| acc + x[k] * w)
 }
 
-/// The integer cell of a coordinate.
-fn cell(p: f64, size: f64) -> i64 {
-    (p / size).floor() as i64
+/// The integer cells of a uniform grid of cells of `size` that the box `lo..hi` overlaps.
+fn cells_of((lo, hi): &(Vec3, Vec3), size: f64) -> impl Iterator<Item = [i64; 3]> {
+    let cell = |p: f64| (p / size).floor() as i64;
+    let (l, h) = ([cell(lo.x), cell(lo.y), cell(lo.z)], [cell(hi.x), cell(hi.y), cell(hi.z)]);
+    (l[0]..=h[0]).flat_map(move |i| (l[1]..=h[1]).flat_map(move |j| (l[2]..=h[2]).map(move |k| [i, j, k])))
 }
 
 /// The (cell key, element) entries of boxes on a uniform grid of cells of `size`, sorted.
 fn bins(boxes: &[(Vec3, Vec3)], size: f64) -> Vec<([i64; 3], u32)> {
-    let mut out = Vec::new();
-    for (e, (lo, hi)) in boxes.iter().enumerate() {
-        let (l, h) = (
-            [cell(lo.x, size), cell(lo.y, size), cell(lo.z, size)],
-            [cell(hi.x, size), cell(hi.y, size), cell(hi.z, size)],
-        );
-        for i in l[0]..=h[0] {
-            for j in l[1]..=h[1] {
-                for k in l[2]..=h[2] {
-                    out.push(([i, j, k], e as u32));
-                }
-            }
-        }
-    }
+    let mut out: Vec<([i64; 3], u32)> =
+        boxes.iter().enumerate().flat_map(|(e, b)| cells_of(b, size).map(move |key| (key, e as u32))).collect();
     out.sort_unstable();
     out
 }
@@ -275,7 +265,7 @@ fn overlaps(first: &[(Vec3, Vec3)], second: &[(Vec3, Vec3)], size: f64, same: bo
         .with_min_len(256)
         .flat_map_iter(|(a, boxa)| {
             let mut found = Vec::new();
-            for key in bins(std::slice::from_ref(boxa), size).into_iter().map(|(k, _)| k) {
+            for key in cells_of(boxa, size) {
                 let start = table.partition_point(|e| e.0 < key);
                 for &(k, b) in &table[start..] {
                     if k != key {

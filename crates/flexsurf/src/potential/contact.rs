@@ -240,6 +240,25 @@ pub(crate) fn save_scratch<T: Serialize + 'static>(scratch: &Scratch, what: &str
     }
 }
 
+/// Restores a term's scratch of type `T` from a checkpoint's `saved` bytes (`None`: an empty scratch), after
+/// `fits` says it fits the model (else its message, after "the saved {what} does not fit the model").
+pub(crate) fn restore_scratch<T: serde::de::DeserializeOwned + Send + 'static>(
+    saved: Option<&[u8]>,
+    scratch: &mut Scratch,
+    what: &str,
+    fits: impl FnOnce(&T) -> Result<(), String>,
+) -> Result<(), String> {
+    match saved {
+        None => scratch.clear(),
+        Some(bytes) => {
+            let c: T = postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the {what}: {e}"))?;
+            fits(&c).map_err(|model| format!("the saved {what} does not fit the model ({model})"))?;
+            scratch.set(c);
+        }
+    }
+    Ok(())
+}
+
 /// Active contacts of positions `x` (node areas `area`), deepest obstacle per node.
 pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &[Vec3], out: &mut Vec<Contact>) {
     let mut cache = ContactCache::new(obstacles.len(), x.len());
@@ -433,21 +452,10 @@ impl Term for PenaltyContact {
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
-        match saved {
-            None => scratch.clear(),
-            Some(bytes) => {
-                let c: ContactScratch =
-                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the contact state: {e}"))?;
-                let (obstacles, nodes) = (self.obstacles.len(), self.area.len());
-                if !c.fits(obstacles, nodes) {
-                    return Err(format!(
-                        "the saved contact state does not fit the model ({obstacles} obstacles, {nodes} nodes)"
-                    ));
-                }
-                scratch.set(c);
-            }
-        }
-        Ok(())
+        let (obstacles, nodes) = (self.obstacles.len(), self.area.len());
+        restore_scratch(saved, scratch, "contact state", |c: &ContactScratch| {
+            c.fits(obstacles, nodes).then_some(()).ok_or_else(|| format!("{obstacles} obstacles, {nodes} nodes"))
+        })
     }
 }
 

@@ -83,19 +83,13 @@ pub fn panel_terms(
     seamed: SeamedEdges,
 ) -> Vec<Box<dyn Term>> {
     let mut membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
-    let mut bending = if seamed == SeamedEdges::default() {
-        Bending::with_warp(grid, rest, stiffness, options.warp())
-    } else {
-        let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
-        Bending::selected(grid, rest, stiffness, options.warp(), node, cell)
-    };
+    let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
+    let mut bending = Bending::selected(grid, rest, stiffness, options.warp(), node, cell);
     if options.flat_pattern {
         bending.flatten_rest_curvature();
     }
-    if nodes.iter().enumerate().any(|(k, &g)| k != g) {
-        membrane.map_nodes(nodes);
-        bending.map_nodes(nodes);
-    }
+    membrane.map_nodes(nodes);
+    bending.map_nodes(nodes);
     vec![Box::new(membrane), bending_term(bending, kind)]
 }
 

@@ -16,7 +16,7 @@
 //! never passes through itself; the displayed Coons surface stays within its deviation from the triangles
 //! (second order in the grid spacing) of it, so a thickness larger than that deviation keeps it clear too.
 
-use super::contact::{add_all, records_fit, save_scratch, Contact, Other, Stencil};
+use super::contact::{add_all, records_fit, restore_scratch, save_scratch, Contact, Other, Stencil};
 use super::friction::MODEL_TOLERANCE;
 use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::proximity::{Closest, Faces, Pair};
@@ -153,22 +153,13 @@ impl Term for SelfContact {
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
-        match saved {
-            None => scratch.clear(),
-            Some(bytes) => {
-                let s: SelfScratch =
-                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the self-contact state: {e}"))?;
-                let n = self.area.len();
-                let fits = s.pairs.len() == s.contacts.len()
-                    && (s.start.is_empty() || s.start.len() == n)
-                    && records_fit(&s.contacts, n);
-                if !fits {
-                    return Err(format!("the saved self-contact state does not fit the model ({n} nodes)"));
-                }
-                scratch.set(s);
-            }
-        }
-        Ok(())
+        let n = self.area.len();
+        restore_scratch(saved, scratch, "self-contact state", |s: &SelfScratch| {
+            let fits = s.pairs.len() == s.contacts.len()
+                && (s.start.is_empty() || s.start.len() == n)
+                && records_fit(&s.contacts, n);
+            fits.then_some(()).ok_or_else(|| format!("{n} nodes"))
+        })
     }
 }
 

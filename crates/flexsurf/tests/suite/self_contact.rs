@@ -34,28 +34,13 @@ fn self_contact(b: &mut ModelBuilder) {
     b.self_contact = Some(SelfContactParams { stiffness: 2e4, thickness: THICKNESS });
 }
 
-fn triangles(model: &Model) -> Vec<[usize; 3]> {
-    model.potential.find::<SelfContact>().map(|s| s.faces().triangles.clone()).unwrap_or_else(|| {
-        model
-            .panels
-            .iter()
-            .flat_map(|p| {
-                p.grid.cells().flat_map(move |(i, j)| {
-                    let c = p.grid.cell(i, j).map(|k| p.global(k));
-                    [[c[0], c[1], c[3]], [c[0], c[3], c[2]]]
-                })
-            })
-            .collect()
-    })
-}
-
 /// The first step whose state has intersecting triangles, and the pair.
 type Hit = Option<(usize, (usize, usize))>;
 
 /// Steps `model` from `state` for `steps` steps of `dt`, checking every step for intersecting triangles;
 /// returns the first step with one (or `None`) and the final state.
 fn run_checked(model: &Model, mut state: State, dt: f64, steps: usize) -> (Hit, State) {
-    let tris = triangles(model);
+    let tris = model.faces().triangles;
     let mut stepper = Stepper::new(model, &StepParams::with_dt(dt)).unwrap();
     for step in 1..=steps {
         stepper.step(model, &mut state).unwrap();
