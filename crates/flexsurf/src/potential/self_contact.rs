@@ -72,7 +72,16 @@ pub struct SelfScratch {
     lagged: Vec<(Stencil, Lagged)>,
     /// Friction re-linearisations since the last assembly.
     relinearized: usize,
+    /// The step's candidate pairs: those whose elements' boxes swept from the start to the target come within
+    /// the thickness and twice the [`SLACK`] (every close pair of a configuration within the slack of the
+    /// swept boxes is among them), with the target they were swept to.
+    #[serde(skip)]
+    candidates: Option<(Vec<Pair>, Vec<Vec3>)>,
 }
+
+/// How far (a multiple of the thickness, per coordinate) a configuration may leave a step's swept boxes and
+/// still be searched among the step's candidate pairs.
+const SLACK: f64 = 1.0;
 
 /// Fraction of the thickness at which continuous detection calls two elements touching.
 pub const TOUCH: f64 = 1e-3;
@@ -129,16 +138,26 @@ impl SelfContact {
         }
     }
 
+    /// The pairs closer than the thickness at `x`: among the step's candidates when `x` is within their slack,
+    /// else from the whole broad phase.
+    fn close(&self, s: &SelfScratch, x: &[Vec3]) -> Vec<Closest> {
+        let thickness = self.params.thickness;
+        match &s.candidates {
+            Some((pairs, target))
+                if s.start.len() == x.len() && Faces::within(x, &s.start, target, SLACK * thickness) =>
+            {
+                self.faces.close_among(pairs, x, thickness, true)
+            }
+            _ => self.faces.close(x, thickness),
+        }
+    }
+
     /// Adds the close pairs of `x` not yet held, as contacts; returns the largest force one would have had at
     /// `at` (the proposal a solve missed them at).
     fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
         let mut missed: f64 = 0.0;
-        let fresh: Vec<Closest> = self
-            .faces
-            .close(x, self.params.thickness)
-            .into_iter()
-            .filter(|c| s.pairs.binary_search(&c.pair).is_err())
-            .collect();
+        let fresh: Vec<Closest> =
+            self.close(s, x).into_iter().filter(|c| s.pairs.binary_search(&c.pair).is_err()).collect();
         for c in &fresh {
             let contact = self.record(c, &s.start);
             missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
@@ -281,6 +300,12 @@ impl ActiveSet for SelfContact {
         s.pairs.clear();
         s.contacts.clear();
         s.relinearized = 0;
+        if let Some(m) = cx.motion.filter(|m| m.predict) {
+            let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
+            s.candidates = Some((self.faces.candidates(&s.start, Some(m.target), radius), m.target.to_vec()));
+        } else if cx.motion.is_none() {
+            s.candidates = None;
+        }
         self.add_close(s, y, y);
         match cx.motion {
             Some(m) if m.predict => {
@@ -340,8 +365,20 @@ impl ActiveSet for SelfContact {
 
     /// The first node of a pair whose elements would come within `10⁻³ δ` of each other on the straight
     /// paths from `from` to `to`.
-    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
-        self.faces.first_touch(from, to, TOUCH * self.params.thickness).map(|(pair, _)| match pair {
+    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize> {
+        let tolerance = TOUCH * self.params.thickness;
+        let s = self.scratch(scratch);
+        // The step's candidates hold every pair whose paths come within the tolerance when the step starts
+        // where they were swept from and ends within their slack.
+        let touch = match &s.candidates {
+            Some((pairs, target))
+                if s.start.as_slice() == from && Faces::within(to, from, target, SLACK * self.params.thickness) =>
+            {
+                self.faces.first_touch_among(pairs, from, to, tolerance)
+            }
+            _ => self.faces.first_touch(from, to, tolerance),
+        };
+        touch.map(|(pair, _)| match pair {
             Pair::PointFace(p, _) => p,
             Pair::EdgeEdge(e, _) => self.faces.edges[e][0],
         })
