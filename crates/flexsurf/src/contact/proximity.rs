@@ -18,7 +18,7 @@
 use crate::math::Vec3;
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::details::closest_points_segment_segment_with_locations_nD;
-use parry3d_f64::query::PointQueryWithLocation;
+use parry3d_f64::query::{PointQueryWithLocation, RayCast};
 use parry3d_f64::shape::Triangle;
 use rayon::prelude::*;
 
@@ -222,6 +222,30 @@ impl Faces {
             .filter_map(|&pair| self.advance(pair, from, to, tolerance).map(|t| (pair, t)))
             .collect();
         hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
+
+    /// The first edge (an index of [`Faces::edges`]) that passes through a triangle it shares no node with at
+    /// `x` (an index of [`Faces::triangles`]): a surface that intersects itself, which no step may start from.
+    /// The segment is cast as a ray against the triangle (parry); an edge lying in a triangle's plane is not
+    /// counted.
+    pub fn crossing(&self, x: &[Vec3]) -> Option<(usize, usize)> {
+        let bound = |nodes: &[usize]| {
+            let lo = nodes.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
+            let hi = nodes.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
+            (lo, hi)
+        };
+        let edges: Vec<(Vec3, Vec3)> = self.edges.iter().map(|e| bound(e)).collect();
+        let tris: Vec<(Vec3, Vec3)> = self.triangles.iter().map(|t| bound(t)).collect();
+        let size = tris.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(f64::MIN_POSITIVE, f64::max);
+        overlaps(&edges, &tris, size, false).into_iter().find(|&(e, t)| {
+            let ([a, b], tri) = (self.edges[e], self.triangles[t]);
+            if tri.contains(&a) || tri.contains(&b) {
+                return false;
+            }
+            let triangle = Triangle::new(v(x[tri[0]]), v(x[tri[1]]), v(x[tri[2]]));
+            let ray = parry3d_f64::query::Ray::new(v(x[a]), v(x[b] - x[a]));
+            triangle.intersects_local_ray(&ray, 1.0)
+        })
     }
 
     /// Most conservative-advancement steps for one pair.

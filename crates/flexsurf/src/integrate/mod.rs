@@ -77,6 +77,19 @@ pub enum StepError {
         /// Distance of the sheet's centre from the nearest obstacle (m).
         distance: f64,
     },
+    /// The initial shape passes through itself (self-contact cannot start from it).
+    #[error(
+        "the initial shape passes through itself: the edge from {edge_from} to {edge_to} crosses the triangle of \
+         {triangle}; self-contact needs a start without intersections (move the sheets or folds apart)"
+    )]
+    Intersecting {
+        /// The edge's first node (`sheet k node [i, j]`).
+        edge_from: String,
+        /// Its second node.
+        edge_to: String,
+        /// The triangle's three nodes.
+        triangle: String,
+    },
     /// The linear solve failed.
     #[error("linear solve failed at step {step}: {cause}")]
     Linear {
@@ -823,6 +836,18 @@ impl Stepper {
 /// (docs/model.md §8.4). Non-finite forces are an error naming the node.
 pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
     let n = x.len();
+    if let Some(faces) = model.potential.find::<SelfContact>().map(SelfContact::faces) {
+        if let Some((e, t)) = faces.crossing(&x) {
+            let [a, b] = faces.edges[e];
+            let name = |k: usize| model.describe_node(k);
+            let [p, q, r] = faces.triangles[t].map(name);
+            return Err(StepError::Intersecting {
+                edge_from: name(a),
+                edge_to: name(b),
+                triangle: format!("{p}, {q} and {r}"),
+            });
+        }
+    }
     let fixed = model.pinned();
     let mut grad = vec![Vec3::ZERO; n];
     model.potential.evaluate(&x, &mut crate::energy::Sink::grad(&mut grad));

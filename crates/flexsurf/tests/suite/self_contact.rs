@@ -290,3 +290,32 @@ fn a_strip_twisted_by_two_turns_coils_without_intersecting() {
     assert!(c.self_contact_pairs > 0, "the twisted strip never touched itself");
     println!("twist (21 × 3): {} self-contact records over {} steps", c.self_contact_pairs, c.steps);
 }
+
+/// A start whose surface passes through itself is refused, naming the crossing edge's and triangle's nodes: a
+/// sheet standing through the middle of another (self-contact could only hold them crossed). Apart, they start.
+#[test]
+fn a_start_that_passes_through_itself_is_a_clear_error() {
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(5, 5, 0.2, 0.2).unwrap();
+    let flat = grid.flat_positions(0.0);
+    let standing = |dz: f64| -> Vec<Vec3> { flat.iter().map(|p| Vec3::new(p.x + 0.013, 0.011, p.y + dz)).collect() };
+    for (dz, crossing) in [(0.0, true), (0.15, false)] {
+        let mut b = ModelBuilder::new(grid, flat.clone(), fabric, stiffness, ModelKind::Tfs, G).panel(
+            grid,
+            standing(dz),
+            ElasticOptions::default(),
+        );
+        self_contact(&mut b);
+        let model = b.build().unwrap();
+        let started = flexsurf::integrate::start(&model, model.rest.clone(), vec![Vec3::ZERO; model.nodes()], 0.01);
+        match (crossing, started) {
+            (true, Err(e)) => {
+                let message = e.to_string();
+                assert!(message.contains("passes through itself") && message.contains("sheet 1 node ["), "{message}");
+                assert!(message.contains("sheet 0 node ["), "{message}");
+            }
+            (false, Ok(_)) => {}
+            (_, other) => panic!("dz = {dz}: {other:?}"),
+        }
+    }
+}
