@@ -19,6 +19,7 @@
 pub mod contact;
 pub mod elastic;
 pub mod external;
+pub mod face_samples;
 pub mod friction;
 pub mod inertia;
 pub mod self_contact;

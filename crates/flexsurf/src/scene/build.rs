@@ -197,8 +197,19 @@ impl SceneSpec {
     /// The model and its initial positions from checked parts: the one place a scene constructs a [`Model`]
     /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables).
     fn assemble(&self, v: &Validator<'_>, parts: Parts<'_>) -> Result<Assembled, SceneError> {
-        let Parts { body, fabric, stiffness, gravity, obstacles, contact, self_contact, pins, motions, springs } =
-            parts;
+        let Parts {
+            body,
+            fabric,
+            stiffness,
+            gravity,
+            obstacles,
+            contact,
+            self_contact,
+            contact_faces,
+            pins,
+            motions,
+            springs,
+        } = parts;
         let (mut model, initial, garment) = match body {
             Body::Sheets { sheets, initial } => {
                 let mut sheets = sheets.into_iter();
@@ -229,6 +240,7 @@ impl SceneSpec {
         model.obstacles = obstacles;
         model.contact = contact;
         model.self_contact = self_contact;
+        model.contact_faces = contact_faces;
         let motions = motions.iter().map(|(i, p)| PinMotion::new(pins[*i].clone(), &initial, p)).collect();
         for nodes in pins {
             for k in nodes {

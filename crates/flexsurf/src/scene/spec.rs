@@ -347,6 +347,9 @@ pub struct ContactSpec {
     pub friction: f64,
     /// Slip speed `ε_v` (m/s) below which friction holds (smoothed static friction), default 1e-4.
     pub slip_speed: f64,
+    /// Also check points of the faces between the nodes (a thin feature of a body cannot pass through a face
+    /// between nodes), default false.
+    pub faces: bool,
 }
 
 impl Default for ContactSpec {
@@ -356,6 +359,7 @@ impl Default for ContactSpec {
             offset: defaults::CONTACT_OFFSET,
             friction: defaults::CONTACT_FRICTION,
             slip_speed: defaults::SLIP_SPEED,
+            faces: false,
         }
     }
 }

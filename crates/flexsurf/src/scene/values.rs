@@ -93,6 +93,8 @@ pub(crate) struct Parts<'s> {
     pub(crate) obstacles: Vec<Obstacle>,
     pub(crate) contact: ContactParams,
     pub(crate) self_contact: Option<SelfContactParams>,
+    /// `contact.faces`.
+    pub(crate) contact_faces: bool,
     pub(crate) pins: Vec<Vec<usize>>,
     /// The pins' motions, by pin.
     pub(crate) motions: Vec<(usize, MotionParams)>,
@@ -168,6 +170,7 @@ impl SceneSpec {
             obstacles,
             contact,
             self_contact,
+            contact_faces: self.contact.faces,
             pins,
             motions,
             springs,

@@ -319,3 +319,40 @@ fn a_start_that_passes_through_itself_is_a_clear_error() {
         }
     }
 }
+
+/// A coarse sheet (5 × 5 nodes, 10 cm cells) held by its corners sags onto a ball of 2 cm radius under the
+/// middle of a cell's diagonal, where no node can reach it: with node contact alone the ball passes through
+/// the face; with the faces' samples (`contact_faces`) the surface stays above the ball's top (the triangulated
+/// surface's height over the ball's centre, interpolated along the diagonal, against the top plus most of the
+/// offset).
+#[test]
+fn a_ball_thinner_than_the_grid_cannot_pass_through_a_face() {
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(5, 5, 0.4, 0.4).unwrap();
+    let rest: Vec<Vec3> = grid.flat_positions(0.0).iter().map(|p| *p + Vec3::new(0.0, 0.0, 0.03)).collect();
+    let (centre, radius, offset) = (Vec3::new(0.05, 0.05, 0.0), 0.02, 0.004);
+    let height = |faces: bool| -> f64 {
+        let mut b = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, G);
+        b.obstacles.push(Obstacle::Sphere { center: centre, radius });
+        b.contact = ContactParams { stiffness: 2e4, offset, ..ContactParams::default() };
+        b.contact_faces = faces;
+        for (i, j) in [(0, 0), (4, 0), (0, 4), (4, 4)] {
+            b.pinned[grid.index(i, j)] = true;
+        }
+        let model = b.build().unwrap();
+        let mut state = flexsurf::integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], 0.01).unwrap();
+        let mut stepper = Stepper::new(&model, &StepParams::with_dt(0.01)).unwrap();
+        for _ in 0..100 {
+            stepper.step(&model, &mut state).unwrap();
+        }
+        // The cell from node (2, 2) at (0, 0) to (3, 3) at (0.1, 0.1): its diagonal passes over the centre.
+        0.5 * (state.x[grid.index(2, 2)].z + state.x[grid.index(3, 3)].z)
+    };
+    let top = centre.z + radius;
+    let (nodes_only, with_faces) = (height(false), height(true));
+    println!(
+        "surface over a 2 cm ball between nodes: {nodes_only:.4} m (nodes only), {with_faces:.4} m (faces), top {top}"
+    );
+    assert!(nodes_only < top - 0.005, "the scene should let the ball through the face: surface at {nodes_only}");
+    assert!(with_faces > top + 0.5 * offset, "the ball passes through the face: surface at {with_faces}, top {top}");
+}
