@@ -22,6 +22,7 @@ pub mod external;
 pub mod friction;
 pub mod inertia;
 pub mod self_contact;
+pub mod sewing;
 pub mod springs;
 
 use crate::contact::Obstacle;

@@ -9,6 +9,7 @@ use super::budget::{self, Estimate, Limits};
 use super::garment::GarmentSpec;
 use super::initial::InitialCondition;
 use super::material::relative_to;
+use super::pattern::LoadedPattern;
 use super::ranges;
 use super::spec::{BuiltinBody, ObstacleSpec, SceneSpec, SheetSpec, Sheets, SpringTarget};
 use super::validate::Validator;
@@ -32,6 +33,9 @@ pub(crate) enum Body<'s> {
     Sheets { sheets: Vec<(Grid, Vec<Vec3>)>, initial: Vec<Vec3> },
     /// A `[garment]` and its built geometry.
     Garment { spec: &'s GarmentSpec, shape: GarmentShape },
+    /// A `[pattern]`: its panels (grids, flat rest shapes) and seams, and the placed positions of every panel
+    /// (panel after panel), before sewing.
+    Pattern { pattern: LoadedPattern, initial: Vec<Vec3> },
 }
 
 impl Body<'_> {
@@ -41,6 +45,7 @@ impl Body<'_> {
         let grids: Vec<Grid> = match self {
             Body::Sheets { sheets, .. } => sheets.iter().map(|(g, _)| *g).collect(),
             Body::Garment { shape, .. } => vec![shape.grid],
+            Body::Pattern { pattern, .. } => pattern.built.panels.iter().map(|p| p.grid).collect(),
         };
         grids
             .into_iter()
@@ -62,7 +67,7 @@ impl Body<'_> {
     /// The initial positions.
     pub(crate) fn initial(&self) -> &[Vec3] {
         match self {
-            Body::Sheets { initial, .. } => initial,
+            Body::Sheets { initial, .. } | Body::Pattern { initial, .. } => initial,
             Body::Garment { shape, .. } => &shape.initial,
         }
     }
@@ -70,7 +75,7 @@ impl Body<'_> {
     /// Replaces the initial positions (the rest shape stays).
     fn set_initial(&mut self, x: Vec<Vec3>) {
         match self {
-            Body::Sheets { initial, .. } => *initial = x,
+            Body::Sheets { initial, .. } | Body::Pattern { initial, .. } => *initial = x,
             Body::Garment { shape, .. } => shape.initial = x,
         }
     }
@@ -124,7 +129,17 @@ impl SceneSpec {
         let gravity = Vec3::from_array(v.numbers(&ranges::GRAVITY, "gravity", self.gravity)?);
         let contact = self.contact(v, material.fabric.density, gravity, !obstacles.is_empty())?;
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
-        let mut body = self.body(v, &obstacles, contact.offset)?;
+        let mut body = match &self.pattern {
+            Some(p) if self.sheet.is_none() && self.garment.is_none() => {
+                let pattern = p.load(v, dt, &material.name)?;
+                let initial = pattern.built.panels.iter().flat_map(|q| q.placed.iter().copied()).collect();
+                Body::Pattern { pattern, initial }
+            }
+            Some(_) => {
+                return Err(v.bad("pattern", "give exactly one of `[sheet]`, `[garment]` and `[pattern]`".into()))
+            }
+            None => self.body(v, &obstacles, contact.offset)?,
+        };
         let condition = self.initial.condition(v)?;
         if self.initial.positions.is_some() {
             let grid = body
@@ -201,7 +216,8 @@ impl SceneSpec {
                 Err(v.bad("garment", "give exactly one of `[sheet]` and `[garment]`, not both".into()))
             }
             (None, None) => {
-                Err(v.bad("sheet", "give exactly one of `[sheet]` and `[garment]`; neither is present".into()))
+                Err(v
+                    .bad("sheet", "give exactly one of `[sheet]`, `[garment]` and `[pattern]`; none is present".into()))
             }
             (Some(list), None) => {
                 if list.list().is_empty() {

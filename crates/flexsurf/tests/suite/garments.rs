@@ -1,0 +1,306 @@
+//! Garments from sewing patterns (issue 20): the Coons grid of a rectangle is the plain grid; node counts are
+//! matched along seams; a flat pattern of two rectangles sewn along their common side steps as the one square
+//! sheet; a pattern that cannot be sewn is a one-line error naming the panel and edge; the shipped straight
+//! skirt sews closed on the mannequin.
+
+use flexsurf::garment::pattern::{BuiltPattern, Pattern, Placement};
+use flexsurf::garment::sewing::{sew, SewingParams};
+use flexsurf::grid::Grid;
+use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::material::{Calibration, Fabric, Stiffness};
+use flexsurf::math::Vec3;
+use flexsurf::model::{Model, ModelBuilder, ModelKind};
+use flexsurf::scene::PatternSpec;
+use flexsurf::state::State;
+use flexsurf::testing::repo;
+use std::path::Path;
+
+const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
+
+fn parse(text: &str) -> PatternSpec {
+    PatternSpec::from_toml(text, Path::new("test.toml")).unwrap()
+}
+
+fn build(text: &str) -> BuiltPattern {
+    parse(text).pattern().build().unwrap()
+}
+
+/// The error of building the pattern `text`, as one line.
+fn failure(text: &str) -> String {
+    let e = parse(text).pattern().build().unwrap_err().to_string();
+    assert!(!e.contains('\n'), "not one line: {e}");
+    e
+}
+
+/// A rectangle panel `name` from `(x0, y0)` to `(x1, y1)` with corners a, b, c, d counter-clockwise from the
+/// lower left, placed flat, warp along x.
+fn rectangle(name: &str, [x0, y0, x1, y1]: [f64; 4]) -> String {
+    format!(
+        r#"
+[[panel]]
+name = "{name}"
+grain = [1.0, 0.0]
+outline = [
+  {{ at = [{x0}, {y0}], corner = "a" }},
+  {{ at = [{x1}, {y0}], corner = "b" }},
+  {{ at = [{x1}, {y1}], corner = "c" }},
+  {{ at = [{x0}, {y1}], corner = "d" }},
+]
+placement = {{ flat = {{}} }}
+"#
+    )
+}
+
+fn seam(a: (&str, &str, &str), b: (&str, &str, &str)) -> String {
+    format!(
+        "[[seam]]\na = {{ panel = \"{}\", from = \"{}\", to = \"{}\" }}\nb = {{ panel = \"{}\", from = \"{}\", to = \"{}\" }}\n",
+        a.0, a.1, a.2, b.0, b.1, b.2
+    )
+}
+
+/// A rectangle of 0.6 × 0.4 m with an extra vertex on its bottom side and its top side drawn as a straight
+/// Bézier: its Coons grid is the plain 13 × 9 grid of spacing 0.05 m (arc length is uniform on each side).
+#[test]
+fn coons_grid_of_a_rectangle_is_the_plain_grid() {
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "sheet"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.1, 0.2], corner = "a" },
+  { at = [0.35, 0.2] },
+  { at = [0.7, 0.2], corner = "b" },
+  { at = [0.7, 0.6], corner = "c" },
+  { at = [0.1, 0.6], corner = "d", curve = [[0.5, 0.6], [0.3, 0.6]] },
+]
+placement = { flat = { offset = [0.0, 0.0, 1.0] } }
+"#;
+    let built = build(text);
+    let p = &built.panels[0];
+    assert_eq!((p.grid.m, p.grid.n), (13, 9));
+    let mut worst: f64 = 0.0;
+    for k in 0..p.grid.len() {
+        let (i, j) = p.grid.coords(k);
+        let expect = Vec3::new(0.1 + 0.05 * i as f64, 0.2 + 0.05 * j as f64, 0.0);
+        worst = worst.max((p.flat[k] - expect).length());
+        assert_eq!(p.placed[k], p.flat[k] + Vec3::Z);
+    }
+    // The Bézier's arc length is tabulated on 64 chords: exact for a straight one up to rounding.
+    assert!(worst < 1e-12, "the Coons grid is {worst} m from the plain grid");
+    let [lo, hi] = p.jacobian;
+    assert!((lo - hi).abs() < 1e-12 * hi && (lo - 0.6 * 0.4 / 96.0).abs() < 1e-12, "Jacobian {lo}..{hi}");
+    assert!(built.warnings.is_empty());
+}
+
+/// A trapezoid whose right side is 0.9 m long (19 nodes at 0.05 m) sewn by its left side (0.6 m) to a
+/// rectangle's right side (0.6 m, 13 nodes on its own): both sewn sides get 19 nodes, and the rectangle's
+/// opposite side too. Across, the rectangle's 0.3 m takes 7 nodes, the trapezoid's slanted bottom
+/// (√(0.4² + 0.15²) = 0.427 m) 10.
+#[test]
+fn node_counts_match_along_seams() {
+    let trapezoid = r#"
+[[panel]]
+name = "trapezoid"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, -0.15], corner = "b" },
+  { at = [0.4, 0.75], corner = "c" },
+  { at = [0.0, 0.6], corner = "d" },
+]
+placement = { flat = { offset = [1.0, 0.0, 0.0] } }
+"#;
+    let text = format!(
+        "edge_length = 0.05\n{}{trapezoid}{}",
+        rectangle("rect", [-0.3, 0.0, 0.0, 0.6]),
+        seam(("rect", "b", "c"), ("trapezoid", "a", "d"))
+    );
+    let built = build(&text);
+    let (rect, trap) = (&built.panels[0].grid, &built.panels[1].grid);
+    assert_eq!((rect.m, rect.n), (7, 19));
+    assert_eq!((trap.m, trap.n), (10, 19));
+    let s = built.seams[0];
+    assert_eq!(s.a.edge.count(rect), s.b.edge.count(trap));
+    // The sewn nodes sit at the same fractions of the two sides' lengths (both 0.6 m): the same points.
+    let mut far: f64 = 0.0;
+    for j in 0..19 {
+        let p = built.panels[0].flat[rect.index(6, j)];
+        let q = built.panels[1].flat[trap.index(0, j)];
+        far = far.max((p - q).length());
+    }
+    assert!(far < 1e-12, "sewn nodes {far} m apart in the pattern");
+    // The map is bilinear (straight sides): its Jacobian runs from the left side's 0.4 × 0.6 to the right
+    // side's 0.4 × 0.9 per unit square, a ratio of 2/3 (per cell: divided by the same 9 × 18 cells).
+    let [lo, hi] = built.panels[1].jacobian;
+    assert!((lo / hi - 2.0 / 3.0).abs() < 1e-9, "trapezoid Jacobian ratio {}", lo / hi);
+}
+
+fn cotton() -> (Fabric, Stiffness) {
+    let fabric = Fabric::paper_cotton();
+    (fabric, Stiffness::calibrate(&fabric, Calibration::Kes).unwrap())
+}
+
+fn run(model: &Model, x: Vec<Vec3>, dt: f64, steps: usize) -> State {
+    let v = vec![Vec3::ZERO; x.len()];
+    let mut state = flexsurf::integrate::start(model, x, v, dt).unwrap();
+    let mut stepper = Stepper::new(model, &StepParams::with_dt(dt)).unwrap();
+    for _ in 0..steps {
+        stepper.step(model, &mut state).unwrap();
+    }
+    state
+}
+
+fn curved(p: Vec3) -> Vec3 {
+    Vec3::new(p.x, p.y, 0.05 + 0.4 * p.x * p.x - 0.2 * p.x * p.y)
+}
+
+/// Two rectangles of 0.3 × 0.6 m placed flat side by side and sewn along their common side by the sewing
+/// phase (the seam's gap is zero, so it takes no step) equal the 0.6 m square sheet of 13 × 13 nodes: 30 steps
+/// from a curved start (bending across the seam) agree to 1e-10 m.
+#[test]
+fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(13, 13, 0.6, 0.6).unwrap();
+    let whole =
+        ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G).build().unwrap();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).map(|p| curved(*p)).collect();
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
+    assert_eq!(sewn.report.steps, 0);
+    assert!(sewn.report.largest_gap() < 1e-15, "gap {}", sewn.report.largest_gap());
+    assert_eq!(sewn.model.nodes(), 169);
+    let reference = run(&whole, grid.flat_positions(0.0).iter().map(|p| curved(*p)).collect(), 0.005, 30);
+    let state = run(&sewn.model, sewn.x, 0.005, 30);
+    let mut apart: f64 = 0.0;
+    for k in 0..grid.len() {
+        let (i, j) = grid.coords(k);
+        let (panel, local) = if i < 7 { (0, l.grid.index(i, j)) } else { (1, r.grid.index(i - 6, j)) };
+        let node = sewn.model.panels[panel].global(local);
+        apart = apart.max((state.x[node] - reference.x[k]).length());
+    }
+    let moved =
+        reference.x.iter().zip(grid.flat_positions(0.0)).map(|(p, q)| (*p - curved(q)).length()).fold(0.0, f64::max);
+    assert!(moved > 1e-3, "the sheet should move (moved {moved} m)");
+    assert!(apart < 1e-10, "the sewn square is {apart} m from the sheet (moved {moved} m)");
+}
+
+#[test]
+fn a_seam_of_edges_of_different_lengths_is_an_error() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.58]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let e = failure(&text);
+    assert!(
+        e.contains("`seam[0]`")
+            && e.contains("panel `left` edge b → c is 0.6000 m")
+            && e.contains("panel `right` edge a → d 0.5800 m"),
+        "{e}"
+    );
+}
+
+#[test]
+fn an_edge_sewn_twice_is_an_error() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.6]),
+        seam(("left", "b", "c"), ("right", "a", "d")),
+        seam(("right", "b", "c"), ("left", "c", "b"))
+    );
+    let e = failure(&text);
+    assert!(e.contains("`seam[1].b`") && e.contains("panel `left` edge c → b is already sewn by seam 0"), "{e}");
+}
+
+#[test]
+fn a_self_intersecting_outline_is_an_error() {
+    // A bow tie: the edge b → c crosses d → a.
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "bow"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, 0.0], corner = "b" },
+  { at = [0.0, 0.4], corner = "c" },
+  { at = [0.4, 0.4], corner = "d" },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(text);
+    assert!(
+        e.contains("`panel[0].outline`") && e.contains("panel `bow`") && e.contains("the edges b → c and d → a cross"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_panel_with_three_corners_is_an_error() {
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "triangle"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, 0.0], corner = "b" },
+  { at = [0.2, 0.4], corner = "c" },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(text);
+    assert!(e.contains("panel `triangle`: 3 corners (a, b, c); a panel needs exactly four"), "{e}");
+}
+
+/// Both sides running with their outlines would sew a right side to a wrong side; a seam's edge must exist.
+#[test]
+fn a_seam_of_the_wrong_sense_or_a_missing_edge_is_an_error() {
+    let two = format!(
+        "edge_length = 0.05\n{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.6])
+    );
+    let e = failure(&format!("{two}{}", seam(("left", "b", "c"), ("right", "d", "a"))));
+    assert!(e.contains("both run with their outlines") && e.contains("panel `right` edge d → a"), "{e}");
+    let e = failure(&format!("{two}{}", seam(("left", "a", "c"), ("right", "a", "d"))));
+    assert!(e.contains("panel `left` edge a → c does not exist"), "{e}");
+}
+
+/// The shipped pattern builds: two panels of matched counts, the side seams equal in length, no warning; the
+/// pattern format's JSON schema lists its tables.
+#[test]
+fn the_straight_skirt_pattern_builds() {
+    let spec = PatternSpec::load(&repo().join("garments/straight_skirt.toml")).unwrap();
+    let built = spec.pattern().build().unwrap();
+    assert_eq!(built.panels.len(), 2);
+    assert_eq!(built.seams.len(), 2);
+    for [a, b] in &built.seam_lengths {
+        assert!((a - b).abs() < 1e-12, "seam lengths {a} and {b}");
+    }
+    assert_eq!(built.panels[0].grid.n, built.panels[1].grid.n);
+    assert!(built.warnings.is_empty(), "{:?}", built.warnings);
+    let schema = PatternSpec::json_schema().to_string();
+    for key in ["\"panel\"", "\"seam\"", "\"hold\"", "\"edge_length\"", "\"cylinder\""] {
+        assert!(schema.contains(key), "schema lacks {key}");
+    }
+    match spec.pattern().panels[0].placement {
+        Placement::Cylinder { radius, .. } => assert!(radius > 0.2),
+        Placement::Flat { .. } => panic!("the skirt is placed on a cylinder"),
+    }
+    let _: &Pattern = &spec.pattern();
+}
