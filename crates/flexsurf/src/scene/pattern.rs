@@ -169,7 +169,7 @@ fn default_hold() -> f64 {
 pub struct PatternUse {
     /// The pattern file, relative to the scene file.
     pub file: PathBuf,
-    /// Stiffness of the sewing springs, per node pair (N/m), default 20.
+    /// Stiffness of the sewing springs, per node pair (N/m), default 100.
     #[serde(default = "default_sewing_stiffness")]
     pub sewing_stiffness: f64,
     /// Most steps of the sewing phase (at the scene's Δt), default 300.
@@ -181,7 +181,7 @@ pub struct PatternUse {
 }
 
 fn default_sewing_stiffness() -> f64 {
-    20.0
+    100.0
 }
 fn default_sewing_steps() -> usize {
     300

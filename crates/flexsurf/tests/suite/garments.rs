@@ -304,3 +304,36 @@ fn the_straight_skirt_pattern_builds() {
     }
     let _: &Pattern = &spec.pattern();
 }
+
+/// The shipped straight skirt (`scenes/straight_skirt.toml`) sews closed on the mannequin: after the sewing
+/// phase every sewn node pair is within 1 mm, the seams are joined (the model has the panels' nodes less one
+/// side of each seam), and no node of the sewn skirt is inside the body.
+#[test]
+fn the_straight_skirt_sews_closed_on_the_mannequin() {
+    let clock = std::time::Instant::now();
+    let scene = flexsurf::scene::load(&repo().join("scenes/straight_skirt.toml")).unwrap();
+    let seconds = clock.elapsed().as_secs_f64();
+    let sewing = scene.sewing.as_ref().unwrap();
+    let report = &sewing.report;
+    let model = &scene.model;
+    let panel_nodes: usize = model.panels.iter().map(|p| p.grid.len()).sum();
+    let seam_nodes: usize = model.seams.iter().map(|s| s.a.edge.count(&model.panels[s.a.panel].grid)).sum();
+    assert_eq!(model.nodes(), panel_nodes - seam_nodes);
+    let body = &model.obstacles()[0];
+    let deepest = scene
+        .state
+        .x
+        .iter()
+        .filter_map(|p| body.distance_hinted(*p, &mut None, 0.1).map(|(d, _)| d))
+        .fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "straight skirt: {} nodes, sewn in {} steps ({:.2} s; scene built in {seconds:.2} s), gaps {:?} m, closest \
+         to the body {deepest:.4} m",
+        model.nodes(),
+        report.steps,
+        report.seconds,
+        report.gaps
+    );
+    assert!(report.largest_gap() < 1e-3, "gaps {:?}", report.gaps);
+    assert!(deepest > 0.0, "a node is {deepest} m inside the body");
+}
