@@ -3,6 +3,8 @@
 //! the seams joined ([`crate::model::ModelBuilder::seams`]) and the sewn positions mapped onto its nodes (a
 //! joined node at the midpoint of its panel nodes). Gravity is off while sewing, so the garment closes where it
 //! was placed; holds (a waistband) are springs added after sewing that keep their nodes where sewing left them.
+//! Self-contact is off while sewing (it would hold apart the pairs being sewn, which are not yet neighbours),
+//! so panels may pass through each other during the phase; the joined model has it when the builder asks.
 
 use crate::integrate::{StepError, StepParams, Stepper};
 use crate::math::Vec3;
@@ -100,6 +102,9 @@ pub fn sew(
     let pairs = seam_pairs(builder, seams);
     let mut open = builder.clone();
     open.gravity = Vec3::ZERO;
+    // Self-contact would push apart the very pairs the sewing pulls together (they are no grid neighbours
+    // until joined): it is off while sewing and on again for the joined model.
+    open.self_contact = None;
     open.extra_terms.push(Box::new(Sewing::new(pairs.concat(), params.stiffness)));
     let open = open.build()?;
     let gap = |x: &[Vec3]| -> Vec<f64> {
