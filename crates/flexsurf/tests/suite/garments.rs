@@ -192,6 +192,13 @@ fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
     }
     let moved =
         reference.x.iter().zip(grid.flat_positions(0.0)).map(|(p, q)| (*p - curved(q)).length()).fold(0.0, f64::max);
+    eprintln!("sewn square vs sheet after 30 steps: {apart:e} m apart (moved {moved} m)");
+    // The welded garment mesh (k = 2) is the square's display mesh: (2·12 + 1)² vertices, 2·2²·144 triangles,
+    // the seam's 25 vertices merged, every vertex used; flat at the start, so its area is the square's.
+    let mesh = flexsurf::runner::fields::welded_mesh(&sewn.model, &sewn.model.rest, 2);
+    assert_eq!((mesh.vertex_count(), mesh.triangle_count()), (625, 1152));
+    assert!((mesh.area() - 0.36).abs() < 1e-12, "area {}", mesh.area());
+    assert!(mesh.validate().is_ok());
     assert!(moved > 1e-3, "the sheet should move (moved {moved} m)");
     assert!(apart < 1e-10, "the sewn square is {apart} m from the sheet (moved {moved} m)");
 }
@@ -303,6 +310,16 @@ fn the_straight_skirt_pattern_builds() {
         Placement::Flat { .. } => panic!("the skirt is placed on a cylinder"),
     }
     let _: &Pattern = &spec.pattern();
+    // The four-gore skirt: four gores of 20 nodes down (0.55 m with curved hips at 0.03 m), matched all round.
+    let gores = PatternSpec::load(&repo().join("garments/four_gore_skirt.toml")).unwrap().pattern().build().unwrap();
+    assert_eq!(gores.panels.len(), 4);
+    assert_eq!(gores.seams.len(), 4);
+    assert!(
+        gores.panels.iter().all(|p| p.grid.n == 20),
+        "{:?}",
+        gores.panels.iter().map(|p| p.grid.n).collect::<Vec<_>>()
+    );
+    assert!(gores.warnings.is_empty(), "{:?}", gores.warnings);
 }
 
 /// The shipped straight skirt (`scenes/straight_skirt.toml`) sews closed on the mannequin: after the sewing
