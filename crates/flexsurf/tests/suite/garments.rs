@@ -354,3 +354,40 @@ fn the_straight_skirt_sews_closed_on_the_mannequin() {
     assert!(report.largest_gap() < 1e-3, "gaps {:?}", report.gaps);
     assert!(deepest > 0.0, "a node is {deepest} m inside the body");
 }
+
+/// Two rectangles of 0.3 × 0.6 m placed flat 4 cm apart are pulled together by the sewing phase: the seam
+/// closes below the phase's gap, and, the sewing forces being equal and opposite (and damping proportional to
+/// mass), the centre of mass of the open panels stays where it was (to rounding); the joined model has the
+/// square's 169 nodes.
+#[test]
+fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (fabric, stiffness) = cotton();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    assert!((x0[l.grid.index(6, 0)] - x0[91 + r.grid.index(0, 0)]).length() > 0.039);
+    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4 };
+    let sewn = sew(&builder, &built.seams, x0.clone(), &[], &params).unwrap();
+    let centre = |x: &[Vec3]| x.iter().copied().sum::<Vec3>() / x.len() as f64;
+    // Equal masses per panel node on both panels: the open model's centre of mass is the mean position; the
+    // joined positions are the pairs' midpoints, so the mean over panel nodes is recovered from them.
+    let panel_nodes: Vec<Vec3> = sewn.model.panels.iter().flat_map(|p| p.gather(&sewn.x)).collect();
+    let drift = (centre(&panel_nodes) - centre(&x0)).length();
+    eprintln!(
+        "sewing a 4 cm gap: {} steps, gap {:e} m, centre moved {drift:e} m",
+        sewn.report.steps,
+        sewn.report.largest_gap()
+    );
+    assert!(sewn.report.largest_gap() < 5e-4 && sewn.report.steps < 200, "{:?}", sewn.report);
+    assert!(drift < 1e-12, "the centre moved {drift} m");
+    assert_eq!(sewn.model.nodes(), 169);
+}
