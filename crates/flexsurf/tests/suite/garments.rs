@@ -391,3 +391,73 @@ fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
     assert!(drift < 1e-12, "the centre moved {drift} m");
     assert_eq!(sewn.model.nodes(), 169);
 }
+
+/// Four corners bunched on one side of a square (the sides a → b and c → d then run opposite ways along
+/// one line) fold the Coons map: an error naming the panel; a strong taper (1 m at the bottom, 0.1 m at the top) is a warning of a badly distorted grid with
+/// the bilinear map's Jacobian ratio 0.1.
+#[test]
+fn a_folded_map_is_an_error_and_a_distorted_one_a_warning() {
+    let folded = r#"
+edge_length = 0.05
+[[panel]]
+name = "bunched"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.1, 0.0], corner = "b" },
+  { at = [0.2, 0.0], corner = "c" },
+  { at = [0.3, 0.0], corner = "d" },
+  { at = [1.0, 0.0] },
+  { at = [1.0, 1.0] },
+  { at = [0.0, 1.0] },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(folded);
+    assert!(e.contains("`panel[0].outline`") && e.contains("panel `bunched`: its grid folds over"), "{e}");
+    let tapered = r#"
+edge_length = 0.05
+[[panel]]
+name = "taper"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [1.0, 0.0], corner = "b" },
+  { at = [0.55, 0.5], corner = "c" },
+  { at = [0.45, 0.5], corner = "d" },
+]
+placement = { flat = {} }
+"#;
+    let built = build(tapered);
+    let [lo, hi] = built.panels[0].jacobian;
+    assert!((lo / hi - 0.1).abs() < 1e-9, "Jacobian ratio {}", lo / hi);
+    assert_eq!(built.warnings.len(), 1);
+    let (key, message) = &built.warnings[0];
+    assert!(
+        key == "panel[0].outline"
+            && message.contains("panel `taper`: its grid is badly distorted (smallest to largest Jacobian 0.100)"),
+        "{message}"
+    );
+}
+
+/// A scene whose pattern cannot be sewn names the scene file, its `pattern.file`, the pattern file and the
+/// pattern's key.
+#[test]
+fn a_pattern_error_names_the_scene_and_the_pattern_file() {
+    let dir = flexsurf::testing::scratch("garments", "pattern-error");
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.5]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    std::fs::write(dir.join("bad_pattern.toml"), text).unwrap();
+    let scene = "[pattern]\nfile = \"bad_pattern.toml\"\n[time]\nsteps = 1\n";
+    std::fs::write(dir.join("sewn.toml"), scene).unwrap();
+    let e = flexsurf::scene::load(&dir.join("sewn.toml")).unwrap_err();
+    let m = e.to_string();
+    assert!(m.contains("sewn.toml") && m.contains("`pattern.file`") && m.contains("bad_pattern.toml"), "{m}");
+    assert!(m.contains("`seam[0]`") && m.contains("panel `right` edge a → d 0.5000 m"), "{m}");
+    assert_eq!(e.key(), "seam[0]");
+    let _ = std::fs::remove_dir_all(&dir);
+}
