@@ -116,7 +116,7 @@ impl SceneSpec {
     /// Checks every value (sizes and memory first, from the sizes alone: nothing large is allocated for a scene
     /// that fails them) and returns the parts of the model.
     pub(crate) fn checked(&self, v: &Validator<'_>, limits: &Limits) -> Result<Checked<'_>, SceneError> {
-        let budget::Budget { output_every, animation_every, estimate } = budget::check(self, v, limits)?;
+        let budget::Budget { output_every, animation_every, mut estimate } = budget::check(self, v, limits)?;
         let dt = v.number(&ranges::DT, "time.dt", self.time.dt)?;
         // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
         let mut obstacles = Vec::with_capacity(self.obstacles.len());
@@ -132,6 +132,9 @@ impl SceneSpec {
         let mut body = match &self.pattern {
             Some(p) if self.sheet.is_none() && self.garment.is_none() => {
                 let pattern = p.load(v, dt, &material.name)?;
+                // The sizes are known now: the memory estimate of the panels (the cadences do not change).
+                let sizes = pattern.built.panels.iter().map(|q| ("pattern.file".to_string(), [q.grid.m, q.grid.n]));
+                estimate = budget::check_sizes(self, v, limits, Some(sizes.collect()))?.estimate;
                 let initial = pattern.built.panels.iter().flat_map(|q| q.placed.iter().copied()).collect();
                 Body::Pattern { pattern, initial }
             }
