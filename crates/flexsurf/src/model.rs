@@ -455,6 +455,22 @@ impl Model {
         self.mass.iter().sum()
     }
 
+    /// A model node named for messages: `sheet p node [i, j]` (the first panel holding it; `node [i, j]` for a
+    /// model of one panel).
+    pub fn describe_node(&self, k: usize) -> String {
+        for (p, panel) in self.panels.iter().enumerate() {
+            if let Some(local) = panel.nodes().iter().position(|&g| g == k) {
+                let (i, j) = panel.grid.coords(local);
+                return if self.panels.len() == 1 {
+                    format!("node [{i}, {j}]")
+                } else {
+                    format!("sheet {p} node [{i}, {j}]")
+                };
+            }
+        }
+        format!("node {k}")
+    }
+
     /// Pinned nodes, one flag per node.
     pub fn pinned(&self) -> &[bool] {
         self.potential.fixed()

@@ -91,6 +91,26 @@ impl Stencil {
         self.nodes[0]
     }
 
+    /// Adds the gradient `g` and Hessian `h` of an energy of the stencil's point into `sink`: node `a` takes
+    /// `w_a g` (unless fixed), the block of nodes `(a, b)` takes `w_a w_b h` (the diagonal ones through the
+    /// pattern, the others as the step's extra pairs).
+    pub fn spread(&self, g: Vec3, h: Mat3, cx: &Context, sink: &mut Sink) {
+        for (a, wa) in self.terms() {
+            if let Some(grad) = sink.grad.as_deref_mut() {
+                if !cx.fixed[a] {
+                    grad[a] += g * wa;
+                }
+            }
+            for (b, wb) in self.terms() {
+                if a == b {
+                    sink.add_block(cx.diag[a], a, a, h * (wa * wb));
+                } else if a < b {
+                    sink.add_pair(a, b, h * (wa * wb));
+                }
+            }
+        }
+    }
+
     /// `Σ wₖ x_{nodes[k]}`.
     pub fn point(&self, x: &[Vec3]) -> Vec3 {
         let mut p = x[self.nodes[0]] * self.weights[0];
@@ -193,20 +213,7 @@ impl Contact {
             sink.add_block(cx.diag[k], k, k, h);
             return;
         }
-        for (a, wa) in self.stencil.terms() {
-            if let Some(g) = sink.grad.as_deref_mut() {
-                if !cx.fixed[a] {
-                    g[a] -= f * wa;
-                }
-            }
-            for (b, wb) in self.stencil.terms() {
-                if a == b {
-                    sink.add_block(cx.diag[a], a, a, h * (wa * wb));
-                } else if a < b {
-                    sink.add_pair(a, b, h * (wa * wb));
-                }
-            }
-        }
+        self.stencil.spread(-f, h, cx, sink);
     }
 }
 
@@ -339,7 +346,7 @@ fn entry(
 }
 
 /// Most friction re-linearisations per assembly.
-const FRICTION_ROUNDS: usize = 1;
+pub(crate) const FRICTION_ROUNDS: usize = 1;
 
 /// Penalty contact of the sheet's nodes (rest areas `area`) with `obstacles`.
 #[derive(Debug, Clone)]

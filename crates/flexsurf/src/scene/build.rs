@@ -7,6 +7,7 @@ use super::budget::{Estimate, Limits};
 use super::error::SceneWarning;
 use super::garment::GarmentInfo;
 use super::initial;
+use super::motion::PinMotion;
 use super::pattern::LoadedPattern;
 use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
@@ -51,6 +52,8 @@ pub struct Scene {
     pub garment: Option<GarmentInfo>,
     /// The sewing phase, for `[pattern]` scenes.
     pub sewing: Option<SewingInfo>,
+    /// The pinned sets carried along prescribed motions (`[[pin]] motion`).
+    pub motions: Vec<PinMotion>,
     /// The values outside the usual range of fabrics (valid, but most often a unit slip); front ends print them.
     pub warnings: Vec<SceneWarning>,
 }
@@ -84,6 +87,10 @@ pub struct SceneReport {
     pub warnings: Vec<SceneWarning>,
 }
 
+/// What a checked scene assembles into: the model, the initial positions, the garment, the pins' motions and
+/// the sewing phase of a `[pattern]` scene.
+type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Vec<PinMotion>, Option<SewingInfo>);
+
 impl Scene {
     /// The run: a dynamic integration with its step parameters (time step [`Scene::dt`]), or a static solve.
     pub fn method(&self) -> Method {
@@ -96,6 +103,12 @@ impl Scene {
             Method::Dynamic(p) => p,
             Method::Static(_) => StepParams::with_dt(self.dt),
         }
+    }
+
+    /// Moves the pinned sets of [`Scene::motions`] in `state` to their positions at the end of the coming step
+    /// (of [`Scene::dt`]): the runner calls it before each step.
+    pub fn drive(&self, state: &mut State) -> Result<(), crate::model::ModelError> {
+        super::motion::drive(&self.motions, &self.model, state, self.dt)
     }
 
     /// The linear solver of the run (a static solve always factorises).
@@ -120,7 +133,7 @@ impl SceneSpec {
         let warnings = Warnings::default();
         let v = Validator::new(file, &warnings);
         let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
-        let (model, initial, garment, sewing) = self.assemble(&v, parts)?;
+        let (model, initial, garment, motions, sewing) = self.assemble(&v, parts)?;
         let integrator = self.integrator;
         let state = match integrator.kind.method(dt, integrator.solver) {
             Method::Static(_) => State::at_rest(initial),
@@ -144,6 +157,7 @@ impl SceneSpec {
             material,
             output: self.output,
             garment,
+            motions,
             sewing,
             warnings: warnings.into_inner(),
         })
@@ -191,7 +205,8 @@ impl SceneSpec {
     /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables; a
     /// pattern's garment is sewn last).
     fn assemble(&self, v: &Validator<'_>, parts: Parts<'_>) -> Result<Assembled, SceneError> {
-        let Parts { body, fabric, stiffness, gravity, obstacles, contact, self_contact, pins, springs } = parts;
+        let Parts { body, fabric, stiffness, gravity, obstacles, contact, self_contact, pins, motions, springs } =
+            parts;
         let mut pattern = None;
         let (mut model, initial, garment) = match body {
             Body::Sheets { sheets, initial } => {
@@ -235,6 +250,7 @@ impl SceneSpec {
         model.obstacles = obstacles;
         model.contact = contact;
         model.self_contact = self_contact;
+        let motions = motions.iter().map(|(i, p)| PinMotion::new(pins[*i].clone(), &initial, p)).collect();
         for nodes in pins {
             for k in nodes {
                 model.pinned[k] = true;
@@ -251,7 +267,7 @@ impl SceneSpec {
         }
         let Some(pattern) = pattern else {
             let model = model.build().map_err(|e| v.bad(e.field, e.message))?;
-            return Ok((model, initial, garment, None));
+            return Ok((model, initial, garment, motions, None));
         };
         let built = &pattern.built;
         let sewn = sew(&model, &built.seams, initial, &pattern.holds, &pattern.sewing).map_err(|e| match e {
@@ -259,13 +275,9 @@ impl SceneSpec {
             SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
         })?;
         let info = SewingInfo::new(&pattern, sewn.report);
-        Ok((sewn.model, sewn.x, None, Some(info)))
+        Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }
 }
-
-/// What [`SceneSpec::assemble`] returns: the model, the initial positions of its nodes, the garment and the
-/// sewing phase.
-type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Option<SewingInfo>);
 
 /// What a `[pattern]` scene reports of its pattern and its sewing.
 #[derive(Debug, Clone, PartialEq)]

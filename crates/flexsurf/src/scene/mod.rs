@@ -10,6 +10,7 @@
 //!   default in [`defaults`], and the JSON schema ([`SceneSpec::json_schema`]).
 //! - [`material`]: `[material]` and material files (presets, SI, KES-F and FAST units) resolved to SI constants.
 //! - [`initial`]: `[initial]`, the initial velocities and positions.
+//! - [`motion`]: `[[pin]] motion`, pinned sets carried along a prescribed rigid motion.
 //! - [`garment`]: `[garment]`, its check, and the call into [`crate::garment`], which builds the skirt.
 //! - [`pattern`]: pattern files (`garments/*.toml`) and `[pattern]`, a garment sewn from one
 //!   ([`crate::garment::pattern`], [`crate::garment::sewing`]).
@@ -30,6 +31,7 @@ mod error;
 pub mod garment;
 pub mod initial;
 pub mod material;
+pub mod motion;
 pub mod pattern;
 pub use crate::ranges;
 pub mod spans;
@@ -46,8 +48,8 @@ pub use material::{MaterialSpec, Preset, Units};
 pub use pattern::{PatternSpec, PatternUse};
 pub use spec::{
     defaults, BuiltinBody, ContactSpec, FrameFormat, Initial, IntegratorKind, IntegratorSpec, MeshSpec, ModelSpec,
-    NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets, SphereSpec,
-    SpringSpec, SpringTarget, TimeSpec,
+    MotionSpec, NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets,
+    SphereSpec, SpringSpec, SpringTarget, TimeSpec,
 };
 
 use std::path::Path;
