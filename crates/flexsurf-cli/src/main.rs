@@ -45,8 +45,8 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Validate a scene file without running it.
     Check(check::CheckArgs),
-    /// Print the JSON schema of the scene format.
-    Schema,
+    /// Print the JSON schema of the scene format (with --pattern: of the pattern format, docs/garments.md).
+    Schema(schema::SchemaArgs),
     /// Time the ball drop at several grid sizes, with the per-step breakdown (assembly, contact,
     /// factorisation, solve).
     Bench(bench::BenchArgs),
@@ -67,7 +67,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::execute(args),
         Command::Demo(args) => demo::execute(args),
         Command::Check(args) => check::execute(args),
-        Command::Schema => schema::execute(),
+        Command::Schema(args) => schema::execute(args),
         Command::Bench(args) => bench::execute(args),
         Command::Test(which) => test::execute(which),
         Command::View(args) => view::execute(args),

@@ -20,6 +20,11 @@ fn check_schema_and_errors() {
     assert_eq!(code, 0);
     let schema: serde_json::Value = serde_json::from_str(&stdout).expect("schema is JSON");
     assert!(schema["properties"].get("sheet").is_some());
+    assert!(schema["properties"].get("pattern").is_some());
+    let (code, stdout, _) = flexsurf(&["schema", "--pattern"]);
+    assert_eq!(code, 0);
+    let schema: serde_json::Value = serde_json::from_str(&stdout).expect("the pattern schema is JSON");
+    assert!(schema["properties"].get("panel").is_some() && schema["properties"].get("seam").is_some());
 
     let dir = std::env::temp_dir().join(format!("flexsurf-cli-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

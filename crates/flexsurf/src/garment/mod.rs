@@ -5,10 +5,14 @@
 //!
 //! - [`skirt`]: the flared circle skirt (the paper's demo 2): a cone of the waist girth at the top, the hem
 //!   girth at the bottom and the given length along every generatrix, used as the flat pattern.
+//! - [`pattern`]: sewing patterns: panels from 2D outlines (Coons grids), seams between their edges.
+//! - [`sewing`]: the sewing phase that pulls the placed panels' seams closed and joins them.
 //! - [`fit`]: the waist row fitted onto the body, and the clearance of the straight generatrices from it to the
 //!   hem.
 
 pub mod fit;
+pub mod pattern;
+pub mod sewing;
 pub mod skirt;
 
 pub use fit::{WaistFit, GENERATRIX_SAMPLES, MAX_WAIST_FIT, MIN_WAIST_SAMPLES, WAIST_SAMPLES_PER_NODE};

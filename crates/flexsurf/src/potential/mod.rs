@@ -23,6 +23,7 @@ pub mod face_samples;
 pub mod friction;
 pub mod inertia;
 pub mod self_contact;
+pub mod sewing;
 pub mod springs;
 
 use crate::contact::Obstacle;

@@ -19,6 +19,7 @@ use crate::grid::Grid;
 use crate::io::render::{checkered_square, uv_sphere};
 use crate::math::Vec3;
 use crate::model::{Model, Panel};
+use crate::seam::Edge;
 use crate::state::State;
 use crate::surface::{Aabb, CoonsSurface, TriMesh};
 
@@ -147,6 +148,73 @@ pub fn display_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
     let mut mesh = meshes.next().unwrap_or_default();
     meshes.for_each(|m| mesh.append(&m));
     mesh
+}
+
+/// The display vertices of `edge` of a panel's tessellation with `k` subdivisions (within the panel), in the
+/// edge's own order.
+fn edge_vertices(grid: &Grid, k: usize, edge: Edge) -> Vec<usize> {
+    let (na, nb) = display_counts(grid, k);
+    match edge {
+        Edge::U1Start => (0..nb).map(|b| na * b).collect(),
+        Edge::U1End => (0..nb).map(|b| na - 1 + na * b).collect(),
+        Edge::U2Start => (0..na).collect(),
+        Edge::U2End => (0..na).map(|a| a + na * (nb - 1)).collect(),
+    }
+}
+
+/// One welded garment mesh: [`display_mesh`] with the display vertices of every seam's two edges merged, so
+/// the garment is one surface (a seam's two edges have the same nodes and the same tangents along them, so
+/// their display curves agree up to rounding; the merged vertex takes the first panel's position and the mean
+/// normal).
+pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+    let k = k.max(1);
+    let mesh = display_mesh(&model.panels, x, k);
+    let starts: Vec<usize> = model
+        .panels
+        .iter()
+        .scan(0, |o, p| {
+            let (na, nb) = display_counts(&p.grid, k);
+            Some(std::mem::replace(o, *o + na * nb))
+        })
+        .collect();
+    let mut parent: Vec<usize> = (0..mesh.positions.len()).collect();
+    fn root(parent: &mut [usize], mut v: usize) -> usize {
+        while parent[v] != v {
+            parent[v] = parent[parent[v]];
+            v = parent[v];
+        }
+        v
+    }
+    let side = |s: &crate::seam::SeamSide| -> Vec<usize> {
+        let mut v = edge_vertices(&model.panels[s.panel].grid, k, s.edge);
+        if s.reversed {
+            v.reverse();
+        }
+        v.into_iter().map(|i| starts[s.panel] + i).collect()
+    };
+    for seam in &model.seams {
+        for (a, b) in side(&seam.a).into_iter().zip(side(&seam.b)) {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut index = vec![u32::MAX; parent.len()];
+    let mut out = TriMesh { positions: Vec::new(), normals: Vec::new(), triangles: Vec::new() };
+    for v in 0..parent.len() {
+        let r = root(&mut parent, v);
+        if index[r] == u32::MAX {
+            index[r] = out.positions.len() as u32;
+            out.positions.push(mesh.positions[r]);
+            out.normals.push(Vec3::ZERO);
+        }
+        index[v] = index[r];
+        if let Some(n) = mesh.normals.get(v) {
+            out.normals[index[v] as usize] += *n;
+        }
+    }
+    out.normals.iter_mut().for_each(|n| *n = n.normalize_or(Vec3::Z));
+    out.triangles = mesh.triangles.iter().map(|t| t.map(|v| index[v as usize])).collect();
+    out
 }
 
 /// The triangles and UVs shared by every frame of `grid` tessellated with `k` subdivisions.

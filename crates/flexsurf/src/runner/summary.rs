@@ -105,6 +105,9 @@ pub struct Summary {
     /// Garment scenes: smallest signed distance of the initial shape from the obstacles (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub initial_min_distance: Option<f64>,
+    /// `[pattern]` scenes: the pattern, its panels' strain at the end and the sewing phase's seam gaps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sewing: Option<SewingSummary>,
     /// `integrator = "static"`: Newton iterations, final relative residual (residual force over the largest
     /// load) and total potential.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -190,6 +193,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         waist_fitted: scene.garment.as_ref().map(|g| g.waist_fitted),
         waist_strain: scene.garment.as_ref().map(|g| g.waist_strain),
         initial_min_distance: scene.garment.as_ref().map(|g| g.initial_min_distance),
+        sewing: scene.sewing.as_ref().map(|s| SewingSummary::new(s, model, &state.x)),
         static_solve: static_report,
         frames: Vec::new(),
         final_state: final_state(model, &state.x, final_mesh, &d),
@@ -228,5 +232,89 @@ fn final_state(model: &Model, x: &[Vec3], mesh: &TriMesh, d: &Diagnostics) -> Fi
         max_penetration: d.max_penetration,
         max_strain: model.max_strain(x),
         energies: model.potential.term_energies(x, true).into_iter().map(|(n, e)| (n.to_string(), e)).collect(),
+    }
+}
+
+/// A sewn garment in `summary.json`: the pattern, each panel's grid, map quality and largest strain at the end,
+/// each seam's edge lengths and the gap the sewing phase left before the seam was joined.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SewingSummary {
+    /// The pattern's name.
+    pub pattern: String,
+    /// The pattern file.
+    pub file: String,
+    /// Steps of the sewing phase.
+    pub steps: usize,
+    /// Wall time of the sewing phase (s).
+    pub seconds: f64,
+    /// The largest gap between two sewn nodes when the seams were joined (m).
+    pub gap_max: f64,
+    /// Per panel.
+    pub panels: Vec<PanelSummary>,
+    /// Per seam.
+    pub seams: Vec<SeamSummary>,
+}
+
+/// One panel of a sewn garment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PanelSummary {
+    /// Its name.
+    pub name: String,
+    /// Grid nodes `[M, N]`.
+    pub nodes: [usize; 2],
+    /// Smallest to largest Jacobian of its Coons map (1: uniform).
+    pub distortion: f64,
+    /// Largest engineering stretch `|ℓ/ℓ₀ − 1|` of its grid edges at the end.
+    pub strain_max: f64,
+}
+
+/// One seam of a sewn garment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SeamSummary {
+    /// The lengths of its two edges in the pattern (m).
+    pub lengths: [f64; 2],
+    /// The largest gap between its sewn nodes when it was joined (m).
+    pub gap: f64,
+}
+
+impl SewingSummary {
+    fn new(info: &crate::scene::SewingInfo, model: &Model, x: &[Vec3]) -> Self {
+        let panels = model
+            .panels
+            .iter()
+            .enumerate()
+            .map(|(p, panel)| {
+                let rest = panel.rest();
+                let strain = panel.grid.cells().flat_map(|(i, j)| {
+                    let c = panel.grid.cell(i, j);
+                    [(0, 1), (0, 2), (1, 3), (2, 3)].map(|(a, b)| {
+                        let l0 = (rest[c[b]] - rest[c[a]]).length();
+                        let l = (x[panel.global(c[b])] - x[panel.global(c[a])]).length();
+                        (l / l0 - 1.0).abs()
+                    })
+                });
+                PanelSummary {
+                    name: info.panels.get(p).cloned().unwrap_or_default(),
+                    nodes: [panel.grid.m, panel.grid.n],
+                    distortion: info.distortion.get(p).copied().unwrap_or(1.0),
+                    strain_max: strain.fold(0.0, f64::max),
+                }
+            })
+            .collect();
+        let seams = info
+            .seam_lengths
+            .iter()
+            .zip(&info.report.gaps)
+            .map(|(&lengths, &gap)| SeamSummary { lengths, gap })
+            .collect();
+        Self {
+            pattern: info.pattern.clone(),
+            file: info.file.display().to_string(),
+            steps: info.report.steps,
+            seconds: info.report.seconds,
+            gap_max: info.report.largest_gap(),
+            panels,
+            seams,
+        }
     }
 }

@@ -72,6 +72,17 @@ pub(crate) struct Budget {
 /// of its memory against `limits`. Called by [`SceneSpec::build_with`] before anything is read or built, from
 /// the sizes alone. Returns the frame and animation cadences and the estimate.
 pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<Budget, SceneError> {
+    check_sizes(spec, v, limits, None)
+}
+
+/// As [`check`], with the panels' node counts `sizes` (key, `[M, N]`) in place of the scene's own (a
+/// `[pattern]` scene, whose sizes are known once its pattern file is built).
+pub(crate) fn check_sizes(
+    spec: &SceneSpec,
+    v: &Validator<'_>,
+    limits: &Limits,
+    given: Option<Vec<(String, [usize; 2])>>,
+) -> Result<Budget, SceneError> {
     let steps = spec.time.steps;
     v.at_least("time.steps", steps, 1)?;
     v.require("time.steps", steps <= ranges::STEPS, || {
@@ -86,10 +97,11 @@ pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Res
             ranges::FRAMES
         )
     })?;
-    let sizes: Vec<(String, [usize; 2])> = match (&spec.sheet, &spec.garment) {
-        (Some(s), _) => s.list().iter().enumerate().map(|(i, sheet)| (s.key(i, "nodes"), sheet.nodes)).collect(),
-        (None, Some(g)) => vec![("garment.nodes".into(), g.nodes)],
-        (None, None) => Vec::new(),
+    let sizes: Vec<(String, [usize; 2])> = match (&spec.sheet, &spec.garment, given) {
+        (_, _, Some(given)) => given,
+        (Some(s), _, None) => s.list().iter().enumerate().map(|(i, sheet)| (s.key(i, "nodes"), sheet.nodes)).collect(),
+        (None, Some(g), None) => vec![("garment.nodes".into(), g.nodes)],
+        (None, None, None) => Vec::new(),
     };
     if let Some(a) = spec.output.animation_every {
         v.at_least("output.animation_every", a, 1)?;

@@ -8,10 +8,12 @@ use super::error::SceneWarning;
 use super::garment::GarmentInfo;
 use super::initial;
 use super::motion::PinMotion;
+use super::pattern::LoadedPattern;
 use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
 use super::values::{Body, Checked, Parts};
 use super::SceneError;
+use crate::garment::sewing::{sew, SewError, SewReport};
 use crate::integrate::{linsolve::SolverKind, Method, StepParams};
 use crate::material::Calibration;
 use crate::math::Vec3;
@@ -48,6 +50,8 @@ pub struct Scene {
     pub output: OutputSpec,
     /// The garment, for garment scenes.
     pub garment: Option<GarmentInfo>,
+    /// The sewing phase, for `[pattern]` scenes.
+    pub sewing: Option<SewingInfo>,
     /// The pinned sets carried along prescribed motions (`[[pin]] motion`).
     pub motions: Vec<PinMotion>,
     /// The values outside the usual range of fabrics (valid, but most often a unit slip); front ends print them.
@@ -83,8 +87,9 @@ pub struct SceneReport {
     pub warnings: Vec<SceneWarning>,
 }
 
-/// What a checked scene assembles into: the model, the initial positions, the garment and the pins' motions.
-type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Vec<PinMotion>);
+/// What a checked scene assembles into: the model, the initial positions, the garment, the pins' motions and
+/// the sewing phase of a `[pattern]` scene.
+type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Vec<PinMotion>, Option<SewingInfo>);
 
 impl Scene {
     /// The run: a dynamic integration with its step parameters (time step [`Scene::dt`]), or a static solve.
@@ -128,7 +133,7 @@ impl SceneSpec {
         let warnings = Warnings::default();
         let v = Validator::new(file, &warnings);
         let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
-        let (model, initial, garment, motions) = self.assemble(&v, parts)?;
+        let (model, initial, garment, motions, sewing) = self.assemble(&v, parts)?;
         let integrator = self.integrator;
         let state = match integrator.kind.method(dt, integrator.solver) {
             Method::Static(_) => State::at_rest(initial),
@@ -153,6 +158,7 @@ impl SceneSpec {
             output: self.output,
             garment,
             motions,
+            sewing,
             warnings: warnings.into_inner(),
         })
     }
@@ -170,6 +176,7 @@ impl SceneSpec {
         let waist = match &parts.body {
             Body::Garment { shape, .. } => shape.waist_nodes.len(),
             Body::Sheets { .. } => 0,
+            Body::Pattern { pattern, .. } => pattern.holds.len(),
         };
         Ok(SceneReport {
             nodes: [grids[0].0.m, grids[0].0.n],
@@ -195,7 +202,8 @@ impl SceneSpec {
     }
 
     /// The model and its initial positions from checked parts: the one place a scene constructs a [`Model`]
-    /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables).
+    /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables; a
+    /// pattern's garment is sewn last).
     fn assemble(&self, v: &Validator<'_>, parts: Parts<'_>) -> Result<Assembled, SceneError> {
         let Parts {
             body,
@@ -210,6 +218,7 @@ impl SceneSpec {
             motions,
             springs,
         } = parts;
+        let mut pattern = None;
         let (mut model, initial, garment) = match body {
             Body::Sheets { sheets, initial } => {
                 let mut sheets = sheets.into_iter();
@@ -218,6 +227,18 @@ impl SceneSpec {
                 for (grid, rest) in sheets {
                     model = model.panel(grid, rest, ElasticOptions::default());
                 }
+                (model, initial, None)
+            }
+            Body::Pattern { pattern: loaded, initial } => {
+                let mut panels = loaded.built.panels.iter();
+                let Some(first) = panels.next() else { return Err(v.bad("pattern", "no panel".into())) };
+                let mut model =
+                    ModelBuilder::new(first.grid, first.flat.clone(), fabric, stiffness, self.model.kind, gravity)
+                        .options(first.options);
+                for p in panels {
+                    model = model.panel(p.grid, p.flat.clone(), p.options);
+                }
+                pattern = Some(loaded);
                 (model, initial, None)
             }
             Body::Garment { spec: g, shape } => {
@@ -256,7 +277,51 @@ impl SceneSpec {
                 });
             }
         }
-        let model = model.build().map_err(|e| v.bad(e.field, e.message))?;
-        Ok((model, initial, garment, motions))
+        let Some(pattern) = pattern else {
+            let model = model.build().map_err(|e| v.bad(e.field, e.message))?;
+            return Ok((model, initial, garment, motions, None));
+        };
+        if !motions.is_empty() {
+            // The pins' nodes are the panels'; sewing joins and renumbers them.
+            return Err(v.bad("pin", "a pin's `motion` is not supported in a [pattern] scene (yet)".into()));
+        }
+        let built = &pattern.built;
+        let sewn = sew(&model, &built.seams, initial, &pattern.holds, &pattern.sewing).map_err(|e| match e {
+            SewError::Model(e) => v.bad(e.field, e.message),
+            SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
+        })?;
+        let info = SewingInfo::new(&pattern, sewn.report);
+        Ok((sewn.model, sewn.x, None, motions, Some(info)))
+    }
+}
+
+/// What a `[pattern]` scene reports of its pattern and its sewing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SewingInfo {
+    /// The pattern's name.
+    pub pattern: String,
+    /// The pattern file.
+    pub file: PathBuf,
+    /// The panels' names, in node order.
+    pub panels: Vec<String>,
+    /// Each seam's lengths of its two edges (m).
+    pub seam_lengths: Vec<[f64; 2]>,
+    /// Smallest to largest Jacobian of each panel's Coons map.
+    pub distortion: Vec<f64>,
+    /// The sewing phase.
+    pub report: SewReport,
+}
+
+impl SewingInfo {
+    fn new(pattern: &LoadedPattern, report: SewReport) -> Self {
+        let built = &pattern.built;
+        Self {
+            pattern: pattern.name.clone(),
+            file: pattern.file.clone(),
+            panels: built.panels.iter().map(|p| p.name.clone()).collect(),
+            seam_lengths: built.seam_lengths.clone(),
+            distortion: built.panels.iter().map(|p| p.jacobian[0] / p.jacobian[1]).collect(),
+            report,
+        }
     }
 }

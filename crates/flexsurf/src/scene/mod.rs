@@ -12,6 +12,8 @@
 //! - [`initial`]: `[initial]`, the initial velocities and positions.
 //! - [`motion`]: `[[pin]] motion`, pinned sets carried along a prescribed rigid motion.
 //! - [`garment`]: `[garment]`, its check, and the call into [`crate::garment`], which builds the skirt.
+//! - [`pattern`]: pattern files (`garments/*.toml`) and `[pattern]`, a garment sewn from one
+//!   ([`crate::garment::pattern`], [`crate::garment::sewing`]).
 //! - `values.rs`: the check of every value of a scene (each key once), into the parts a model is built from.
 //! - `build.rs`: [`SceneSpec::build`], which checks every value and builds the [`Scene`] (model, initial state,
 //!   run settings), and [`SceneSpec::check_with`], which checks without building the model.
@@ -30,6 +32,7 @@ pub mod garment;
 pub mod initial;
 pub mod material;
 pub mod motion;
+pub mod pattern;
 pub use crate::ranges;
 pub mod spans;
 mod spec;
@@ -37,11 +40,12 @@ mod validate;
 mod values;
 
 pub use budget::Limits;
-pub use build::{Scene, SceneReport};
+pub use build::{Scene, SceneReport, SewingInfo};
 pub use error::{SceneError, SceneWarning};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};
+pub use pattern::{PatternSpec, PatternUse};
 pub use spec::{
     defaults, BuiltinBody, ContactSpec, FrameFormat, Initial, IntegratorKind, IntegratorSpec, MeshSpec, ModelSpec,
     MotionSpec, NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets,

@@ -7,6 +7,7 @@ use super::error::{parse_toml, SceneError};
 use super::garment::GarmentSpec;
 use super::initial::InitialSpec;
 use super::material::{MaterialSpec, Preset};
+use super::pattern::PatternUse;
 use crate::grid::Topology;
 use crate::integrate::statics;
 use crate::integrate::{linsolve::SolverKind, Method, Scheme, StepParams};
@@ -56,12 +57,15 @@ pub struct SceneSpec {
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 3],
     /// The sheet (`[sheet]`), or several (`[[sheet]]`, one panel each, in node order): size, nodes,
-    /// placement, topology. Exactly one of `sheet` and `garment` is given.
+    /// placement, topology. Exactly one of `sheet`, `garment` and `pattern` is given.
     #[serde(default)]
     pub sheet: Option<Sheets>,
     /// A garment (a skirt) fitted onto the obstacles, in place of `sheet`.
     #[serde(default)]
     pub garment: Option<GarmentSpec>,
+    /// A garment sewn from a pattern file (`[pattern]`), in place of `sheet`.
+    #[serde(default)]
+    pub pattern: Option<PatternUse>,
     /// The fabric (default: the `paper-cotton` preset).
     #[serde(default = "default_material")]
     pub material: MaterialSpec,

@@ -10,6 +10,7 @@ use super::garment::GarmentSpec;
 use super::initial::InitialCondition;
 use super::material::relative_to;
 use super::motion::MotionParams;
+use super::pattern::LoadedPattern;
 use super::ranges;
 use super::spec::{BuiltinBody, MotionSpec, ObstacleSpec, SceneSpec, SheetSpec, Sheets, SpringTarget};
 use super::validate::Validator;
@@ -33,6 +34,9 @@ pub(crate) enum Body<'s> {
     Sheets { sheets: Vec<(Grid, Vec<Vec3>)>, initial: Vec<Vec3> },
     /// A `[garment]` and its built geometry.
     Garment { spec: &'s GarmentSpec, shape: GarmentShape },
+    /// A `[pattern]`: its panels (grids, flat rest shapes) and seams, and the placed positions of every panel
+    /// (panel after panel), before sewing.
+    Pattern { pattern: LoadedPattern, initial: Vec<Vec3> },
 }
 
 impl Body<'_> {
@@ -42,6 +46,7 @@ impl Body<'_> {
         let grids: Vec<Grid> = match self {
             Body::Sheets { sheets, .. } => sheets.iter().map(|(g, _)| *g).collect(),
             Body::Garment { shape, .. } => vec![shape.grid],
+            Body::Pattern { pattern, .. } => pattern.built.panels.iter().map(|p| p.grid).collect(),
         };
         grids
             .into_iter()
@@ -63,7 +68,7 @@ impl Body<'_> {
     /// The initial positions.
     pub(crate) fn initial(&self) -> &[Vec3] {
         match self {
-            Body::Sheets { initial, .. } => initial,
+            Body::Sheets { initial, .. } | Body::Pattern { initial, .. } => initial,
             Body::Garment { shape, .. } => &shape.initial,
         }
     }
@@ -71,7 +76,7 @@ impl Body<'_> {
     /// Replaces the initial positions (the rest shape stays).
     fn set_initial(&mut self, x: Vec<Vec3>) {
         match self {
-            Body::Sheets { initial, .. } => *initial = x,
+            Body::Sheets { initial, .. } | Body::Pattern { initial, .. } => *initial = x,
             Body::Garment { shape, .. } => shape.initial = x,
         }
     }
@@ -135,7 +140,7 @@ impl SceneSpec {
     /// Checks every value (sizes and memory first, from the sizes alone: nothing large is allocated for a scene
     /// that fails them) and returns the parts of the model.
     pub(crate) fn checked(&self, v: &Validator<'_>, limits: &Limits) -> Result<Checked<'_>, SceneError> {
-        let budget::Budget { output_every, animation_every, estimate } = budget::check(self, v, limits)?;
+        let budget::Budget { output_every, animation_every, mut estimate } = budget::check(self, v, limits)?;
         let dt = v.number(&ranges::DT, "time.dt", self.time.dt)?;
         // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
         let mut obstacles = Vec::with_capacity(self.obstacles.len());
@@ -148,7 +153,20 @@ impl SceneSpec {
         let gravity = Vec3::from_array(v.numbers(&ranges::GRAVITY, "gravity", self.gravity)?);
         let contact = self.contact(v, material.fabric.density, gravity, !obstacles.is_empty())?;
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
-        let mut body = self.body(v, &obstacles, contact.offset)?;
+        let mut body = match &self.pattern {
+            Some(p) if self.sheet.is_none() && self.garment.is_none() => {
+                let pattern = p.load(v, dt, &material.name)?;
+                // The sizes are known now: the memory estimate of the panels (the cadences do not change).
+                let sizes = pattern.built.panels.iter().map(|q| ("pattern.file".to_string(), [q.grid.m, q.grid.n]));
+                estimate = budget::check_sizes(self, v, limits, Some(sizes.collect()))?.estimate;
+                let initial = pattern.built.panels.iter().flat_map(|q| q.placed.iter().copied()).collect();
+                Body::Pattern { pattern, initial }
+            }
+            Some(_) => {
+                return Err(v.bad("pattern", "give exactly one of `[sheet]`, `[garment]` and `[pattern]`".into()))
+            }
+            None => self.body(v, &obstacles, contact.offset)?,
+        };
         let condition = self.initial.condition(v)?;
         if self.initial.positions.is_some() {
             let grid = body
@@ -232,7 +250,8 @@ impl SceneSpec {
                 Err(v.bad("garment", "give exactly one of `[sheet]` and `[garment]`, not both".into()))
             }
             (None, None) => {
-                Err(v.bad("sheet", "give exactly one of `[sheet]` and `[garment]`; neither is present".into()))
+                Err(v
+                    .bad("sheet", "give exactly one of `[sheet]`, `[garment]` and `[pattern]`; none is present".into()))
             }
             (Some(list), None) => {
                 if list.list().is_empty() {

@@ -97,6 +97,9 @@ fn gravity_loads_and_springs_match_finite_differences() {
         .map(|k| Spring { node: k, target: Vec3::new(0.01 * k as f64, 0.2, -0.1), stiffness: 80.0 + k as f64 })
         .collect();
     exact("springs", n, Box::new(Springs::new(springs)), &x);
+    // The sewing phase's zero-length springs, a node in two pairs (a corner on two seams) and one pair reversed.
+    let pairs = vec![(0, 11), (3, 8), (8, 5), (10, 1)];
+    exact("sewing", n, Box::new(flexsurf::potential::sewing::Sewing::new(pairs, 100.0)), &x);
 }
 
 fn contact_term(obstacle: Obstacle, n: usize, offset: f64) -> PenaltyContact {

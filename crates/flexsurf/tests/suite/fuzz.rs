@@ -460,7 +460,9 @@ fn the_corpus_checks_cleanly() {
         let result = check_one(&dir, s.role, &s.bytes, false);
         eprintln!("{:>9.3} ms  {:?}  {}", 1e3 * t.elapsed().as_secs_f64(), result, s.name);
         assert!(result.is_ok(), "{}: {result:?}", s.name);
-        if s.name.contains("/scenes/") && !s.name.contains("fuzz") {
+        // A `[pattern]` scene's pattern file is not beside the copy (and its sewing phase is too slow to fuzz).
+        let pattern = String::from_utf8_lossy(&s.bytes).contains("[pattern]");
+        if s.name.contains("/scenes/") && !s.name.contains("fuzz") && !pattern {
             assert_eq!(result, Ok(true), "{} does not build", s.name);
         }
     }

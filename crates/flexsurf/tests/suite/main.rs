@@ -9,6 +9,7 @@ mod cusick_convergence;
 mod derivatives;
 mod dynamics;
 mod fuzz;
+mod garments;
 mod hardening;
 mod lab;
 mod model;

@@ -18,6 +18,7 @@
 
 pub mod energy;
 pub mod frames;
+pub mod garment;
 pub mod glb;
 pub mod snapshots;
 pub mod vtk;
@@ -138,6 +139,7 @@ pub fn standard<'a>(cx: &Context<'a>) -> Vec<Box<dyn Output + 'a>> {
         Box::new(snapshots::Snapshots::new(cx)),
         Box::new(vtk::VtkSeries::new(cx)),
         Box::new(glb::GlbAnimation::new(cx)),
+        Box::new(garment::Garment::new(cx)),
     ]
 }
 

@@ -1,0 +1,327 @@
+//! Pattern files (`garments/*.toml`) and the scene's `[pattern]` table: the serde types of the format (its
+//! JSON schema: [`PatternSpec::json_schema`]), the reader, and the conversion into a
+//! [`crate::garment::pattern::Pattern`], whose build checks the geometry. Errors name the pattern file, the
+//! key and what is wrong; the format is documented in `docs/garments.md`.
+
+use super::error::{parse_toml, SceneError};
+use super::material::relative_to;
+use super::validate::Validator;
+use crate::garment::pattern::{
+    BuiltPattern, EdgeRef, PanelPattern, Pattern, PatternError, Placement, SeamPattern, Vertex,
+};
+use crate::garment::sewing::SewingParams;
+use crate::math::Vec3;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Default largest difference of two sewn edges' lengths (m).
+pub const SEAM_TOLERANCE: f64 = 0.005;
+/// Default stiffness of a hold's springs (N/m per node), the skirt's waist springs'.
+pub const HOLD_STIFFNESS: f64 = 80.0;
+
+/// A pattern file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PatternSpec {
+    /// A name.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Target length of a grid edge (m): each side gets `ceil(length / edge_length)` cells, the most along
+    /// every chain of seams.
+    pub edge_length: f64,
+    /// Largest difference of two sewn edges' lengths (m), default 0.005.
+    #[serde(default = "default_tolerance")]
+    pub seam_tolerance: f64,
+    /// The panels (`[[panel]]`), in node order.
+    #[serde(rename = "panel")]
+    pub panels: Vec<PanelEntry>,
+    /// The seams (`[[seam]]`).
+    #[serde(default, rename = "seam")]
+    pub seams: Vec<SeamEntry>,
+    /// Edges held by springs after sewing (`[[hold]]`: a waistband).
+    #[serde(default, rename = "hold")]
+    pub holds: Vec<HoldEntry>,
+}
+
+fn default_tolerance() -> f64 {
+    SEAM_TOLERANCE
+}
+
+/// `[[panel]]`: one panel cut from a closed outline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PanelEntry {
+    /// Its name, which seams and holds use.
+    pub name: String,
+    /// The closed outline, counter-clockwise as seen from the fabric's right side; exactly four vertices
+    /// carry a `corner` name. The first corner is the grid's origin.
+    pub outline: Vec<VertexEntry>,
+    /// The grain line (warp direction) `[x, y]` in the pattern plane.
+    pub grain: [f64; 2],
+    /// The panel's material (a name): must be the scene's material, one fabric per garment for now.
+    #[serde(default)]
+    pub material: Option<String>,
+    /// Where the panel goes before sewing.
+    pub placement: PlacementEntry,
+}
+
+/// One vertex of an outline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VertexEntry {
+    /// Position `[x, y]` in the pattern plane (m).
+    pub at: [f64; 2],
+    /// A corner's name (four per panel).
+    #[serde(default)]
+    pub corner: Option<String>,
+    /// The two control points of a cubic Bézier from the previous vertex to this one (for the first vertex:
+    /// from the last); without it the piece is straight.
+    #[serde(default)]
+    pub curve: Option<[[f64; 2]; 2]>,
+}
+
+/// Placement, written `placement = { cylinder = { ... } }` or `placement = { flat = { ... } }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum PlacementEntry {
+    /// The flat pattern, moved.
+    Flat(FlatEntry),
+    /// Wrapped onto a vertical cylinder around the body.
+    Cylinder(CylinderEntry),
+}
+
+/// A flat placement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FlatEntry {
+    /// Translation of the pattern plane (m), default none.
+    #[serde(default)]
+    pub offset: [f64; 3],
+}
+
+/// A wrap onto the vertical cylinder of `radius` about `axis`: the pattern point `center` goes to `angle_deg`
+/// around (from `+x`, counter-clockwise seen from above) at `height`; pattern `x` runs around, `y` up, the
+/// right side out.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderEntry {
+    /// The axis `[x, y]` (m), default `[0, 0]`.
+    #[serde(default)]
+    pub axis: [f64; 2],
+    /// Radius (m).
+    pub radius: f64,
+    /// Angle of `center` (degrees).
+    pub angle_deg: f64,
+    /// Height of `center` (m).
+    pub height: f64,
+    /// The pattern point placed at `angle_deg`, `height` (m).
+    pub center: [f64; 2],
+}
+
+/// An edge, by its panel and end corners, in the sense the seam runs.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeEntry {
+    /// The panel's name.
+    pub panel: String,
+    /// The corner the seam starts at.
+    pub from: String,
+    /// The corner it ends at (next to `from` along the outline, either way).
+    pub to: String,
+}
+
+/// `[[seam]]`: `a.from` is sewn to `b.from`, `a.to` to `b.to`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SeamEntry {
+    /// One edge.
+    pub a: EdgeEntry,
+    /// The other.
+    pub b: EdgeEntry,
+}
+
+/// `[[hold]]`: an edge whose nodes are held by springs where sewing left them (a waistband).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HoldEntry {
+    /// The panel's name.
+    pub panel: String,
+    /// One end corner.
+    pub from: String,
+    /// The other.
+    pub to: String,
+    /// Stiffness per node (N/m), default 80.
+    #[serde(default = "default_hold")]
+    pub stiffness: f64,
+}
+
+fn default_hold() -> f64 {
+    HOLD_STIFFNESS
+}
+
+/// The scene's `[pattern]`: a garment sewn from a pattern file, in place of `[sheet]` or `[garment]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PatternUse {
+    /// The pattern file, relative to the scene file.
+    pub file: PathBuf,
+    /// Stiffness of the sewing springs, per node pair (N/m), default 100.
+    #[serde(default = "default_sewing_stiffness")]
+    pub sewing_stiffness: f64,
+    /// Most steps of the sewing phase (at the scene's Δt), default 300.
+    #[serde(default = "default_sewing_steps")]
+    pub sewing_steps: usize,
+    /// The sewing phase ends once every sewn node pair is closer than this (m), default 0.0005.
+    #[serde(default = "default_sewing_gap")]
+    pub sewing_gap: f64,
+}
+
+fn default_sewing_stiffness() -> f64 {
+    100.0
+}
+fn default_sewing_steps() -> usize {
+    300
+}
+fn default_sewing_gap() -> f64 {
+    5e-4
+}
+
+impl PatternSpec {
+    /// Reads and parses a pattern file (types only; [`PatternSpec::pattern`] converts, the build checks).
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
+        Self::from_toml(&text, path)
+    }
+
+    /// Parses pattern text; `file` names it in messages.
+    pub fn from_toml(text: &str, file: &Path) -> Result<Self, SceneError> {
+        parse_toml(text, file)
+    }
+
+    /// The JSON schema of the pattern format.
+    pub fn json_schema() -> serde_json::Value {
+        serde_json::to_value(schemars::schema_for!(PatternSpec)).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// The pattern as the library builds it.
+    pub fn pattern(&self) -> Pattern {
+        let edge = |e: &EdgeEntry| EdgeRef { panel: e.panel.clone(), from: e.from.clone(), to: e.to.clone() };
+        Pattern {
+            panels: self.panels.iter().map(PanelEntry::panel).collect(),
+            seams: self.seams.iter().map(|s| SeamPattern { a: edge(&s.a), b: edge(&s.b) }).collect(),
+            edge_length: self.edge_length,
+            tolerance: self.seam_tolerance,
+        }
+    }
+
+    /// Builds the pattern; a [`PatternError`] becomes an error of `file` at its key.
+    pub fn build(&self, file: &Path) -> Result<BuiltPattern, SceneError> {
+        self.pattern().build().map_err(|e: PatternError| SceneError::invalid(file, e.key, e.message))
+    }
+
+    /// Each hold's panel nodes (numbered panel after panel) and stiffness.
+    pub fn holds(&self, built: &BuiltPattern, file: &Path) -> Result<Vec<(usize, f64)>, SceneError> {
+        let mut out = Vec::new();
+        for (h, hold) in self.holds.iter().enumerate() {
+            let bad = |message: String| SceneError::invalid(file, format!("hold[{h}]"), message);
+            let p = built.panels.iter().position(|q| q.name == hold.panel);
+            let p = p.ok_or_else(|| bad(format!("there is no panel `{}`", hold.panel)))?;
+            let panel = &built.panels[p];
+            let nodes = panel.edge_nodes(&hold.from, &hold.to).ok_or_else(|| {
+                bad(format!("panel `{}` has no edge {} → {} (adjacent corners)", hold.panel, hold.from, hold.to))
+            })?;
+            if !(hold.stiffness > 0.0 && hold.stiffness.is_finite()) {
+                return Err(bad(format!("{}: the stiffness must be positive", hold.stiffness)));
+            }
+            let offset: usize = built.panels[..p].iter().map(|q| q.grid.len()).sum();
+            out.extend(nodes.into_iter().map(|k| (offset + k, hold.stiffness)));
+        }
+        Ok(out)
+    }
+}
+
+impl PanelEntry {
+    fn panel(&self) -> PanelPattern {
+        let outline =
+            self.outline.iter().map(|v| Vertex { at: v.at, corner: v.corner.clone(), curve: v.curve }).collect();
+        let placement = match &self.placement {
+            PlacementEntry::Flat(f) => Placement::Flat { offset: Vec3::from_array(f.offset) },
+            PlacementEntry::Cylinder(c) => Placement::Cylinder {
+                axis: c.axis,
+                radius: c.radius,
+                angle: c.angle_deg.to_radians(),
+                height: c.height,
+                center: c.center,
+            },
+        };
+        PanelPattern { name: self.name.clone(), outline, grain: self.grain, placement }
+    }
+}
+
+/// A pattern file read, checked and built for a scene.
+#[derive(Debug, Clone)]
+pub(crate) struct LoadedPattern {
+    /// The pattern file.
+    pub(crate) file: PathBuf,
+    /// Its name.
+    pub(crate) name: String,
+    /// The panels and seams.
+    pub(crate) built: BuiltPattern,
+    /// The held panel nodes and their stiffness.
+    pub(crate) holds: Vec<(usize, f64)>,
+    /// The sewing phase's settings.
+    pub(crate) sewing: SewingParams,
+}
+
+impl PatternUse {
+    /// Reads the pattern file named by the scene's `[pattern]` (checked by `v`) and builds it; `material` is the
+    /// scene's material name, which every panel that names one must name.
+    pub(crate) fn load(&self, v: &Validator<'_>, dt: f64, material: &str) -> Result<LoadedPattern, SceneError> {
+        let path = relative_to(v.file(), &self.file);
+        let spec = PatternSpec::load(&path).map_err(|e| match e {
+            SceneError::Io { source, .. } => {
+                v.bad("pattern.file", format!("cannot read pattern file {}: {source}", path.display()))
+            }
+            other => SceneError::referenced(v.file(), v.key("pattern.file"), other),
+        })?;
+        let inside = |e: SceneError| SceneError::referenced(v.file(), v.key("pattern.file"), e);
+        if let Some((p, panel)) =
+            spec.panels.iter().enumerate().find(|(_, q)| q.material.as_deref().is_some_and(|m| m != material))
+        {
+            let message = format!(
+                "panel `{}` asks for the material `{}` but the scene's is `{material}`: one fabric per garment for now",
+                panel.name,
+                panel.material.as_deref().unwrap_or_default()
+            );
+            return Err(inside(SceneError::invalid(&path, format!("panel[{p}].material"), message)));
+        }
+        let built = spec.build(&path).map_err(inside)?;
+        for (key, message) in &built.warnings {
+            v.extend(vec![super::SceneWarning {
+                file: path.display().to_string(),
+                key: key.clone(),
+                message: message.clone(),
+            }]);
+        }
+        let holds = spec.holds(&built, &path).map_err(inside)?;
+        v.require(
+            "pattern.sewing_stiffness",
+            self.sewing_stiffness > 0.0 && self.sewing_stiffness.is_finite(),
+            || format!("{}: must be a positive stiffness", self.sewing_stiffness),
+        )?;
+        v.require("pattern.sewing_gap", self.sewing_gap > 0.0 && self.sewing_gap.is_finite(), || {
+            format!("{}: must be a positive length", self.sewing_gap)
+        })?;
+        let sewing =
+            SewingParams { stiffness: self.sewing_stiffness, dt, steps: self.sewing_steps, gap: self.sewing_gap };
+        let name = spec
+            .name
+            .clone()
+            .unwrap_or_else(|| path.file_stem().map_or_else(|| "pattern".into(), |s| s.to_string_lossy().into_owned()));
+        Ok(LoadedPattern { file: path, name, built, holds, sewing })
+    }
+}

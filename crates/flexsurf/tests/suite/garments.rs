@@ -1,0 +1,463 @@
+//! Garments from sewing patterns (issue 20): the Coons grid of a rectangle is the plain grid; node counts are
+//! matched along seams; a flat pattern of two rectangles sewn along their common side steps as the one square
+//! sheet; a pattern that cannot be sewn is a one-line error naming the panel and edge; the shipped straight
+//! skirt sews closed on the mannequin.
+
+use flexsurf::garment::pattern::{BuiltPattern, Pattern, Placement};
+use flexsurf::garment::sewing::{sew, SewingParams};
+use flexsurf::grid::Grid;
+use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::material::{Calibration, Fabric, Stiffness};
+use flexsurf::math::Vec3;
+use flexsurf::model::{Model, ModelBuilder, ModelKind};
+use flexsurf::scene::PatternSpec;
+use flexsurf::state::State;
+use flexsurf::testing::repo;
+use std::path::Path;
+
+const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
+
+fn parse(text: &str) -> PatternSpec {
+    PatternSpec::from_toml(text, Path::new("test.toml")).unwrap()
+}
+
+fn build(text: &str) -> BuiltPattern {
+    parse(text).pattern().build().unwrap()
+}
+
+/// The error of building the pattern `text`, as one line.
+fn failure(text: &str) -> String {
+    let e = parse(text).pattern().build().unwrap_err().to_string();
+    assert!(!e.contains('\n'), "not one line: {e}");
+    e
+}
+
+/// A rectangle panel `name` from `(x0, y0)` to `(x1, y1)` with corners a, b, c, d counter-clockwise from the
+/// lower left, placed flat, warp along x.
+fn rectangle(name: &str, [x0, y0, x1, y1]: [f64; 4]) -> String {
+    format!(
+        r#"
+[[panel]]
+name = "{name}"
+grain = [1.0, 0.0]
+outline = [
+  {{ at = [{x0}, {y0}], corner = "a" }},
+  {{ at = [{x1}, {y0}], corner = "b" }},
+  {{ at = [{x1}, {y1}], corner = "c" }},
+  {{ at = [{x0}, {y1}], corner = "d" }},
+]
+placement = {{ flat = {{}} }}
+"#
+    )
+}
+
+fn seam(a: (&str, &str, &str), b: (&str, &str, &str)) -> String {
+    format!(
+        "[[seam]]\na = {{ panel = \"{}\", from = \"{}\", to = \"{}\" }}\nb = {{ panel = \"{}\", from = \"{}\", to = \"{}\" }}\n",
+        a.0, a.1, a.2, b.0, b.1, b.2
+    )
+}
+
+/// A rectangle of 0.6 × 0.4 m with an extra vertex on its bottom side and its top side drawn as a straight
+/// Bézier: its Coons grid is the plain 13 × 9 grid of spacing 0.05 m (arc length is uniform on each side).
+#[test]
+fn coons_grid_of_a_rectangle_is_the_plain_grid() {
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "sheet"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.1, 0.2], corner = "a" },
+  { at = [0.35, 0.2] },
+  { at = [0.7, 0.2], corner = "b" },
+  { at = [0.7, 0.6], corner = "c" },
+  { at = [0.1, 0.6], corner = "d", curve = [[0.5, 0.6], [0.3, 0.6]] },
+]
+placement = { flat = { offset = [0.0, 0.0, 1.0] } }
+"#;
+    let built = build(text);
+    let p = &built.panels[0];
+    assert_eq!((p.grid.m, p.grid.n), (13, 9));
+    let mut worst: f64 = 0.0;
+    for k in 0..p.grid.len() {
+        let (i, j) = p.grid.coords(k);
+        let expect = Vec3::new(0.1 + 0.05 * i as f64, 0.2 + 0.05 * j as f64, 0.0);
+        worst = worst.max((p.flat[k] - expect).length());
+        assert_eq!(p.placed[k], p.flat[k] + Vec3::Z);
+    }
+    // The Bézier's arc length is tabulated on 64 chords: exact for a straight one up to rounding.
+    assert!(worst < 1e-12, "the Coons grid is {worst} m from the plain grid");
+    let [lo, hi] = p.jacobian;
+    assert!((lo - hi).abs() < 1e-12 * hi && (lo - 0.6 * 0.4 / 96.0).abs() < 1e-12, "Jacobian {lo}..{hi}");
+    assert!(built.warnings.is_empty());
+}
+
+/// A trapezoid whose right side is 0.9 m long (19 nodes at 0.05 m) sewn by its left side (0.6 m) to a
+/// rectangle's right side (0.6 m, 13 nodes on its own): both sewn sides get 19 nodes, and the rectangle's
+/// opposite side too. Across, the rectangle's 0.3 m takes 7 nodes, the trapezoid's slanted bottom
+/// (√(0.4² + 0.15²) = 0.427 m) 10.
+#[test]
+fn node_counts_match_along_seams() {
+    let trapezoid = r#"
+[[panel]]
+name = "trapezoid"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, -0.15], corner = "b" },
+  { at = [0.4, 0.75], corner = "c" },
+  { at = [0.0, 0.6], corner = "d" },
+]
+placement = { flat = { offset = [1.0, 0.0, 0.0] } }
+"#;
+    let text = format!(
+        "edge_length = 0.05\n{}{trapezoid}{}",
+        rectangle("rect", [-0.3, 0.0, 0.0, 0.6]),
+        seam(("rect", "b", "c"), ("trapezoid", "a", "d"))
+    );
+    let built = build(&text);
+    let (rect, trap) = (&built.panels[0].grid, &built.panels[1].grid);
+    assert_eq!((rect.m, rect.n), (7, 19));
+    assert_eq!((trap.m, trap.n), (10, 19));
+    let s = built.seams[0];
+    assert_eq!(s.a.edge.count(rect), s.b.edge.count(trap));
+    // The sewn nodes sit at the same fractions of the two sides' lengths (both 0.6 m): the same points.
+    let mut far: f64 = 0.0;
+    for j in 0..19 {
+        let p = built.panels[0].flat[rect.index(6, j)];
+        let q = built.panels[1].flat[trap.index(0, j)];
+        far = far.max((p - q).length());
+    }
+    assert!(far < 1e-12, "sewn nodes {far} m apart in the pattern");
+    // The map is bilinear (straight sides): its Jacobian runs from the left side's 0.4 × 0.6 to the right
+    // side's 0.4 × 0.9 per unit square, a ratio of 2/3 (per cell: divided by the same 9 × 18 cells).
+    let [lo, hi] = built.panels[1].jacobian;
+    assert!((lo / hi - 2.0 / 3.0).abs() < 1e-9, "trapezoid Jacobian ratio {}", lo / hi);
+}
+
+fn cotton() -> (Fabric, Stiffness) {
+    let fabric = Fabric::paper_cotton();
+    (fabric, Stiffness::calibrate(&fabric, Calibration::Kes).unwrap())
+}
+
+fn run(model: &Model, x: Vec<Vec3>, dt: f64, steps: usize) -> State {
+    let v = vec![Vec3::ZERO; x.len()];
+    let mut state = flexsurf::integrate::start(model, x, v, dt).unwrap();
+    let mut stepper = Stepper::new(model, &StepParams::with_dt(dt)).unwrap();
+    for _ in 0..steps {
+        stepper.step(model, &mut state).unwrap();
+    }
+    state
+}
+
+fn curved(p: Vec3) -> Vec3 {
+    Vec3::new(p.x, p.y, 0.05 + 0.4 * p.x * p.x - 0.2 * p.x * p.y)
+}
+
+/// Two rectangles of 0.3 × 0.6 m placed flat side by side and sewn along their common side by the sewing
+/// phase (the seam's gap is zero, so it takes no step) equal the 0.6 m square sheet of 13 × 13 nodes: 30 steps
+/// from a curved start (bending across the seam) agree to 1e-10 m.
+#[test]
+fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (fabric, stiffness) = cotton();
+    let grid = Grid::sheet(13, 13, 0.6, 0.6).unwrap();
+    let whole =
+        ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G).build().unwrap();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).map(|p| curved(*p)).collect();
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
+    assert_eq!(sewn.report.steps, 0);
+    assert!(sewn.report.largest_gap() < 1e-15, "gap {}", sewn.report.largest_gap());
+    assert_eq!(sewn.model.nodes(), 169);
+    let reference = run(&whole, grid.flat_positions(0.0).iter().map(|p| curved(*p)).collect(), 0.005, 30);
+    let state = run(&sewn.model, sewn.x, 0.005, 30);
+    let mut apart: f64 = 0.0;
+    for k in 0..grid.len() {
+        let (i, j) = grid.coords(k);
+        let (panel, local) = if i < 7 { (0, l.grid.index(i, j)) } else { (1, r.grid.index(i - 6, j)) };
+        let node = sewn.model.panels[panel].global(local);
+        apart = apart.max((state.x[node] - reference.x[k]).length());
+    }
+    let moved =
+        reference.x.iter().zip(grid.flat_positions(0.0)).map(|(p, q)| (*p - curved(q)).length()).fold(0.0, f64::max);
+    eprintln!("sewn square vs sheet after 30 steps: {apart:e} m apart (moved {moved} m)");
+    // The welded garment mesh (k = 2) is the square's display mesh: (2·12 + 1)² vertices, 2·2²·144 triangles,
+    // the seam's 25 vertices merged, every vertex used; flat at the start, so its area is the square's.
+    let mesh = flexsurf::runner::fields::welded_mesh(&sewn.model, &sewn.model.rest, 2);
+    assert_eq!((mesh.vertex_count(), mesh.triangle_count()), (625, 1152));
+    assert!((mesh.area() - 0.36).abs() < 1e-12, "area {}", mesh.area());
+    assert!(mesh.validate().is_ok());
+    assert!(moved > 1e-3, "the sheet should move (moved {moved} m)");
+    assert!(apart < 1e-10, "the sewn square is {apart} m from the sheet (moved {moved} m)");
+}
+
+#[test]
+fn a_seam_of_edges_of_different_lengths_is_an_error() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.58]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let e = failure(&text);
+    assert!(
+        e.contains("`seam[0]`")
+            && e.contains("panel `left` edge b → c is 0.6000 m")
+            && e.contains("panel `right` edge a → d 0.5800 m"),
+        "{e}"
+    );
+}
+
+#[test]
+fn an_edge_sewn_twice_is_an_error() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.6]),
+        seam(("left", "b", "c"), ("right", "a", "d")),
+        seam(("right", "b", "c"), ("left", "c", "b"))
+    );
+    let e = failure(&text);
+    assert!(e.contains("`seam[1].b`") && e.contains("panel `left` edge c → b is already sewn by seam 0"), "{e}");
+}
+
+#[test]
+fn a_self_intersecting_outline_is_an_error() {
+    // A bow tie: the edge b → c crosses d → a.
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "bow"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, 0.0], corner = "b" },
+  { at = [0.0, 0.4], corner = "c" },
+  { at = [0.4, 0.4], corner = "d" },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(text);
+    assert!(
+        e.contains("`panel[0].outline`") && e.contains("panel `bow`") && e.contains("the edges b → c and d → a cross"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_panel_with_three_corners_is_an_error() {
+    let text = r#"
+edge_length = 0.05
+[[panel]]
+name = "triangle"
+grain = [1.0, 0.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.4, 0.0], corner = "b" },
+  { at = [0.2, 0.4], corner = "c" },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(text);
+    assert!(e.contains("panel `triangle`: 3 corners (a, b, c); a panel needs exactly four"), "{e}");
+}
+
+/// Both sides running with their outlines would sew a right side to a wrong side; a seam's edge must exist.
+#[test]
+fn a_seam_of_the_wrong_sense_or_a_missing_edge_is_an_error() {
+    let two = format!(
+        "edge_length = 0.05\n{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.6])
+    );
+    let e = failure(&format!("{two}{}", seam(("left", "b", "c"), ("right", "d", "a"))));
+    assert!(e.contains("both run with their outlines") && e.contains("panel `right` edge d → a"), "{e}");
+    let e = failure(&format!("{two}{}", seam(("left", "a", "c"), ("right", "a", "d"))));
+    assert!(e.contains("panel `left` edge a → c does not exist"), "{e}");
+}
+
+/// The shipped pattern builds: two panels of matched counts, the side seams equal in length, no warning; the
+/// pattern format's JSON schema lists its tables.
+#[test]
+fn the_straight_skirt_pattern_builds() {
+    let spec = PatternSpec::load(&repo().join("garments/straight_skirt.toml")).unwrap();
+    let built = spec.pattern().build().unwrap();
+    assert_eq!(built.panels.len(), 2);
+    assert_eq!(built.seams.len(), 2);
+    for [a, b] in &built.seam_lengths {
+        assert!((a - b).abs() < 1e-12, "seam lengths {a} and {b}");
+    }
+    assert_eq!(built.panels[0].grid.n, built.panels[1].grid.n);
+    assert!(built.warnings.is_empty(), "{:?}", built.warnings);
+    let schema = PatternSpec::json_schema().to_string();
+    for key in ["\"panel\"", "\"seam\"", "\"hold\"", "\"edge_length\"", "\"cylinder\""] {
+        assert!(schema.contains(key), "schema lacks {key}");
+    }
+    match spec.pattern().panels[0].placement {
+        Placement::Cylinder { radius, .. } => assert!(radius > 0.2),
+        Placement::Flat { .. } => panic!("the skirt is placed on a cylinder"),
+    }
+    let _: &Pattern = &spec.pattern();
+    // The four-gore skirt: four gores of 20 nodes down (0.55 m with curved hips at 0.03 m), matched all round.
+    let gores = PatternSpec::load(&repo().join("garments/four_gore_skirt.toml")).unwrap().pattern().build().unwrap();
+    assert_eq!(gores.panels.len(), 4);
+    assert_eq!(gores.seams.len(), 4);
+    assert!(
+        gores.panels.iter().all(|p| p.grid.n == 20),
+        "{:?}",
+        gores.panels.iter().map(|p| p.grid.n).collect::<Vec<_>>()
+    );
+    assert!(gores.warnings.is_empty(), "{:?}", gores.warnings);
+}
+
+/// The shipped straight skirt (`scenes/straight_skirt.toml`) sews closed on the mannequin: after the sewing
+/// phase every sewn node pair is within 1 mm, the seams are joined (the model has the panels' nodes less one
+/// side of each seam), and no node of the sewn skirt is inside the body.
+#[test]
+fn the_straight_skirt_sews_closed_on_the_mannequin() {
+    let clock = std::time::Instant::now();
+    let scene = flexsurf::scene::load(&repo().join("scenes/straight_skirt.toml")).unwrap();
+    let seconds = clock.elapsed().as_secs_f64();
+    let sewing = scene.sewing.as_ref().unwrap();
+    let report = &sewing.report;
+    let model = &scene.model;
+    let panel_nodes: usize = model.panels.iter().map(|p| p.grid.len()).sum();
+    let seam_nodes: usize = model.seams.iter().map(|s| s.a.edge.count(&model.panels[s.a.panel].grid)).sum();
+    assert_eq!(model.nodes(), panel_nodes - seam_nodes);
+    let body = &model.obstacles()[0];
+    let deepest = scene
+        .state
+        .x
+        .iter()
+        .filter_map(|p| body.distance_hinted(*p, &mut None, 0.1).map(|(d, _)| d))
+        .fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "straight skirt: {} nodes, sewn in {} steps ({:.2} s; scene built in {seconds:.2} s), gaps {:?} m, closest \
+         to the body {deepest:.4} m",
+        model.nodes(),
+        report.steps,
+        report.seconds,
+        report.gaps
+    );
+    assert!(report.largest_gap() < 1e-3, "gaps {:?}", report.gaps);
+    assert!(deepest > 0.0, "a node is {deepest} m inside the body");
+}
+
+/// Two rectangles of 0.3 × 0.6 m placed flat 4 cm apart are pulled together by the sewing phase: the seam
+/// closes below the phase's gap, and, the sewing forces being equal and opposite (and damping proportional to
+/// mass), the centre of mass of the open panels stays where it was (to rounding); the joined model has the
+/// square's 169 nodes.
+#[test]
+fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (fabric, stiffness) = cotton();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    assert!((x0[l.grid.index(6, 0)] - x0[91 + r.grid.index(0, 0)]).length() > 0.039);
+    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4 };
+    let sewn = sew(&builder, &built.seams, x0.clone(), &[], &params).unwrap();
+    let centre = |x: &[Vec3]| x.iter().copied().sum::<Vec3>() / x.len() as f64;
+    // Equal masses per panel node on both panels: the open model's centre of mass is the mean position; the
+    // joined positions are the pairs' midpoints, so the mean over panel nodes is recovered from them.
+    let panel_nodes: Vec<Vec3> = sewn.model.panels.iter().flat_map(|p| p.gather(&sewn.x)).collect();
+    let drift = (centre(&panel_nodes) - centre(&x0)).length();
+    eprintln!(
+        "sewing a 4 cm gap: {} steps, gap {:e} m, centre moved {drift:e} m",
+        sewn.report.steps,
+        sewn.report.largest_gap()
+    );
+    assert!(sewn.report.largest_gap() < 5e-4 && sewn.report.steps < 200, "{:?}", sewn.report);
+    assert!(drift < 1e-12, "the centre moved {drift} m");
+    assert_eq!(sewn.model.nodes(), 169);
+}
+
+/// Four corners bunched on one side of a square (the sides a → b and c → d then run opposite ways along
+/// one line) fold the Coons map: an error naming the panel; a strong taper (1 m at the bottom, 0.1 m at the top) is a warning of a badly distorted grid with
+/// the bilinear map's Jacobian ratio 0.1.
+#[test]
+fn a_folded_map_is_an_error_and_a_distorted_one_a_warning() {
+    let folded = r#"
+edge_length = 0.05
+[[panel]]
+name = "bunched"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [0.1, 0.0], corner = "b" },
+  { at = [0.2, 0.0], corner = "c" },
+  { at = [0.3, 0.0], corner = "d" },
+  { at = [1.0, 0.0] },
+  { at = [1.0, 1.0] },
+  { at = [0.0, 1.0] },
+]
+placement = { flat = {} }
+"#;
+    let e = failure(folded);
+    assert!(e.contains("`panel[0].outline`") && e.contains("panel `bunched`: its grid folds over"), "{e}");
+    let tapered = r#"
+edge_length = 0.05
+[[panel]]
+name = "taper"
+grain = [0.0, 1.0]
+outline = [
+  { at = [0.0, 0.0], corner = "a" },
+  { at = [1.0, 0.0], corner = "b" },
+  { at = [0.55, 0.5], corner = "c" },
+  { at = [0.45, 0.5], corner = "d" },
+]
+placement = { flat = {} }
+"#;
+    let built = build(tapered);
+    let [lo, hi] = built.panels[0].jacobian;
+    assert!((lo / hi - 0.1).abs() < 1e-9, "Jacobian ratio {}", lo / hi);
+    assert_eq!(built.warnings.len(), 1);
+    let (key, message) = &built.warnings[0];
+    assert!(
+        key == "panel[0].outline"
+            && message.contains("panel `taper`: its grid is badly distorted (smallest to largest Jacobian 0.100)"),
+        "{message}"
+    );
+}
+
+/// A scene whose pattern cannot be sewn names the scene file, its `pattern.file`, the pattern file and the
+/// pattern's key.
+#[test]
+fn a_pattern_error_names_the_scene_and_the_pattern_file() {
+    let dir = flexsurf::testing::scratch("garments", "pattern-error");
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.6]),
+        rectangle("right", [0.0, 0.0, 0.3, 0.5]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    std::fs::write(dir.join("bad_pattern.toml"), text).unwrap();
+    let scene = "[pattern]\nfile = \"bad_pattern.toml\"\n[time]\nsteps = 1\n";
+    std::fs::write(dir.join("sewn.toml"), scene).unwrap();
+    let e = flexsurf::scene::load(&dir.join("sewn.toml")).unwrap_err();
+    let m = e.to_string();
+    assert!(m.contains("sewn.toml") && m.contains("`pattern.file`") && m.contains("bad_pattern.toml"), "{m}");
+    assert!(m.contains("`seam[0]`") && m.contains("panel `right` edge a → d 0.5000 m"), "{m}");
+    assert_eq!(e.key(), "seam[0]");
+    let _ = std::fs::remove_dir_all(&dir);
+}
