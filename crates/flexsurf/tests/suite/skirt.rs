@@ -202,7 +202,7 @@ fn garment_and_body_errors_name_the_file_and_the_key() {
     assert_names(&e, "both.toml", "garment", "exactly one of `[sheet]` and `[garment]`");
 
     let e = error_of(&d, "neither.toml", "[time]\nsteps = 2\n");
-    assert_names(&e, "neither.toml", "sheet", "exactly one of `[sheet]` and `[garment]`");
+    assert_names(&e, "neither.toml", "sheet", "exactly one of `[sheet]`, `[garment]` and `[pattern]`");
 
     let e = error_of(&d, "missing.toml", &GARMENT.replace("hem_girth = 2.4\n", ""));
     assert_names(&e, "missing.toml", "garment.hem_girth", "missing field `hem_girth`");
