@@ -108,6 +108,9 @@ pub struct ModelBuilder {
     pub seams: Vec<Seam>,
     /// Contact of the sheet with itself and between panels (`None`: off).
     pub self_contact: Option<SelfContactParams>,
+    /// Nonlinear laws of the fabric (`None`: linear). The stiffness must carry their quadratic parts
+    /// ([`crate::material::law::Laws::apply`] on the fabric, `kes` calibration; checked by `build`).
+    pub laws: Option<std::sync::Arc<crate::material::law::Laws>>,
 }
 
 impl ModelBuilder {
@@ -136,6 +139,7 @@ impl ModelBuilder {
             extra_terms: Vec::new(),
             seams: Vec::new(),
             self_contact: None,
+            laws: None,
         }
     }
 
@@ -221,7 +225,35 @@ impl ModelBuilder {
         }
         sign("contact.offset", &ranges::CONTACT_OFFSET, c.offset)?;
         sign("contact.friction", &ranges::FRICTION, c.friction)?;
-        self.validate_self_contact()
+        self.validate_self_contact()?;
+        self.validate_laws()
+    }
+
+    /// The linear terms carry the quadratic part of each law: the stiffness coefficient of a direction with a
+    /// curve is the curve's smallest slope.
+    fn validate_laws(&self) -> Result<(), ModelError> {
+        let Some(laws) = &self.laws else { return Ok(()) };
+        let s = &self.stiffness;
+        let pairs = [
+            ("tensile warp", laws.tensile_warp.as_ref(), s.a11),
+            ("tensile weft", laws.tensile_weft.as_ref(), s.a22),
+            ("shear", laws.shear.as_ref(), s.a66),
+            ("bending warp", laws.bending_warp.as_ref(), s.d11),
+            ("bending weft", laws.bending_weft.as_ref(), s.d22),
+        ];
+        for (name, curve, coef) in pairs {
+            if let Some(c) = curve {
+                let k = c.min_slope();
+                if (coef - k).abs() > 1e-12 * k || (name.starts_with("tensile") && s.a12 != 0.0) {
+                    let message = format!(
+                        "the {name} curve's quadratic part {k:e} is not the stiffness's {coef:e} (apply the laws to \
+                         the fabric with `Laws::apply` and calibrate with `kes`)"
+                    );
+                    return Err(model_error("laws", message));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Self-contact's stiffness and thickness are positive, and the thickness under half the shortest rest
@@ -307,6 +339,9 @@ impl ModelBuilder {
             let seamed = SeamedEdges::of(p, &self.seams);
             let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
             terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, &panel.nodes, seamed));
+            if let Some(laws) = &self.laws {
+                terms.extend(elastic::nonlinear_terms(grid, rest, laws, options, &panel.nodes, seamed));
+            }
         }
         if !self.seams.is_empty() {
             let views: Vec<PanelView<'_>> =

@@ -188,7 +188,7 @@ impl SceneSpec {
         v: &Validator<'_>,
         parts: Parts<'_>,
     ) -> Result<(Model, Vec<Vec3>, Option<GarmentInfo>), SceneError> {
-        let Parts { body, fabric, stiffness, gravity, obstacles, contact, self_contact, pins, springs } = parts;
+        let Parts { body, fabric, stiffness, laws, gravity, obstacles, contact, self_contact, pins, springs } = parts;
         let (mut model, initial, garment) = match body {
             Body::Sheets { sheets, initial } => {
                 let mut sheets = sheets.into_iter();
@@ -219,6 +219,7 @@ impl SceneSpec {
         model.obstacles = obstacles;
         model.contact = contact;
         model.self_contact = self_contact;
+        model.laws = laws;
         for nodes in pins {
             for k in nodes {
                 model.pinned[k] = true;

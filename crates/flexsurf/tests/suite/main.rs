@@ -12,6 +12,7 @@ mod fuzz;
 mod hardening;
 mod lab;
 mod model;
+mod nonlinear;
 mod nurbs;
 mod outputs;
 mod panels;
