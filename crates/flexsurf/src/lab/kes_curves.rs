@@ -50,6 +50,8 @@ pub struct CurveTest {
     pub law: &'static str,
     /// Its points, in increasing strain.
     pub points: Vec<CurvePoint>,
+    /// The input law sampled densely from 0 to its last point, as (strain, resultant) in the points' units.
+    pub law_samples: Vec<(f64, f64)>,
 }
 
 /// The virtual tests of every law of a fabric.
@@ -66,9 +68,12 @@ impl CurveReport {
     }
 }
 
-/// Runs the virtual test of every law of `laws` (the fabric's constants are their quadratic parts,
-/// [`Laws::apply`]) with the `kes` calibration.
+/// Runs the virtual test of every law of `laws` on `fabric` (whose constants of those directions become the
+/// laws' quadratic parts, [`Laws::apply`]) with the `kes` calibration.
 pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError> {
+    let mut applied = *fabric;
+    laws.apply(&mut applied)?;
+    let fabric = &applied;
     let s = Stiffness::calibrate(fabric, Calibration::Kes)?;
     let shared = Arc::new(laws.clone());
     let mut tests = Vec::new();
@@ -86,7 +91,11 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
             let measured = tension_strain(fabric, &s, Some(&shared), angle, t, &mut x)?;
             points.push(point(strain, t, measured, t, measured / strain - 1.0));
         }
-        tests.push(CurveTest { law, points });
+        let law_samples = samples(c, |e, n| {
+            let strain = (1.0 + 2.0 * e).sqrt() - 1.0;
+            (strain, n * (1.0 + strain))
+        });
+        tests.push(CurveTest { law, points, law_samples });
     }
     if let Some(c) = &laws.shear {
         let mut x = None;
@@ -100,7 +109,7 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
             let measured = shear_resultant(fabric, &s, &shared, (phi, side), &mut x)?;
             points.push(point(phi, n, phi, measured, measured / n - 1.0));
         }
-        tests.push(CurveTest { law: "shear", points });
+        tests.push(CurveTest { law: "shear", points, law_samples: samples(c, |g, n| (g.asin(), n)) });
     }
     for (law, curve, weft) in [("bending_warp", &laws.bending_warp, false), ("bending_weft", &laws.bending_weft, true)]
     {
@@ -110,9 +119,15 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
             let measured = bending_moment(fabric, &s, &shared, weft, k)?;
             points.push(point(k, m, k, measured, measured / m - 1.0));
         }
-        tests.push(CurveTest { law, points });
+        tests.push(CurveTest { law, points, law_samples: samples(c, |k, m| (k, m)) });
     }
     Ok(CurveReport { tests })
+}
+
+/// 100 samples of the law `c` from 0 to its last point, mapped to the measured variables by `to`.
+fn samples(c: &Curve, to: impl Fn(f64, f64) -> (f64, f64)) -> Vec<(f64, f64)> {
+    let last = c.points().last().map_or(0.0, |p| p.0);
+    (0..=100).map(|i| last * i as f64 / 100.0).map(|x| to(x, c.resultant(x))).collect()
 }
 
 fn point(si: f64, ri: f64, sm: f64, rm: f64, relative_error: f64) -> CurvePoint {
@@ -198,4 +213,27 @@ fn bending_moment(f: &Fabric, s: &Stiffness, laws: &Arc<Laws>, along_weft: bool,
     let centre = clamp.iter().fold(Vec3::ZERO, |a, &k| a + x[k]) / clamp.len() as f64;
     let couple = clamp.iter().fold(Vec3::ZERO, |a, &k| a + (x[k] - centre).cross(g[k]));
     Ok(couple.length() / width)
+}
+
+/// Straight-line laws of a linear fabric's constants over the KES instruments' ranges (tension to 5 % Green
+/// strain, shear to 8°, bending to 2.5 cm⁻¹), for its curves: they are the linear material to round-off
+/// (`tests/suite/nonlinear.rs`). `None` with Poisson coupling, which laws do not have.
+pub fn linear_laws(f: &Fabric) -> Option<Laws> {
+    if f.poisson != 0.0 || f.bending_poisson != 0.0 {
+        return None;
+    }
+    let line = |k: f64, xs: &[f64]| {
+        let pts: Vec<(f64, f64)> = xs.iter().map(|&x| (x, k * x)).collect();
+        Curve::new(&pts, crate::material::law::Interpolation::Linear).ok()
+    };
+    let tension = [0.01, 0.02, 0.03, 0.04, 0.05];
+    let shear: Vec<f64> = [0.5f64, 1.0, 2.0, 4.0, 8.0].iter().map(|d| d.to_radians().sin()).collect();
+    let bending = [10.0, 50.0, 100.0, 150.0, 250.0];
+    Some(Laws {
+        tensile_warp: line(f.tensile_warp, &tension),
+        tensile_weft: line(f.tensile_weft, &tension),
+        shear: line(f.shear, &shear),
+        bending_warp: line(f.bending_warp, &bending),
+        bending_weft: line(f.bending_weft, &bending),
+    })
 }

@@ -242,19 +242,22 @@ fn si_and_kes_units_give_the_same_fabric() {
     assert!((ea / 0.03 - 1.0).abs() < 1e-6 && (eb / ea - 1.0).abs() < 1e-9, "SI {ea}, KES {eb}, point 0.03");
 }
 
-/// The virtual KES tests read every point of every curve back (tension within 1e-6, shear and bending within
-/// 1 %), on the shipped nonlinear example.
+/// The virtual KES tests read every point of every curve back: tension and shear to 1e-6; bending within 2 %
+/// (the model's own departure at KES curvatures, `O(Dκ²/A)`: below 1 % up to 1.5 cm⁻¹), on the shipped
+/// nonlinear example.
 #[test]
 fn kes_round_trip_of_the_curves() {
-    let m = flexsurf::scene::material::load_material_file(
-        &flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml"),
-    )
-    .unwrap();
+    let path = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let m = flexsurf::scene::material::load_material_file(&path).unwrap();
     let report = kes_curves(&m.fabric, &m.laws).unwrap();
     assert_eq!(report.tests.len(), 5);
     for t in &report.tests {
-        let tol = if t.law.starts_with("tensile") { 1e-6 } else { 1e-2 };
         for p in &t.points {
+            let tol = match t.law {
+                "tensile_warp" | "tensile_weft" | "shear" => 1e-6,
+                _ if p.strain_input <= 150.0 => 1e-2,
+                _ => 2e-2,
+            };
             assert!(p.relative_error.abs() < tol, "{}: {p:?}", t.law);
         }
     }

@@ -9,6 +9,7 @@ pub mod kes;
 
 use anyhow::Result;
 use clap::Subcommand;
+use flexsurf::material::law::Laws;
 use flexsurf::material::{Calibration, Fabric};
 use std::path::PathBuf;
 
@@ -47,6 +48,17 @@ impl FabricArgs {
                 (m.fabric, m.name)
             }
             None => (Fabric::paper_cotton(), "paper-cotton".to_string()),
+        })
+    }
+
+    /// As [`FabricArgs::load`] with the material's nonlinear laws (empty for a linear one).
+    fn load_with_laws(&self) -> Result<(Fabric, Laws, String)> {
+        Ok(match &self.material {
+            Some(path) => {
+                let m = flexsurf::scene::material::load_material_file(path)?;
+                (m.fabric, m.laws, m.name)
+            }
+            None => (Fabric::paper_cotton(), Laws::default(), "paper-cotton".to_string()),
         })
     }
 
