@@ -35,28 +35,56 @@ struct Use<const N: usize> {
     law: usize,
     c: f64,
     g: [f64; N],
+    /// The reference of the measure (a hysteresis's lagged state; 0 for an elastic law).
+    m0: f64,
 }
 
-/// The laws of one term with the stiffness of their quadratic parts.
+/// What a term applies to its measures: the elastic laws' excess, or a rate-independent hysteresis.
 #[derive(Debug, Clone)]
-struct LawSet {
-    curves: Vec<Option<Curve>>,
-    k: Vec<f64>,
+enum LawSet {
+    /// The laws with the stiffness of their quadratic parts.
+    Elastic { curves: Vec<Option<Curve>>, k: Vec<f64> },
+    /// Friction-like dissipation `H f₀(|m − m₀|)` per law, `H` the half loop width (0: none), `f₀` the
+    /// smoothed absolute value of [`crate::potential::friction`] with smoothing length `eps`.
+    Hysteresis { h: Vec<f64>, eps: f64 },
 }
 
 impl LawSet {
     fn new(curves: &[Option<&Curve>]) -> Self {
         let curves: Vec<Option<Curve>> = curves.iter().map(|c| c.cloned()).collect();
         let k = curves.iter().map(|c| c.as_ref().map_or(0.0, Curve::min_slope)).collect();
-        Self { curves, k }
+        Self::Elastic { curves, k }
     }
 
-    /// `(φ, φ', φ'')` of law `l` at `m`.
+    /// Whether law `l` contributes.
+    fn has(&self, l: usize) -> bool {
+        match self {
+            Self::Elastic { curves, .. } => curves[l].is_some(),
+            Self::Hysteresis { h, .. } => h[l] > 0.0,
+        }
+    }
+
+    /// `(value, first, second derivative)` of law `l` at `m` (the measure minus its reference).
     #[inline]
     fn excess(&self, l: usize, m: f64) -> (f64, f64, f64) {
-        match &self.curves[l] {
-            Some(c) => c.excess(m, self.k[l]),
-            None => (0.0, 0.0, 0.0),
+        match self {
+            Self::Elastic { curves, k } => match &curves[l] {
+                Some(c) => c.excess(m, k[l]),
+                None => (0.0, 0.0, 0.0),
+            },
+            Self::Hysteresis { h, eps } => {
+                let (s, e) = (m.abs(), *eps);
+                let (f, f1, f2) = if s < e {
+                    (
+                        -s * s * s / (3.0 * e * e) + s * s / e + e / 3.0,
+                        2.0 * s / e - s * s / (e * e),
+                        2.0 / e - 2.0 * s / (e * e),
+                    )
+                } else {
+                    (s, 1.0, 0.0)
+                };
+                (h[l] * f, h[l] * f1 * m.signum(), h[l] * f2)
+            }
         }
     }
 }
@@ -104,7 +132,34 @@ impl NonlinearMembrane {
     /// when no membrane direction has a law.
     pub fn new(grid: &Grid, rest: &[Vec3], laws: &Laws, warp: Warp) -> Option<Self> {
         let set = LawSet::new(&laws.membrane());
-        if set.curves.iter().all(Option::is_none) {
+        Self::build(grid, rest, set, warp)
+    }
+
+    /// The shear hysteresis `2HG` (`half_width` = HG, N/m) of a sheet whose lagged state is `reference`: the
+    /// dissipation `HG f₀(|γ − γ_ref|)` per cell (smoothing `eps` in γ), rate-independent, so a trellis shear
+    /// cycle shows a loop of width 2HG in the shear force. A quasi-static loading path is a sequence of static
+    /// solves, each with the previous equilibrium as its reference (docs/model.md §4.6).
+    pub fn shear_hysteresis(
+        grid: &Grid,
+        rest: &[Vec3],
+        half_width: f64,
+        eps: f64,
+        warp: Warp,
+        reference: &[Vec3],
+    ) -> Option<Self> {
+        let set = LawSet::Hysteresis { h: vec![0.0, 0.0, half_width], eps };
+        let mut term = Self::build(grid, rest, set, warp)?;
+        for c in &mut term.cells {
+            let s = c.strains(reference);
+            for u in &mut c.uses {
+                u.m0 = (0..NS).map(|a| u.g[a] * s[a]).sum();
+            }
+        }
+        Some(term)
+    }
+
+    fn build(grid: &Grid, rest: &[Vec3], set: LawSet, warp: Warp) -> Option<Self> {
+        if !(0..3).any(|l| set.has(l)) {
             return None;
         }
         let cell_frame = |ops: &CellOps| {
@@ -130,19 +185,19 @@ impl NonlinearMembrane {
                         let (r, tr) = aligned_row(&t, a / 2);
                         let mut g = [0.0; NS];
                         g[a] = tr;
-                        uses.push(Use { law: r, c: 0.5 * w, g });
+                        uses.push(Use { law: r, c: 0.5 * w, g, m0: 0.0 });
                     }
                     let mut g = [0.0; NS];
                     g[4] = t[2][2];
-                    uses.push(Use { law: 2, c: w, g });
+                    uses.push(Use { law: 2, c: w, g, m0: 0.0 });
                 } else {
                     // Rows of T Ā: the material strains of the cell averages.
                     for (r, row) in t.iter().enumerate() {
                         let g = [0.5 * row[0], 0.5 * row[0], 0.5 * row[1], 0.5 * row[1], row[2]];
-                        uses.push(Use { law: r, c: w, g });
+                        uses.push(Use { law: r, c: w, g, m0: 0.0 });
                     }
                 }
-                uses.retain(|u| set.curves[u.law].is_some());
+                uses.retain(|u| set.has(u.law));
                 Cell { nodes: ops.nodes, alpha, beta, scale, rest: restv, uses, blocks: Vec::new() }
             })
             .collect();
@@ -184,6 +239,13 @@ impl Item for Cell {
 }
 
 impl Cell {
+    /// The cell's five strains at `x`.
+    fn strains(&self, x: &[Vec3]) -> [f64; NS] {
+        let xl: [Vec3; 4] = self.nodes.map(|k| x[k]);
+        let comb = |c: &[f64; 4]| xl[0] * c[0] + xl[1] * c[1] + xl[2] * c[2] + xl[3] * c[3];
+        std::array::from_fn(|a| 0.5 * self.scale[a] * comb(&self.alpha[a]).dot(comb(&self.beta[a])) - self.rest[a])
+    }
+
     fn evaluate(&self, x: &[Vec3], laws: &LawSet, out: Local) -> f64 {
         let xl: [Vec3; 4] = self.nodes.map(|k| x[k]);
         let comb = |c: &[f64; 4]| xl[0] * c[0] + xl[1] * c[1] + xl[2] * c[2] + xl[3] * c[3];
@@ -194,7 +256,7 @@ impl Cell {
         let mut sigma = [0.0; NS];
         let mut curv = [0.0; NS];
         for (u, cv) in self.uses.iter().zip(curv.iter_mut()) {
-            let m: f64 = (0..NS).map(|a| u.g[a] * s[a]).sum();
+            let m: f64 = (0..NS).map(|a| u.g[a] * s[a]).sum::<f64>() - u.m0;
             let (f, f1, f2) = laws.excess(u.law, m);
             energy += u.c * f;
             for a in 0..NS {
@@ -296,7 +358,41 @@ impl NonlinearBending {
         cell: impl Fn(usize, usize) -> bool,
     ) -> Option<Self> {
         let set = LawSet::new(&laws.bending());
-        if set.curves.iter().all(Option::is_none) {
+        Self::build(grid, rest, set, warp, node, cell)
+    }
+
+    /// The bending hysteresis `2HB` (`half_width` = HB per direction, warp and weft, moment per width in N) of
+    /// a sheet whose lagged state is `reference`: the dissipation `HB f₀(|K − K_ref|)` (smoothing `eps` in
+    /// curvature) where the elastic bending laws sit, rate-independent: a bending cycle shows a loop of width
+    /// 2HB in the moment (docs/model.md §4.6).
+    pub fn hysteresis(
+        grid: &Grid,
+        rest: &[Vec3],
+        half_width: [f64; 2],
+        eps: f64,
+        warp: Warp,
+        reference: &[Vec3],
+    ) -> Option<Self> {
+        let set = LawSet::Hysteresis { h: half_width.to_vec(), eps };
+        let mut term = Self::build(grid, rest, set, warp, |_| true, |_, _| true)?;
+        for (p, uses) in &mut term.points {
+            let kappa = p.kernels(reference).4;
+            for u in uses {
+                u.m0 = (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum();
+            }
+        }
+        Some(term)
+    }
+
+    fn build(
+        grid: &Grid,
+        rest: &[Vec3],
+        set: LawSet,
+        warp: Warp,
+        node: impl Fn(usize) -> bool,
+        cell: impl Fn(usize, usize) -> bool,
+    ) -> Option<Self> {
+        if !(0..2).any(|l| set.has(l)) {
             return None;
         }
         let node_frame = |k: usize| {
@@ -318,7 +414,7 @@ impl NonlinearBending {
             grid.cells().filter(|&(i, j)| cell(i, j)).map(|(i, j)| cell_point(grid, rest, warp, i, j)).collect()
         };
         for (_, uses) in &mut points {
-            uses.retain(|u| set.curves[u.law].is_some());
+            uses.retain(|u| set.has(u.law));
         }
         points.retain(|(_, uses)| !uses.is_empty());
         let len = points.iter().map(|p| p.0.support.len).max().unwrap_or(0);
@@ -368,7 +464,7 @@ impl NonlinearBending {
             p.evaluate_with(x, out, |kappa| {
                 let (mut mom, mut energy, mut d) = ([0.0; MEASURES], 0.0, [[0.0; MEASURES]; MEASURES]);
                 for u in uses {
-                    let m: f64 = (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum();
+                    let m: f64 = (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum::<f64>() - u.m0;
                     let (f, f1, f2) = laws.excess(u.law, m);
                     energy += u.c * f;
                     for q in 0..MEASURES {
@@ -403,7 +499,12 @@ fn node_point(grid: &Grid, rest: &[Vec3], warp: Warp, k: usize) -> Option<(Point
             let (r, tr) = aligned_row(&t, d);
             let mut g = [0.0; MEASURES];
             g[m] = tr;
-            uses.push(Use { law: r, c: w * frame.area * grid.trapezoid(1 - d, if d == 0 { j } else { i }), g });
+            uses.push(Use {
+                law: r,
+                c: w * frame.area * grid.trapezoid(1 - d, if d == 0 { j } else { i }),
+                g,
+                m0: 0.0,
+            });
         }
     }
     let count = uses.len();
@@ -423,6 +524,6 @@ fn cell_point(grid: &Grid, rest: &[Vec3], warp: Warp, i: usize, j: usize) -> (Po
     let [v1, v2] = cell_normal_stencils(grid, &ops, &mut sup);
     let t = frame.voigt();
     let w = grid.h1 * grid.h2 * frame.area;
-    let uses = (0..2).map(|r| Use { law: r, c: w, g: [2.0 * t[r][2], t[r][0], t[r][1]] }).collect();
+    let uses = (0..2).map(|r| Use { law: r, c: w, g: [2.0 * t[r][2], t[r][0], t[r][1]], m0: 0.0 }).collect();
     (Point::new(sup, a, b, [tw, v1, v2], MEASURES, [[0.0; MEASURES]; MEASURES], rest), uses)
 }

@@ -20,6 +20,7 @@
 
 use super::kes::{solve, tension_strain};
 use super::LabError;
+use crate::energy::nonlinear::NonlinearBending;
 use crate::grid::Grid;
 use crate::material::law::{Curve, Laws};
 use crate::material::{Calibration, Fabric, Stiffness};
@@ -178,41 +179,98 @@ fn shear_resultant(
 
 /// The moment per width of a strip along warp (or weft) held by both ends on an arc of curvature `kappa`.
 fn bending_moment(f: &Fabric, s: &Stiffness, laws: &Arc<Laws>, along_weft: bool, kappa: f64) -> Result<f64, LabError> {
-    let len = (1.5 / kappa).min(0.2);
-    let (width, m, n) = (0.1 * len, 41, 3);
-    let (grid, d) = if along_weft {
-        (Grid::sheet(n, m, width, len).expect("valid strip grid"), 1)
-    } else {
-        (Grid::sheet(m, n, len, width).expect("valid strip grid"), 0)
-    };
-    let rest = grid.flat_positions(0.0);
-    let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
-    model.laws = Some(laws.clone());
-    let along = |k: usize| if d == 0 { grid.coords(k).0 } else { grid.coords(k).1 };
-    for k in 0..grid.len() {
-        model.pinned[k] = along(k) <= 1 || along(k) >= m - 2;
-    }
-    let model = model.build()?;
-    // The discrete arc: chords of one grid spacing, the angle step 2 asin(hκ/2).
-    let h = grid.spacing(d);
-    let step = 2.0 * (0.5 * h * kappa).asin();
-    let arc = |k: usize| {
-        let (a, p) = (along(k) as f64 * step, rest[k]);
-        let (u, z) = (a.sin() / kappa, (1.0 - a.cos()) / kappa);
-        if d == 0 {
-            Vec3::new(u, p.y, z)
+    let arc = BendingTester { f, s, laws, along_weft, len: (1.5 / kappa).min(0.2) };
+    arc.moment(kappa, None, &mut None)
+}
+
+/// A strip on the KES bending tester: both ends clamped (two node columns each) on an arc.
+struct BendingTester<'a> {
+    f: &'a Fabric,
+    s: &'a Stiffness,
+    laws: &'a Arc<Laws>,
+    along_weft: bool,
+    len: f64,
+}
+
+impl BendingTester<'_> {
+    /// The signed moment per width at curvature `kappa` (positive bending up), with a bending hysteresis
+    /// `(HB, smoothing)` lagged at `x` (the previous equilibrium, which `x` holds afterwards).
+    fn moment(&self, kappa: f64, hysteresis: Option<(f64, f64)>, x: &mut Option<Vec<Vec3>>) -> Result<f64, LabError> {
+        let (width, m, n) = (0.1 * self.len, 41, 3);
+        let (grid, d) = if self.along_weft {
+            (Grid::sheet(n, m, width, self.len).expect("valid strip grid"), 1)
         } else {
-            Vec3::new(p.x, u, z)
+            (Grid::sheet(m, n, self.len, width).expect("valid strip grid"), 0)
+        };
+        let rest = grid.flat_positions(0.0);
+        let mut model = ModelBuilder::new(grid, rest.clone(), *self.f, *self.s, ModelKind::Tfs, Vec3::ZERO);
+        model.laws = Some(self.laws.clone());
+        let along = |k: usize| if d == 0 { grid.coords(k).0 } else { grid.coords(k).1 };
+        for k in 0..grid.len() {
+            model.pinned[k] = along(k) <= 1 || along(k) >= m - 2;
         }
-    };
-    let mut x: Vec<Vec3> = (0..grid.len()).map(arc).collect();
-    solve(&model, &mut x, "bending")?;
-    let mut g = vec![Vec3::ZERO; grid.len()];
-    model.elastic(&x, Some(&mut g));
-    let clamp: Vec<usize> = (0..grid.len()).filter(|&k| along(k) >= m - 2).collect();
-    let centre = clamp.iter().fold(Vec3::ZERO, |a, &k| a + x[k]) / clamp.len() as f64;
-    let couple = clamp.iter().fold(Vec3::ZERO, |a, &k| a + (x[k] - centre).cross(g[k]));
-    Ok(couple.length() / width)
+        if let (Some((hb, eps)), Some(reference)) = (hysteresis, x.as_ref()) {
+            let h = if self.along_weft { [0.0, hb] } else { [hb, 0.0] };
+            let warp = crate::energy::frame::Warp::default();
+            if let Some(term) = NonlinearBending::hysteresis(&grid, &rest, h, eps, warp, reference) {
+                model.extra_terms.push(Box::new(term));
+            }
+        }
+        let model = model.build()?;
+        // The discrete arc: chords of one grid spacing, the angle step 2 asin(hκ/2).
+        let h = grid.spacing(d);
+        let step = 2.0 * (0.5 * h * kappa).asin();
+        let arc = |k: usize| {
+            let (a, p) = (along(k) as f64 * step, rest[k]);
+            let (u, z) =
+                if kappa == 0.0 { (along(k) as f64 * h, 0.0) } else { (a.sin() / kappa, (1.0 - a.cos()) / kappa) };
+            if d == 0 {
+                Vec3::new(u, p.y, z)
+            } else {
+                Vec3::new(p.x, u, z)
+            }
+        };
+        // Started on the arc (where a hysteresis slides, away from its stiff smoothing about the reference).
+        let mut y: Vec<Vec3> = (0..grid.len()).map(arc).collect();
+        solve(&model, &mut y, "bending")?;
+        let mut g = vec![Vec3::ZERO; grid.len()];
+        model.elastic(&y, Some(&mut g));
+        let clamp: Vec<usize> = (0..grid.len()).filter(|&k| along(k) >= m - 2).collect();
+        let centre = clamp.iter().fold(Vec3::ZERO, |a, &k| a + y[k]) / clamp.len() as f64;
+        let couple = clamp.iter().fold(Vec3::ZERO, |a, &k| a + (y[k] - centre).cross(g[k]));
+        *x = Some(y);
+        // dW/dθ for the end turning up: about −y for a strip along x, about +x for one along y.
+        Ok(if d == 0 { -couple.y } else { couple.x } / width)
+    }
+}
+
+/// A KES bending cycle with the bending hysteresis `2HB` (`half_width` = HB, moment per width, N): the strip of
+/// the curve test at curvatures `0 → κmax → −κmax → κmax` in `steps` increments per quarter (the first from the
+/// flat strip, without hysteresis), each a static solve lagged at the previous one. Returns `(κ, M)` along the
+/// cycle from `κmax/steps`; the closed loop starts at index `steps − 1`.
+pub fn bending_loop(
+    fabric: &Fabric,
+    laws: &Laws,
+    half_width: f64,
+    along_weft: bool,
+    kappa_max: f64,
+    steps: usize,
+) -> Result<Vec<(f64, f64)>, LabError> {
+    let mut applied = *fabric;
+    laws.apply(&mut applied)?;
+    let s = Stiffness::calibrate(&applied, Calibration::Kes)?;
+    let shared = Arc::new(laws.clone());
+    let arc = BendingTester { f: &applied, s: &s, laws: &shared, along_weft, len: (1.5 / kappa_max).min(0.2) };
+    let q = steps.max(1) as f64;
+    // From the first increment (a flat strip without load has no scale for the solver's residual).
+    let path = (1..=steps)
+        .map(|i| i as f64 / q)
+        .chain((1..=2 * steps).map(|i| 1.0 - i as f64 / q))
+        .chain((1..=2 * steps).map(|i| -1.0 + i as f64 / q))
+        .map(|t| t * kappa_max);
+    let mut x = None;
+    let eps = 1e-3 * kappa_max;
+    path.map(|k| Ok((k, arc.moment(k, Some((half_width, eps)), &mut x)?))).collect()
 }
 
 /// Straight-line laws of a linear fabric's constants over the KES instruments' ranges (tension to 5 % Green

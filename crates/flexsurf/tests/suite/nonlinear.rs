@@ -299,3 +299,45 @@ fn bad_curves_name_file_key_and_fault() {
     let e = material_from_toml(&poisson, Path::new("p.toml")).unwrap_err().to_string();
     assert!(e.contains("p.toml") && e.contains("poisson") && e.contains("tensile curve"), "{e}");
 }
+
+/// The hysteresis terms (bending 2HB, shear 2HG) pass the checker, away from and within their smoothing.
+#[test]
+fn hysteresis_terms_pass_the_checker() {
+    let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    let reference = perturbed(&rest, 0.01, 31);
+    let x = perturbed(&rest, 0.02, 32);
+    for eps in [1e-3, 10.0] {
+        for warp in [Warp::Angle(0.0), Warp::Angle(0.6)] {
+            let b = NonlinearBending::hysteresis(&g, &rest, [2e-4, 1e-4], eps, warp, &reference).unwrap();
+            check(&alone(g.len(), Box::new(b)), &x, None, None, Operator::Exact)
+                .assert_below("bending hysteresis", TOL);
+            let m = NonlinearMembrane::shear_hysteresis(&g, &rest, 0.5, eps * 1e-3, warp, &reference).unwrap();
+            check(&alone(g.len(), Box::new(m)), &x, None, None, Operator::Exact).assert_below("shear hysteresis", TOL);
+        }
+    }
+}
+
+/// A KES bending cycle to ±2.5 cm⁻¹ with 2HB = 0.02 gf·cm/cm on the nonlinear example: the loop is 2HB wide at
+/// ±0.5 cm⁻¹ (within 2 %) and the hysteretic moment's loop area is 2HB times the curvature range (2·2.5 cm⁻¹),
+/// within 3 %.
+#[test]
+fn bending_hysteresis_loop_has_width_2hb() {
+    let path = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let m = flexsurf::scene::material::load_material_file(&path).unwrap();
+    let hb2 = 0.02 * 9.80665e-3; // 2HB in N (0.02 gf·cm/cm)
+    let (kmax, steps) = (250.0, 5);
+    let cycle = flexsurf::lab::kes::bending_loop(&m.fabric, &m.laws, 0.5 * hb2, false, kmax, steps).unwrap();
+    let at = |from: usize, k: f64| cycle[from..].iter().find(|p| (p.0 - k).abs() < 1e-9).unwrap().1;
+    // Unloading passes +0.5 cm⁻¹ (50 1/m) on its way down, reloading on its way up.
+    let (down, up) = (at(steps - 1, 50.0), at(3 * steps - 1, 50.0));
+    assert!(((up - down) / hb2 - 1.0).abs() < 0.02, "loop width {} against 2HB {hb2}", up - down);
+    let (down, up) = (at(steps - 1, -50.0), at(3 * steps - 1, -50.0));
+    assert!(((up - down) / hb2 - 1.0).abs() < 0.02, "loop width at −0.5 cm⁻¹: {}", up - down);
+    // The hysteretic term's loop: the moment less the input law, by the end-value rule (exact for the
+    // piecewise-constant ±HB once sliding; the model's own bending departure cancels between the branches to
+    // (err(κmax) − err(−κmax))·Δκ).
+    let law = m.laws.bending_warp.as_ref().unwrap();
+    let area: f64 = cycle[steps - 1..].windows(2).map(|w| (w[1].1 - law.resultant(w[1].0)) * (w[1].0 - w[0].0)).sum();
+    assert!((area / (hb2 * 2.0 * kmax) - 1.0).abs() < 0.03, "loop area {area} against {}", hb2 * 2.0 * kmax);
+}
