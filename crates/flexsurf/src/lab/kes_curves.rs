@@ -293,5 +293,6 @@ pub fn linear_laws(f: &Fabric) -> Option<Laws> {
         shear: line(f.shear, &shear),
         bending_warp: line(f.bending_warp, &bending),
         bending_weft: line(f.bending_weft, &bending),
+        hysteresis: [0.0; 3],
     })
 }

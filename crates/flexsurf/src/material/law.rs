@@ -307,12 +307,20 @@ pub struct Laws {
     pub bending_warp: Option<Curve>,
     /// Bending along the weft.
     pub bending_weft: Option<Curve>,
+    /// Hysteresis loop widths `[2HB warp, 2HB weft]` (moment per width, N) and `2HG` (N/m), 0 for none: used by
+    /// the virtual KES test's loops (docs/model.md §4.6), not yet by scenes.
+    pub hysteresis: [f64; 3],
 }
 
 impl Laws {
     /// No direction has a curve.
     pub fn is_empty(&self) -> bool {
         self.membrane().iter().chain(self.bending().iter()).all(Option::is_none)
+    }
+
+    /// Whether a hysteresis loop width is given.
+    pub fn hysteretic(&self) -> bool {
+        self.hysteresis.iter().any(|&h| h > 0.0)
     }
 
     /// The membrane laws: warp, weft, shear (the order of the material strains `(E11, E22, γ)`).

@@ -90,6 +90,21 @@ pub struct MaterialSpec {
     pub twist: Option<f64>,
     /// Measured nonlinear laws (`[curves.tensile_warp]` …), each replacing the constant of the same name.
     pub curves: Option<CurvesSpec>,
+    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops.
+    pub hysteresis: Option<HysteresisSpec>,
+}
+
+/// KES hysteresis loop widths: bending 2HB (N·m/m; `kes`: gf·cm/cm) per direction, shear 2HG (N/m; `kes`:
+/// gf/cm).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HysteresisSpec {
+    /// 2HB along warp.
+    pub bending_warp: Option<f64>,
+    /// 2HB along weft.
+    pub bending_weft: Option<f64>,
+    /// 2HG.
+    pub shear: Option<f64>,
 }
 
 /// Measured curves, one per direction, each replacing the linear constant of its name (docs/materials.md,
@@ -321,6 +336,21 @@ impl MaterialSpec {
                 .find(|k| **k == range.key)
             {
                 *law_slot(&mut laws, slot) = None;
+            }
+        }
+        if let Some(h) = &self.hysteresis {
+            let kes = self.units == Units::Kes;
+            let entries = [
+                ("bending_warp", h.bending_warp, if kes { units::GF } else { 1.0 }),
+                ("bending_weft", h.bending_weft, if kes { units::GF } else { 1.0 }),
+                ("shear", h.shear, if kes { units::tension_from_kes(1.0) } else { 1.0 }),
+            ];
+            for (i, (key, value, scale)) in entries.into_iter().enumerate() {
+                let Some(value) = value else { continue };
+                if !(value.is_finite() && value >= 0.0) {
+                    return Err(v.bad_value(&format!("hysteresis.{key}"), value, "must be finite and non-negative"));
+                }
+                laws.hysteresis[i] = value * scale;
             }
         }
         let Some(curves) = &self.curves else { return Ok(laws) };

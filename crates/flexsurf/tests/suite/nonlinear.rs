@@ -28,6 +28,7 @@ fn laws(kind: Interpolation) -> Laws {
         shear: c(&[(0.02, 1.0), (0.1, 3.0), (0.3, 20.0)]),
         bending_warp: c(&[(2.0, 2e-4), (10.0, 6e-4), (30.0, 4e-3)]),
         bending_weft: c(&[(5.0, 1e-4), (20.0, 3e-4), (60.0, 5e-3)]),
+        hysteresis: [0.0; 3],
     }
 }
 
@@ -93,6 +94,7 @@ fn straight_line_laws_are_the_linear_material() {
         shear: line(f.shear),
         bending_warp: line(f.bending_warp),
         bending_weft: line(f.bending_weft),
+        hysteresis: [0.0; 3],
     };
     let g = Grid::sheet(6, 5, 0.2, 0.15).unwrap();
     let x = perturbed(&g.flat_positions(0.0), 0.01, 21);
@@ -325,7 +327,8 @@ fn hysteresis_terms_pass_the_checker() {
 fn bending_hysteresis_loop_has_width_2hb() {
     let path = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
     let m = flexsurf::scene::material::load_material_file(&path).unwrap();
-    let hb2 = 0.02 * 9.80665e-3; // 2HB in N (0.02 gf·cm/cm)
+    let hb2 = 0.02 * 9.80665e-3; // 2HB in N (0.02 gf·cm/cm, as the file gives it)
+    assert!((m.laws.hysteresis[0] / hb2 - 1.0).abs() < 1e-12, "the file's 2HB warp");
     let (kmax, steps) = (250.0, 5);
     let cycle = flexsurf::lab::kes::bending_loop(&m.fabric, &m.laws, 0.5 * hb2, false, kmax, steps).unwrap();
     let at = |from: usize, k: f64| cycle[from..].iter().find(|p| (p.0 - k).abs() < 1e-9).unwrap().1;

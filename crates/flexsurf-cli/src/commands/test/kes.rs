@@ -8,7 +8,8 @@ use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{Context, Result};
 use flexsurf::lab::kes::{CurveReport, KesReport};
-use flexsurf::material::Calibration;
+use flexsurf::material::law::Laws;
+use flexsurf::material::{Calibration, Fabric};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -35,7 +36,10 @@ pub fn execute(args: &KesArgs) -> Result<()> {
     };
     // The curves: the measured ones, or the straight lines of a linear fabric's constants (kes calibration).
     let curve_laws = if laws.is_empty() {
-        (calibration == Calibration::Kes).then(|| flexsurf::lab::kes::linear_laws(&fabric)).flatten()
+        (calibration == Calibration::Kes)
+            .then(|| flexsurf::lab::kes::linear_laws(&fabric))
+            .flatten()
+            .map(|l| Laws { hysteresis: laws.hysteresis, ..l })
     } else {
         Some(laws)
     };
@@ -45,10 +49,13 @@ pub fn execute(args: &KesArgs) -> Result<()> {
     };
     let seconds = t.elapsed().as_secs_f64();
     let out = args.out.as_deref().unwrap_or(Path::new("out/kes"));
-    let files = match &curves {
+    let mut files = match &curves {
         Some(c) => write_curves(c, &name, out)?,
         None => Vec::new(),
     };
+    if let Some(l) = curve_laws.as_ref().filter(|l| l.hysteresis[0] > 0.0 || l.hysteresis[1] > 0.0) {
+        files.extend(write_loops(&fabric, l, &name, out)?);
+    }
     if args.fabric.json {
         let mut v = serde_json::json!({ "test": "kes", "material": name, "calibration": calibration,
             "wall_seconds": seconds, "files": files });
@@ -182,4 +189,48 @@ fn chart(
     let title = format!("KES {prefix} of {name}: input curve and virtual instrument");
     line_chart(&path, (760, 440), &title, xl, yl, &series).with_context(|| format!("writing {}", path.display()))?;
     Ok(Some(path))
+}
+
+/// The KES bending cycles (to ±2.5 cm⁻¹) of the directions with a hysteresis: `kes_loops.csv` (law, curvature
+/// 1/m, moment per width N) and `kes_bending_loop.png` against the input laws.
+fn write_loops(fabric: &Fabric, laws: &Laws, name: &str, out: &Path) -> Result<Vec<PathBuf>> {
+    use flexsurf::runner::plots::{line_chart, Series};
+    let (kmax, steps) = (250.0, 10);
+    let mut csv = String::from("law,curvature,moment\n");
+    let mut series = Vec::new();
+    let palette = [[31, 119, 180], [214, 39, 40]];
+    for (d, law) in ["bending_warp", "bending_weft"].into_iter().enumerate() {
+        let hb2 = laws.hysteresis[d];
+        if hb2 <= 0.0 {
+            continue;
+        }
+        let cycle = flexsurf::lab::kes::bending_loop(fabric, laws, 0.5 * hb2, d == 1, kmax, steps)
+            .with_context(|| format!("KES bending loop of {name}"))?;
+        for (k, m) in &cycle {
+            let _ = writeln!(csv, "{law},{k:e},{m:e}");
+        }
+        let constant = if d == 0 { fabric.bending_warp } else { fabric.bending_weft };
+        let curve = laws.bending()[d];
+        let input = (-50..=50)
+            .map(|i| kmax * i as f64 / 50.0)
+            .map(|k| (0.01 * k, curve.map_or(constant * k, |c| c.resultant(k)) / 9.80665e-3))
+            .collect();
+        series.push(Series { name: format!("{law} input"), color: palette[d], points: input, dots: false });
+        let looped = cycle.iter().map(|&(k, m)| (0.01 * k, m / 9.80665e-3)).collect();
+        let dark = palette[d].map(|c| c / 2);
+        series.push(Series {
+            name: format!("{law} virtual KES, 2HB {:.4}", hb2 / 9.80665e-3),
+            color: dark,
+            points: looped,
+            dots: true,
+        });
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let path = out.join("kes_loops.csv");
+    flexsurf::io::atomic::write_atomic(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    let chart = out.join("kes_bending_loop.png");
+    let title = format!("KES bending cycle of {name}: input law and hysteresis loop");
+    line_chart(&chart, (760, 440), &title, "curvature (1/cm)", "moment per width (gf cm/cm)", &series)
+        .with_context(|| format!("writing {}", chart.display()))?;
+    Ok(vec![path, chart])
 }
