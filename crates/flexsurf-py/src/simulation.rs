@@ -66,6 +66,8 @@ pub struct PySimulation {
     /// class's own borrow flag already gives `step` exclusive access.
     stepper: Mutex<Stepper>,
     dt: f64,
+    /// The scene's moving pins (`[[pin]] motion`), placed before each step.
+    motions: Vec<flexsurf::scene::motion::PinMotion>,
     last: Option<StepInfo>,
     history: History,
 }
@@ -123,6 +125,7 @@ impl PySimulation {
         Ok(Self {
             model,
             grid,
+            motions: sc.motions.clone(),
             state: sc.state.clone(),
             stepper: Mutex::new(stepper),
             dt: sc.dt,
@@ -136,7 +139,7 @@ impl PySimulation {
     /// least every [`SIGNAL_CHECK`]): Ctrl-C raises `KeyboardInterrupt`, the state at the last step taken.
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: usize) -> PyResult<usize> {
-        let Self { model, state, stepper, last, history, .. } = self;
+        let Self { model, state, stepper, last, history, motions, dt, .. } = self;
         let stepper = stepper.get_mut().unwrap_or_else(PoisonError::into_inner);
         let mut done = 0;
         while done < n {
@@ -146,7 +149,11 @@ impl PySimulation {
                 while done + taken < n && (taken == 0 || start.elapsed() < SIGNAL_CHECK) {
                     let before = state.clone();
                     let t0 = Instant::now();
-                    match stepper.step(model, state) {
+                    // The scene's moving pins are placed before each step.
+                    let stepped = flexsurf::scene::motion::drive(motions, model, state, *dt)
+                        .map_err(|e| e.to_string())
+                        .and_then(|()| stepper.step(model, state).map_err(|e| e.to_string()));
+                    match stepped {
                         Ok(info) => {
                             history.push(t0.elapsed().as_secs_f64(), &info);
                             *last = Some(info);
@@ -160,7 +167,7 @@ impl PySimulation {
                 }
                 Ok(taken)
             });
-            done += result.map_err(|e| SimulationError::new_err(e.to_string()))?;
+            done += result.map_err(SimulationError::new_err)?;
             py.check_signals()?;
         }
         Ok(self.state.step)

@@ -2,9 +2,10 @@
 //! criterion bench `cargo bench -p flexsurf`: wall time of the time stepping, its per-step breakdown by stage,
 //! the linear solver's work (solves and why, iterations, factorisations) and the process's peak memory.
 //!
-//! Two workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape), and
+//! Four workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape),
 //! [`Workload::Touching`], the same sheet placed on the ball so that contact acts from the first step (the
-//! per-step cost of a drape in progress, without the free fall's easy steps).
+//! per-step cost of a drape in progress, without the free fall's easy steps), and the self-contact pile
+//! (`scenes/pile.toml`) with and without its self-contact ([`Workload::Pile`], [`Workload::PileAlone`]).
 
 use crate::integrate::linsolve::SolverKind;
 use crate::integrate::{Counters, StepError, StepParams, Stepper};
@@ -15,16 +16,23 @@ use std::time::Instant;
 
 /// The canonical ball-drop scene file, embedded.
 pub const BALL_DROP_TOML: &str = include_str!("../../../scenes/ball_drop.toml");
+/// The self-contact pile's scene file, embedded.
+pub const PILE_TOML: &str = include_str!("../../../scenes/pile.toml");
 
 /// What the benchmark runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Workload {
     /// The canonical ball drop from 5 cm above the ball.
     Drop,
     /// The sheet's centre placed on the ball (inside the contact layer): contact from the first step.
     Touching,
+    /// The pile of `scenes/pile.toml`: a sheet collapsing onto the floor and onto itself, with self-contact
+    /// (its thickness at most 0.4 of the grid spacing on fine grids).
+    Pile,
+    /// The same pile without self-contact (the sheet passes through itself): the cost self-contact adds.
+    PileAlone,
 }
 
 /// The canonical ball drop with `n × n` nodes (same sheet, ball, fabric and time step).
@@ -32,8 +40,11 @@ pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
     scene(n, Workload::Drop)
 }
 
-/// The ball drop of `workload` with `n × n` nodes.
+/// The scene of `workload` with `n × n` nodes.
 pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
+    if matches!(workload, Workload::Pile | Workload::PileAlone) {
+        return pile(n, workload == Workload::Pile);
+    }
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
     if let Some(sheet) = spec.sheet.as_mut().map(crate::scene::Sheets::first_mut) {
@@ -45,6 +56,23 @@ pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
         }
     }
     // The benchmark writes no frames and measures its own peak memory: no limit from the scene's budget.
+    spec.build_with(file, &crate::scene::Limits { max_memory: u64::MAX })
+}
+
+/// The pile of `scenes/pile.toml` with `n × n` nodes, with or without its self-contact.
+pub fn pile(n: usize, self_contact: bool) -> Result<Scene, SceneError> {
+    let file = Path::new("scenes/pile.toml");
+    let mut spec = SceneSpec::from_toml(PILE_TOML, file)?;
+    if let Some(sheet) = spec.sheet.as_mut().map(crate::scene::Sheets::first_mut) {
+        sheet.nodes = [n, n];
+        let spacing = sheet.size[0].min(sheet.size[1]) / (n.max(2) - 1) as f64;
+        if let Some(c) = spec.self_contact.as_mut() {
+            c.thickness = c.thickness.min(0.4 * spacing);
+        }
+    }
+    if !self_contact {
+        spec.self_contact = None;
+    }
     spec.build_with(file, &crate::scene::Limits { max_memory: u64::MAX })
 }
 
@@ -92,6 +120,7 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
     let per_step = Counters {
         assembly: c.assembly / s,
         contact: c.contact / s,
+        self_contact: c.self_contact / s,
         factorization: c.factorization / s,
         solve: c.solve / s,
         ..c

@@ -12,6 +12,7 @@ use crate::material::{Fabric, Stiffness};
 use crate::math::{finite, Vec3};
 use crate::potential::contact::{ContactParams, PenaltyContact};
 use crate::potential::external::External;
+use crate::potential::face_samples::FaceSamples;
 use crate::potential::self_contact::{SelfContact, SelfContactParams};
 use crate::potential::springs::Springs;
 use crate::potential::{elastic, Part, Pins, Potential, Term};
@@ -108,6 +109,8 @@ pub struct ModelBuilder {
     pub seams: Vec<Seam>,
     /// Contact of the sheet with itself and between panels (`None`: off).
     pub self_contact: Option<SelfContactParams>,
+    /// Obstacle contact also at points of the faces between the nodes ([`crate::potential::face_samples`]).
+    pub contact_faces: bool,
     /// Nonlinear laws of the fabric (`None`: linear). The stiffness must carry their quadratic parts
     /// ([`crate::material::law::Laws::apply`] on the fabric, `kes` calibration; checked by `build`).
     pub laws: Option<std::sync::Arc<crate::material::law::Laws>>,
@@ -139,6 +142,7 @@ impl ModelBuilder {
             extra_terms: Vec::new(),
             seams: Vec::new(),
             self_contact: None,
+            contact_faces: false,
             laws: None,
         }
     }
@@ -302,7 +306,12 @@ impl ModelBuilder {
             terms.push(Box::new(Springs::new(springs)));
         }
         if !self.obstacles.is_empty() {
-            terms.push(Box::new(PenaltyContact::new(self.obstacles, self.contact, area.clone())));
+            let contact = PenaltyContact::new(self.obstacles, self.contact, area.clone());
+            terms.push(Box::new(if self.contact_faces {
+                contact.with_samples(FaceSamples::new(&faces(&panels, n), &area))
+            } else {
+                contact
+            }));
         }
         if let Some(params) = self.self_contact {
             terms.push(Box::new(SelfContact::new(faces(&panels, n), params, area.clone())));
@@ -488,6 +497,22 @@ impl Model {
     /// Total mass (kg).
     pub fn total_mass(&self) -> f64 {
         self.mass.iter().sum()
+    }
+
+    /// A model node named for messages: `sheet p node [i, j]` (the first panel holding it; `node [i, j]` for a
+    /// model of one panel).
+    pub fn describe_node(&self, k: usize) -> String {
+        for (p, panel) in self.panels.iter().enumerate() {
+            if let Some(local) = panel.nodes().iter().position(|&g| g == k) {
+                let (i, j) = panel.grid.coords(local);
+                return if self.panels.len() == 1 {
+                    format!("node [{i}, {j}]")
+                } else {
+                    format!("sheet {p} node [{i}, {j}]")
+                };
+            }
+        }
+        format!("node {k}")
     }
 
     /// Pinned nodes, one flag per node.

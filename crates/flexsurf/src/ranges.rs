@@ -153,6 +153,10 @@ pub const SELF_THICKNESS: Range = Range {
     bounds: (1e-6, 0.1),
     usual: Some(Usual { si: (1e-4, 0.02), kes_unit: "mm", to_kes: offset_to_kes }),
 };
+/// `self_contact.friction`.
+pub const SELF_FRICTION: Range = entry("self_contact.friction", "", Rule::NonNegative, (0.0, 100.0));
+/// `self_contact.slip_speed`.
+pub const SELF_SLIP_SPEED: Range = entry("self_contact.slip_speed", "m/s", Rule::Positive, (1e-9, 1e3));
 /// `contact.friction`.
 pub const FRICTION: Range = entry("contact.friction", "", Rule::NonNegative, (0.0, 100.0));
 /// `contact.slip_speed`.
@@ -161,6 +165,14 @@ pub const SLIP_SPEED: Range = entry("contact.slip_speed", "m/s", Rule::Positive,
 pub const VELOCITY: Range = entry("initial.velocity", "m/s", Rule::Signed, (0.0, 1e3));
 /// `initial.angular_velocity`.
 pub const ANGULAR_VELOCITY: Range = entry("initial.angular_velocity", "rad/s", Rule::Signed, (0.0, 1e4));
+/// `pin[].motion.turns`.
+pub const MOTION_TURNS: Range = entry("pin[].motion.turns", "", Rule::Signed, (0.0, 1e4));
+/// `pin[].motion.axis`.
+pub const MOTION_AXIS: Range = entry("pin[].motion.axis", "", Rule::Signed, COORDINATE);
+/// `pin[].motion.center`, `pin[].motion.shift`.
+pub const MOTION_POINT: Range = entry("pin[].motion.center", "m", Rule::Signed, COORDINATE);
+/// `pin[].motion.seconds`.
+pub const MOTION_SECONDS: Range = entry("pin[].motion.seconds", "s", Rule::Positive, (1e-9, 1e9));
 /// `spring[].stiffness`.
 pub const SPRING_STIFFNESS: Range = entry("spring[].stiffness", "N/m", Rule::Positive, SPRING);
 /// `spring[].target`.
@@ -187,7 +199,7 @@ pub const POISSON: Range = entry("poisson", "", Rule::Signed, (0.0, 1e3));
 pub const BENDING_POISSON: Range = entry("bending_poisson", "", Rule::Signed, (0.0, 1.0));
 
 /// The whole table, in the order of `docs/scenes.md`.
-pub const TABLE: [&Range; 35] = [
+pub const TABLE: [&Range; 41] = [
     &DT,
     &GRAVITY,
     &SHEET_SIZE,
@@ -207,10 +219,16 @@ pub const TABLE: [&Range; 35] = [
     &CONTACT_OFFSET,
     &SELF_STIFFNESS,
     &SELF_THICKNESS,
+    &SELF_FRICTION,
+    &SELF_SLIP_SPEED,
     &FRICTION,
     &SLIP_SPEED,
     &VELOCITY,
     &ANGULAR_VELOCITY,
+    &MOTION_TURNS,
+    &MOTION_AXIS,
+    &MOTION_POINT,
+    &MOTION_SECONDS,
     &SPRING_STIFFNESS,
     &SPRING_TARGET,
     &DENSITY,

@@ -21,7 +21,8 @@ pub struct BenchArgs {
     /// Repetitions of each size; the row with the median wall time is reported.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
-    /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step.
+    /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step;
+    /// `pile`: the self-contact pile of scenes/pile.toml; `pile-alone`: the same without self-contact.
     #[arg(long, value_enum, default_value_t = Workload::Drop)]
     workload: Workload,
     /// The linear solver (`auto`: Cholesky on small grids, multigrid on large ones).
@@ -51,10 +52,13 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             (Workload::Drop, _) => 3,
             (Workload::Touching, 0..=161) => 10,
             (Workload::Touching, _) => 3,
+            // The pile: its fall and first folds (it touches the floor at about 0.06 s, itself from 0.5 s).
+            (Workload::Pile | Workload::PileAlone, 0..=41) => 250,
+            (Workload::Pile | Workload::PileAlone, _) => 120,
         });
         let mut runs = Vec::new();
         for _ in 0..repeat.max(1) {
-            runs.push(bench::run(n, steps, workload, solver).with_context(|| format!("ball drop {n}x{n}"))?);
+            runs.push(bench::run(n, steps, workload, solver).with_context(|| format!("{workload:?} {n}x{n}"))?);
         }
         runs.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));
         let row = runs[runs.len() / 2];
@@ -67,13 +71,18 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
     let large: Vec<_> = rows.iter().copied().filter(|r| r.n >= 161).collect();
     let large_exponent = bench::scaling_exponent(&large);
     if json {
-        let v = serde_json::json!({ "workload": workload, "scene": "scenes/ball_drop.toml", "rows": rows,
+        let scene = if matches!(workload, Workload::Pile | Workload::PileAlone) {
+            "scenes/pile.toml"
+        } else {
+            "scenes/ball_drop.toml"
+        };
+        let v = serde_json::json!({ "workload": workload, "scene": scene, "rows": rows,
             "per_step_exponent": exponent, "per_step_exponent_from_161": large_exponent,
             "threads": rayon::current_num_threads() });
         return print_json(&v);
     }
     print_rows(&rows);
-    println!("(stage columns: mean ms per step; solves, re-solves, Newton corrections, iterations, factorisations: totals; {} threads)", rayon::current_num_threads());
+    println!("(stage columns: mean ms per step, `self` the self-contact part of `contact`; pairs: mean self-contact records a step; solves, re-solves, Newton corrections, iterations, factorisations: totals; {} threads)", rayon::current_num_threads());
     if let Some(e) = exponent {
         println!("median step time grows as nodes^{e:.2} over all sizes");
     }
@@ -86,7 +95,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
 /// The table of `rows`, one line per grid size.
 fn print_rows(rows: &[BenchRow]) {
     println!(
-        "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8}",
+        "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>8} {:>7} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8}",
         "grid",
         "steps",
         "solver",
@@ -94,6 +103,8 @@ fn print_rows(rows: &[BenchRow]) {
         "step ms",
         "assem",
         "contact",
+        "self",
+        "pairs",
         "setup ms",
         "solve ms",
         "solves",
@@ -106,7 +117,7 @@ fn print_rows(rows: &[BenchRow]) {
     for r in rows {
         let p = &r.per_step;
         println!(
-            "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0}",
+            "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>8.2} {:>7.0} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0}",
             format!("{}x{}", r.n, r.n),
             r.steps,
             r.solver,
@@ -114,6 +125,8 @@ fn print_rows(rows: &[BenchRow]) {
             1e3 * r.step_median,
             1e3 * p.assembly,
             1e3 * p.contact,
+            1e3 * p.self_contact,
+            p.self_contact_pairs as f64 / r.steps.max(1) as f64,
             1e3 * p.factorization,
             1e3 * p.solve,
             p.solves,

@@ -18,7 +18,7 @@
 use crate::math::Vec3;
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::details::closest_points_segment_segment_with_locations_nD;
-use parry3d_f64::query::PointQueryWithLocation;
+use parry3d_f64::query::{PointQueryWithLocation, RayCast};
 use parry3d_f64::shape::Triangle;
 use rayon::prelude::*;
 
@@ -151,12 +151,39 @@ impl Faces {
     /// The pairs closer than `radius` at `x`, with their closest points, in the candidates' order.
     pub fn close(&self, x: &[Vec3], radius: f64) -> Vec<Closest> {
         let candidates = self.candidates(x, None, radius);
+        self.close_among(&candidates, x, radius, false)
+    }
+
+    /// The pairs of `candidates` closer than `radius` at `x` (with `boxes`, those whose elements' boxes at `x`,
+    /// grown by half the radius, overlap are measured, the others skipped as the broad phase would), in their
+    /// order.
+    pub fn close_among(&self, candidates: &[Pair], x: &[Vec3], radius: f64, boxes: bool) -> Vec<Closest> {
+        let near = |pair: Pair| -> bool {
+            let nodes = self.pair_nodes(pair);
+            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
+            let bound = |ks: &[usize]| {
+                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
+                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
+                (lo, hi)
+            };
+            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
+            lo1.cmple(hi2 + Vec3::splat(radius)).all() && lo2.cmple(hi1 + Vec3::splat(radius)).all()
+        };
         candidates
             .par_iter()
             .with_min_len(256)
+            .filter(|&&pair| !boxes || near(pair))
             .map(|&pair| self.closest(pair, x))
             .filter(|c| c.distance() < radius)
             .collect()
+    }
+
+    /// Whether every node of `x` lies within `slack` (in each coordinate) of the box of its positions in `from`
+    /// and `to`: then every pair within `radius` at `x` is among the candidates of `from → to` for the radius
+    /// `radius + 2 slack` ([`Faces::candidates`]).
+    pub fn within(x: &[Vec3], from: &[Vec3], to: &[Vec3], slack: f64) -> bool {
+        let s = Vec3::splat(slack);
+        x.iter().zip(from).zip(to).all(|((p, a), b)| p.cmpge(a.min(*b) - s).all() && p.cmple(a.max(*b) + s).all())
     }
 
     /// The first pair whose distance falls to `tolerance` or below along the straight paths from `from` to
@@ -165,12 +192,60 @@ impl Faces {
     /// one that meets (the caller splits the step).
     pub fn first_touch(&self, from: &[Vec3], to: &[Vec3], tolerance: f64) -> Option<(Pair, f64)> {
         let candidates = self.candidates(from, Some(to), tolerance);
+        self.first_touch_among(&candidates, from, to, tolerance)
+    }
+
+    /// [`Faces::first_touch`] among `candidates`, which must hold every pair whose elements' boxes swept from
+    /// `from` to `to` come within `tolerance` (those whose swept boxes do not are skipped here).
+    pub fn first_touch_among(
+        &self,
+        candidates: &[Pair],
+        from: &[Vec3],
+        to: &[Vec3],
+        tolerance: f64,
+    ) -> Option<(Pair, f64)> {
+        let swept_near = |pair: Pair| -> bool {
+            let nodes = self.pair_nodes(pair);
+            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
+            let bound = |ks: &[usize]| {
+                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(from[k]).min(to[k]));
+                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(from[k]).max(to[k]));
+                (lo, hi)
+            };
+            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
+            lo1.cmple(hi2 + Vec3::splat(tolerance)).all() && lo2.cmple(hi1 + Vec3::splat(tolerance)).all()
+        };
         let hits: Vec<(Pair, f64)> = candidates
             .par_iter()
             .with_min_len(256)
+            .filter(|&&pair| swept_near(pair))
             .filter_map(|&pair| self.advance(pair, from, to, tolerance).map(|t| (pair, t)))
             .collect();
         hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
+
+    /// The first edge (an index of [`Faces::edges`]) that passes through a triangle it shares no node with at
+    /// `x` (an index of [`Faces::triangles`]): a surface that intersects itself, which no step may start from.
+    /// The segment is cast as a ray against the triangle (parry); an edge lying in a triangle's plane is not
+    /// counted.
+    pub fn crossing(&self, x: &[Vec3]) -> Option<(usize, usize)> {
+        let bound = |nodes: &[usize]| {
+            let lo = nodes.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
+            let hi = nodes.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
+            (lo, hi)
+        };
+        let edges: Vec<(Vec3, Vec3)> = self.edges.iter().map(|e| bound(e)).collect();
+        let tris: Vec<(Vec3, Vec3)> = self.triangles.iter().map(|t| bound(t)).collect();
+        let size = tris.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(f64::MIN_POSITIVE, f64::max);
+        overlaps(&edges, &tris, size, false).into_iter().find(|&(e, t)| {
+            let ([a, b], tri) = (self.edges[e], self.triangles[t]);
+            if tri.contains(&a) || tri.contains(&b) {
+                return false;
+            }
+            let triangle = Triangle::new(v(x[tri[0]]), v(x[tri[1]]), v(x[tri[2]]));
+            let ray = parry3d_f64::query::Ray::new(v(x[a]), v(x[b] - x[a]));
+            triangle.intersects_local_ray(&ray, 1.0)
+        })
     }
 
     /// Most conservative-advancement steps for one pair.
@@ -307,6 +382,39 @@ mod tests {
         let close = faces.close(&x, 1.5);
         assert!(!close.is_empty());
         assert!(close.iter().all(|c| c.distance() >= std::f64::consts::FRAC_1_SQRT_2 - 1e-12));
+    }
+
+    /// A step's candidates (swept from the start to a target, the radius grown by twice a slack) find the same
+    /// close pairs and the same first touch as the whole broad phase, for any configuration within the slack.
+    #[test]
+    fn a_steps_candidates_find_what_the_broad_phase_finds() {
+        let (faces, flat) = square();
+        // Folded: the corner node 8 over the first cell, then moving through it.
+        let mut start = flat.clone();
+        start[8] = Vec3::new(0.4, 0.3, 0.3);
+        let mut target = start.clone();
+        target[8] = Vec3::new(0.5, 0.2, -0.2);
+        let (radius, slack) = (0.2, 0.2);
+        let candidates = faces.candidates(&start, Some(&target), radius + 2.0 * slack);
+        for (k, z) in [0.25, 0.1, 0.0, -0.15, -0.35].iter().enumerate() {
+            let mut x = target.clone();
+            x[8] = Vec3::new(0.45, 0.25 + 0.01 * k as f64, *z);
+            assert!(Faces::within(&x, &start, &target, slack));
+            let pairs = |c: Vec<Closest>| c.into_iter().map(|c| c.pair).collect::<Vec<_>>();
+            assert_eq!(
+                pairs(faces.close_among(&candidates, &x, radius, true)),
+                pairs(faces.close(&x, radius)),
+                "z = {z}"
+            );
+            assert_eq!(
+                faces.first_touch_among(&candidates, &start, &x, 1e-4),
+                faces.first_touch(&start, &x, 1e-4),
+                "z = {z}"
+            );
+        }
+        let mut far = target.clone();
+        far[8].z -= 0.5;
+        assert!(!Faces::within(&far, &start, &target, slack));
     }
 
     #[test]

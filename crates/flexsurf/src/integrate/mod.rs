@@ -31,6 +31,7 @@ use crate::energy::Operator;
 use crate::math::{finite, Vec3};
 use crate::model::{Energies, Model};
 use crate::potential::inertia::Inertia;
+use crate::potential::self_contact::SelfContact;
 use crate::potential::{Motion, Values, Want, Workspace};
 use crate::state::State;
 use linsolve::{LinearError, LinearSolver, Reuse};
@@ -76,6 +77,19 @@ pub enum StepError {
         /// Distance of the sheet's centre from the nearest obstacle (m).
         distance: f64,
     },
+    /// The initial shape passes through itself (self-contact cannot start from it).
+    #[error(
+        "the initial shape passes through itself: the edge from {edge_from} to {edge_to} crosses the triangle of \
+         {triangle}; self-contact needs a start without intersections (move the sheets or folds apart)"
+    )]
+    Intersecting {
+        /// The edge's first node (`sheet k node [i, j]`).
+        edge_from: String,
+        /// Its second node.
+        edge_to: String,
+        /// The triangle's three nodes.
+        triangle: String,
+    },
     /// The linear solve failed.
     #[error("linear solve failed at step {step}: {cause}")]
     Linear {
@@ -91,8 +105,11 @@ pub enum StepError {
 pub struct Counters {
     /// Energy, gradient and operator assembly.
     pub assembly: f64,
-    /// Contact detection and contact terms.
+    /// Contact detection, contact terms and the continuous check of the step's paths.
     pub contact: f64,
+    /// The part of `contact` that self-contact takes (its broad and narrow phases, its terms, its path
+    /// check).
+    pub self_contact: f64,
     /// Numeric factorisation (or preconditioner set-up).
     pub factorization: f64,
     /// Triangular solves (or CG iterations).
@@ -117,6 +134,9 @@ pub struct Counters {
     pub contact_steps: usize,
     /// Largest final relative residual of a step's Newton iterations ([`NewtonReport::residual`]).
     pub residual_max: f64,
+    /// Self-contact records active at the steps' starts, summed over the steps (their mean is this over
+    /// `steps`).
+    pub self_contact_pairs: usize,
 }
 
 impl Counters {
@@ -124,6 +144,7 @@ impl Counters {
     pub fn add(&mut self, other: &Counters) {
         self.assembly += other.assembly;
         self.contact += other.contact;
+        self.self_contact += other.self_contact;
         self.factorization += other.factorization;
         self.solve += other.solve;
         self.steps += other.steps;
@@ -135,6 +156,7 @@ impl Counters {
         self.unconverged += other.unconverged;
         self.contact_steps += other.contact_steps;
         self.residual_max = self.residual_max.max(other.residual_max);
+        self.self_contact_pairs += other.self_contact_pairs;
     }
 }
 
@@ -143,8 +165,10 @@ impl Counters {
 pub struct StepInfo {
     /// Elastic energies at `x_t` (the start of the step).
     pub energies: Energies,
-    /// Active contacts at `x_t`.
+    /// Active contacts at `x_t` (obstacles and self-contact).
     pub contacts: usize,
+    /// The self-contact records among them.
+    pub self_contacts: usize,
     /// Penalty energy at `x_t`.
     pub contact_energy: f64,
     /// Deepest penetration below the obstacle surface after the step (m, ≥ 0).
@@ -480,6 +504,8 @@ impl Stepper {
         self.split.1 += 2;
         info.timings.add(&second.timings);
         info.timings.steps = 1;
+        // The step's records are those at its start (the first half's).
+        info.timings.self_contact_pairs = info.self_contacts;
         info.newton = info.newton.then(second.newton);
         info.max_penetration = second.max_penetration;
         // Back to the history of the whole step.
@@ -493,22 +519,29 @@ impl Stepper {
     fn step_once(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
         let t0 = Instant::now();
         let contact_before = self.ws.contact_seconds;
+        let self_term = model.potential.position::<SelfContact>();
+        let self_before = self_term.map_or(0.0, |t| self.ws.term_seconds[t]);
         let refine_before = self.refine_seconds;
         let before = self.counters;
         let step = state.step + 1;
         let first = self.assemble(model, state);
+        let self_contacts = self_term.map_or(0, |t| model.potential.active_of(t, &self.ws));
         self.force_scale(model, state);
         let mut t_assembly = t0.elapsed().as_secs_f64();
         let (tf, t_solve, newton) = self.iterate(model, state, &mut t_assembly)?;
         let tv = Instant::now();
+        let paths_before = self.ws.contact_seconds;
         let max_penetration = self.advance(model, state, step)?;
+        // The continuous check of the paths is contact time spent after the solve.
+        let paths = self.ws.contact_seconds - paths_before;
         let contact_time = self.ws.contact_seconds - contact_before;
         let refine = self.refine_seconds - refine_before;
         let timings = Counters {
-            assembly: (t_assembly - (contact_time - refine)).max(0.0),
+            assembly: (t_assembly - (contact_time - refine - paths)).max(0.0),
             contact: contact_time,
+            self_contact: self_term.map_or(0.0, |t| self.ws.term_seconds[t]) - self_before,
             factorization: tf,
-            solve: (t_solve - tf - refine).max(0.0) + tv.elapsed().as_secs_f64(),
+            solve: (t_solve - tf - refine).max(0.0) + (tv.elapsed().as_secs_f64() - paths).max(0.0),
             steps: 1,
             solves: self.counters.solves - before.solves,
             iterations: self.counters.iterations - before.iterations,
@@ -518,6 +551,7 @@ impl Stepper {
             unconverged: usize::from(!newton.converged),
             contact_steps: usize::from(newton.contact),
             residual_max: newton.residual,
+            self_contact_pairs: self_contacts,
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;
@@ -525,6 +559,7 @@ impl Stepper {
         Ok(StepInfo {
             energies: Energies { membrane: first.membrane, bending: first.bending },
             contacts: first.contacts,
+            self_contacts,
             contact_energy: first.contact,
             max_penetration,
             timings,
@@ -801,6 +836,18 @@ impl Stepper {
 /// (docs/model.md §8.4). Non-finite forces are an error naming the node.
 pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
     let n = x.len();
+    if let Some(faces) = model.potential.find::<SelfContact>().map(SelfContact::faces) {
+        if let Some((e, t)) = faces.crossing(&x) {
+            let [a, b] = faces.edges[e];
+            let name = |k: usize| model.describe_node(k);
+            let [p, q, r] = faces.triangles[t].map(name);
+            return Err(StepError::Intersecting {
+                edge_from: name(a),
+                edge_to: name(b),
+                triangle: format!("{p}, {q} and {r}"),
+            });
+        }
+    }
     let fixed = model.pinned();
     let mut grad = vec![Vec3::ZERO; n];
     model.potential.evaluate(&x, &mut crate::energy::Sink::grad(&mut grad));

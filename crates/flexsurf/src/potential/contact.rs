@@ -7,6 +7,7 @@
 //! the step. The active set is found by [`Term::prepare`] and corrected by [`Term::refine`] after each solve;
 //! the obstacles' geometry lives in [`crate::contact`].
 
+use super::face_samples::FaceSamples;
 use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
 use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::{closest_cached, first_hit, passes_inside, ContactCache, Obstacle};
@@ -89,6 +90,26 @@ impl Stencil {
     /// The first node (the node of a node's contact).
     pub fn first(&self) -> usize {
         self.nodes[0]
+    }
+
+    /// Adds the gradient `g` and Hessian `h` of an energy of the stencil's point into `sink`: node `a` takes
+    /// `w_a g` (unless fixed), the block of nodes `(a, b)` takes `w_a w_b h` (the diagonal ones through the
+    /// pattern, the others as the step's extra pairs).
+    pub fn spread(&self, g: Vec3, h: Mat3, cx: &Context, sink: &mut Sink) {
+        for (a, wa) in self.terms() {
+            if let Some(grad) = sink.grad.as_deref_mut() {
+                if !cx.fixed[a] {
+                    grad[a] += g * wa;
+                }
+            }
+            for (b, wb) in self.terms() {
+                if a == b {
+                    sink.add_block(cx.diag[a], a, a, h * (wa * wb));
+                } else if a < b {
+                    sink.add_pair(a, b, h * (wa * wb));
+                }
+            }
+        }
     }
 
     /// `Σ wₖ x_{nodes[k]}`.
@@ -193,20 +214,7 @@ impl Contact {
             sink.add_block(cx.diag[k], k, k, h);
             return;
         }
-        for (a, wa) in self.stencil.terms() {
-            if let Some(g) = sink.grad.as_deref_mut() {
-                if !cx.fixed[a] {
-                    g[a] -= f * wa;
-                }
-            }
-            for (b, wb) in self.stencil.terms() {
-                if a == b {
-                    sink.add_block(cx.diag[a], a, a, h * (wa * wb));
-                } else if a < b {
-                    sink.add_pair(a, b, h * (wa * wb));
-                }
-            }
-        }
+        self.stencil.spread(-f, h, cx, sink);
     }
 }
 
@@ -305,6 +313,78 @@ pub fn detect_predicted(
     }
 }
 
+/// Whether point `k` (of `cache`) moving from `p` to `q` went below an obstacle's surface on the way while
+/// outside at both ends (passed through it).
+fn passed_through(obstacles: &[Obstacle], cache: &mut ContactCache, k: usize, p: Vec3, q: Vec3, skin: f64) -> bool {
+    let reach = (q - p).length();
+    if cache.lower_bound(k, p) > reach {
+        return false;
+    }
+    let Some((dp, _)) = closest_cached(obstacles, cache, k, p, reach) else { return false };
+    let Some((dq, _)) = closest_cached(obstacles, cache, k, q, f64::INFINITY) else { return false };
+    dp > 0.0 && dq > 0.0 && passes_inside(obstacles, cache, k, p, q, skin)
+}
+
+/// The face samples' contacts at `y` (and its predicted motion in `s.predicted`) into `s`: those of samples none
+/// of whose nodes has a contact.
+fn detect_samples(
+    obstacles: &[Obstacle],
+    params: &ContactParams,
+    samples: &FaceSamples,
+    y: &[Vec3],
+    s: &mut ContactScratch,
+) {
+    let mut node_contact = vec![false; y.len()];
+    for c in &s.contacts {
+        node_contact[c.node()] = true;
+    }
+    let (at, predicted) = (samples.positions(y), samples.positions(&s.predicted));
+    let mut found = Vec::new();
+    detect_predicted(obstacles, params, &samples.area, &at, &predicted, &mut s.sample_cache, &mut found);
+    s.sample_ids.clear();
+    s.sample_contacts.clear();
+    for c in found.into_iter().filter(|c| samples.counts(c.node(), &node_contact)) {
+        s.sample_ids.push(c.node());
+        s.sample_contacts.push(Contact { stencil: samples.stencils[c.node()], ..c });
+    }
+}
+
+/// After a solve proposing `y + delta`: face samples (none of whose nodes has a contact, `s.has_contact`) that
+/// end in the layer or pass through an obstacle get a contact, as nodes do. True when one was missed by more
+/// than `tolerance` (or any, when the step had no contact force, `empty`).
+#[allow(clippy::too_many_arguments)]
+fn refine_samples(
+    obstacles: &[Obstacle],
+    params: &ContactParams,
+    samples: &FaceSamples,
+    y: &[Vec3],
+    delta: &[Vec3],
+    tolerance: f64,
+    empty: bool,
+    s: &mut ContactScratch,
+) -> bool {
+    let mut held = vec![false; samples.len()];
+    s.sample_ids.iter().for_each(|&i| held[i] = true);
+    let mut changed = false;
+    for (i, st) in samples.stencils.iter().enumerate() {
+        if held[i] || !samples.counts(i, &s.has_contact) {
+            continue;
+        }
+        let (p, step) = (st.point(y), st.point(delta));
+        if s.sample_cache.lower_bound(i, p) >= params.offset + step.length() {
+            continue;
+        }
+        if let Some((at, d, n)) = entry(obstacles, &mut s.sample_cache, i, p, p + step, params.offset) {
+            let c = Contact { stencil: *st, ..Contact::new(i, p, at, d, n, params, samples.area[i]) };
+            let missed = c.stiffness * (params.offset - c.gap(p + step));
+            changed |= empty || missed > tolerance || d <= 0.0;
+            s.sample_ids.push(i);
+            s.sample_contacts.push(c);
+        }
+    }
+    changed
+}
+
 /// Where a node moving from `p` to `q` needs a contact, as (linearisation point, distance, normal) there: at
 /// `q` when it ends in the contact layer no deeper than the offset below the surface (its own closest point is
 /// the right one); at the first point of the path inside the layer when it ends deeper, or ends outside after
@@ -339,7 +419,7 @@ fn entry(
 }
 
 /// Most friction re-linearisations per assembly.
-const FRICTION_ROUNDS: usize = 1;
+pub(crate) const FRICTION_ROUNDS: usize = 1;
 
 /// Penalty contact of the sheet's nodes (rest areas `area`) with `obstacles`.
 #[derive(Debug, Clone)]
@@ -347,6 +427,8 @@ pub struct PenaltyContact {
     obstacles: Vec<Obstacle>,
     params: ContactParams,
     area: Vec<f64>,
+    /// Points of the sheet's faces checked too ([`super::face_samples`]); `None`: nodes only.
+    samples: Option<FaceSamples>,
 }
 
 /// The contact term's scratch: the warm-start cache of the closest-point queries and the active set.
@@ -364,6 +446,11 @@ pub struct ContactScratch {
     /// Quasi-static friction of a static solve (not part of a step's checkpoint).
     #[serde(skip)]
     statics: Option<StaticLag>,
+    /// The closest-point cache of the face samples.
+    sample_cache: ContactCache,
+    /// The face samples in contact and their records.
+    sample_ids: Vec<usize>,
+    sample_contacts: Vec<Contact>,
 }
 
 /// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
@@ -379,8 +466,12 @@ struct StaticLag {
 impl ContactScratch {
     /// Whether the scratch fits a model of `obstacles` obstacles and `nodes` nodes (every vector's size, every
     /// node index): a checkpoint's is checked before use.
-    pub(crate) fn fits(&self, obstacles: usize, nodes: usize) -> bool {
-        self.cache.fits(obstacles, nodes)
+    pub(crate) fn fits(&self, obstacles: usize, nodes: usize, samples: usize) -> bool {
+        self.sample_cache.fits(obstacles, samples)
+            && self.sample_ids.len() == self.sample_contacts.len()
+            && self.sample_ids.iter().all(|&i| i < samples)
+            && records_fit(&self.sample_contacts, nodes)
+            && self.cache.fits(obstacles, nodes)
             && self.predicted.len() == nodes
             && self.has_contact.len() == nodes
             && records_fit(&self.contacts, nodes)
@@ -391,7 +482,17 @@ impl ContactScratch {
 impl PenaltyContact {
     /// Contact with `obstacles` under `params`, nodes of rest area `area`.
     pub fn new(obstacles: Vec<Obstacle>, params: ContactParams, area: Vec<f64>) -> Self {
-        Self { obstacles, params, area }
+        Self { obstacles, params, area, samples: None }
+    }
+
+    /// The same contact, also between the nodes: at the `samples` of the sheet's faces.
+    pub fn with_samples(mut self, samples: FaceSamples) -> Self {
+        self.samples = Some(samples);
+        self
+    }
+
+    fn sample_count(&self) -> usize {
+        self.samples.as_ref().map_or(0, FaceSamples::len)
     }
 
     /// The contact parameters.
@@ -414,6 +515,9 @@ impl PenaltyContact {
             lagged: Vec::new(),
             relinearized: 0,
             statics: None,
+            sample_cache: ContactCache::new(self.obstacles.len(), self.sample_count()),
+            sample_ids: Vec::new(),
+            sample_contacts: Vec::new(),
         }
     }
 
@@ -434,7 +538,7 @@ impl Term for PenaltyContact {
 
     fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
         let s = self.scratch(scratch);
-        let mut total = add_all(&s.contacts, cx, sink);
+        let mut total = add_all(&s.contacts, cx, sink) + add_all(&s.sample_contacts, cx, sink);
         match (cx.motion, &s.statics) {
             (None, Some(f)) => total += static_friction(f, y, cx, sink),
             (Some(m), _) => total += step_friction(&s.lagged, self.params.slip_speed * m.dt, y, m.x, cx, sink),
@@ -452,9 +556,10 @@ impl Term for PenaltyContact {
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
-        let (obstacles, nodes) = (self.obstacles.len(), self.area.len());
+        let (obstacles, nodes, samples) = (self.obstacles.len(), self.area.len(), self.sample_count());
         restore_scratch(saved, scratch, "contact state", |c: &ContactScratch| {
-            c.fits(obstacles, nodes).then_some(()).ok_or_else(|| format!("{obstacles} obstacles, {nodes} nodes"))
+            let fits = c.fits(obstacles, nodes, samples);
+            fits.then_some(()).ok_or_else(|| format!("{obstacles} obstacles, {nodes} nodes, {samples} face samples"))
         })
     }
 }
@@ -512,6 +617,9 @@ impl ActiveSet for PenaltyContact {
             };
         }
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
+        if let Some(samples) = &self.samples {
+            detect_samples(&self.obstacles, &self.params, samples, y, s);
+        }
         s.relinearized = 0;
         match cx.motion {
             Some(m) if m.predict => {
@@ -586,14 +694,20 @@ impl ActiveSet for PenaltyContact {
         let largest = s.contacts.iter().map(|c| c.force.abs()).fold(0.0, f64::max);
         let tolerance = MODEL_TOLERANCE * largest;
         let mut changed = false;
-        s.contacts.retain(|c| {
+        let mut keep = |c: &Contact| {
             let gap = c.gap(c.stencil.point(y) + c.stencil.point(delta));
             let keep = gap < params.offset;
             if !keep && c.stiffness * (gap - params.offset) > tolerance {
                 changed = true;
             }
             keep
-        });
+        };
+        s.contacts.retain(&mut keep);
+        let kept: Vec<bool> = s.sample_contacts.iter().map(&mut keep).collect();
+        let mut flags = kept.iter();
+        s.sample_ids.retain(|_| *flags.next().unwrap_or(&false));
+        let mut flags = kept.iter();
+        s.sample_contacts.retain(|_| *flags.next().unwrap_or(&false));
         s.has_contact.iter_mut().for_each(|f| *f = false);
         for c in &s.contacts {
             s.has_contact[c.node()] = true;
@@ -617,6 +731,9 @@ impl ActiveSet for PenaltyContact {
             }
         }
         s.contacts.sort_by_key(|c| c.node());
+        if let Some(samples) = &self.samples {
+            changed |= refine_samples(&self.obstacles, params, samples, y, delta, tolerance, largest == 0.0, s);
+        }
         // Friction whose linear model is off at the proposal is re-linearised there (at most
         // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
         if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {
@@ -642,23 +759,17 @@ impl ActiveSet for PenaltyContact {
             return None;
         }
         let s = self.scratch(scratch);
-        for k in 0..from.len() {
-            let (p, q) = (from[k], to[k]);
-            let reach = (q - p).length();
-            if s.cache.lower_bound(k, p) > reach {
-                continue;
-            }
-            let Some((dp, _)) = closest_cached(&self.obstacles, &mut s.cache, k, p, reach) else { continue };
-            let Some((dq, _)) = closest_cached(&self.obstacles, &mut s.cache, k, q, f64::INFINITY) else { continue };
-            // Outside at both ends, but the path went below the surface on the way.
-            if dp > 0.0
-                && dq > 0.0
-                && passes_inside(&self.obstacles, &mut s.cache, k, p, q, 1e-3 * self.params.offset.max(1e-9))
-            {
-                return Some(k);
-            }
+        let skin = 1e-3 * self.params.offset.max(1e-9);
+        if let Some(k) =
+            (0..from.len()).find(|&k| passed_through(&self.obstacles, &mut s.cache, k, from[k], to[k], skin))
+        {
+            return Some(k);
         }
-        None
+        let samples = self.samples.as_ref()?;
+        samples.stencils.iter().enumerate().find_map(|(i, st)| {
+            let (p, q) = (st.point(from), st.point(to));
+            passed_through(&self.obstacles, &mut s.sample_cache, i, p, q, skin).then(|| st.first())
+        })
     }
 
     fn slip_speed(&self) -> f64 {
@@ -683,11 +794,15 @@ impl ActiveSet for PenaltyContact {
     }
 
     fn active(&self, scratch: &Scratch) -> usize {
-        scratch.get::<ContactScratch>().map_or(0, |s| s.contacts.iter().filter(|c| c.force > 0.0).count())
+        scratch
+            .get::<ContactScratch>()
+            .map_or(0, |s| s.contacts.iter().chain(&s.sample_contacts).filter(|c| c.force > 0.0).count())
     }
 
     fn engaged(&self, scratch: &Scratch) -> bool {
-        scratch.get::<ContactScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
+        scratch
+            .get::<ContactScratch>()
+            .is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty() || !s.sample_contacts.is_empty())
     }
 
     /// Deepest penetration below any obstacle's surface (0 when none), in metres.

@@ -19,6 +19,7 @@
 pub mod contact;
 pub mod elastic;
 pub mod external;
+pub mod face_samples;
 pub mod friction;
 pub mod inertia;
 pub mod self_contact;
@@ -381,8 +382,11 @@ pub struct Workspace {
     pub grad: Vec<Vec3>,
     /// The Hessian approximation of the last assembly.
     pub matrix: BlockMatrix,
-    /// Seconds spent in the contact stage (detection, contact terms, active-set refinement), summed.
+    /// Seconds spent in the contact stage (detection, contact terms, active-set refinement, the continuous
+    /// check of the step's paths), summed.
     pub contact_seconds: f64,
+    /// The same, per term (zero for terms outside the contact stage).
+    pub term_seconds: Vec<f64>,
     scratch: Vec<Scratch>,
     extra: Scratch,
     base_grad: Vec<Vec3>,
@@ -398,6 +402,7 @@ impl Workspace {
             grad: vec![Vec3::ZERO; n],
             matrix: BlockMatrix::zeros(&potential.pattern),
             contact_seconds: 0.0,
+            term_seconds: vec![0.0; potential.terms.len()],
             scratch: potential.terms.iter().map(|_| Scratch::default()).collect(),
             extra: Scratch::default(),
             base_grad: vec![Vec3::ZERO; n],
@@ -437,6 +442,16 @@ impl Potential {
     /// The first term of type `T` (for inspection and outputs; solvers never need it).
     pub fn find<T: Term + 'static>(&self) -> Option<&T> {
         self.terms.iter().find_map(|t| t.as_any().downcast_ref::<T>())
+    }
+
+    /// The index of the first term of type `T` (for [`Workspace::term_seconds`] and [`Potential::active_of`]).
+    pub fn position<T: Term + 'static>(&self) -> Option<usize> {
+        self.terms.iter().position(|t| t.as_any().downcast_ref::<T>().is_some())
+    }
+
+    /// The active records of term `t` in `ws` (0 for a term without an active set).
+    pub fn active_of(&self, t: usize, ws: &Workspace) -> usize {
+        self.terms.get(t).and_then(|term| term.active_set()).map_or(0, |a| a.active(&ws.scratch[t]))
     }
 
     /// The first term of type `T`, mutably: for data that may change between steps without changing the
@@ -569,7 +584,9 @@ impl Potential {
             }
             energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             if let Some(t0) = t0 {
-                ws.contact_seconds += t0.elapsed().as_secs_f64();
+                let seconds = t0.elapsed().as_secs_f64();
+                ws.contact_seconds += seconds;
+                ws.term_seconds[t] += seconds;
             }
         }
         if !extra_done {
@@ -593,7 +610,9 @@ impl Potential {
     fn refine_untimed(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, want: Want, ws: &mut Workspace) -> bool {
         let mut changed = false;
         for (t, a) in self.active_sets() {
+            let t0 = std::time::Instant::now();
             changed |= a.refine(x, delta, cx, &mut ws.scratch[t]);
+            ws.term_seconds[t] += t0.elapsed().as_secs_f64();
         }
         if !changed {
             return false;
@@ -604,7 +623,9 @@ impl Potential {
         let mut values = Values::default();
         for (t, term) in self.terms.iter().enumerate() {
             if term.info().stage == Stage::Contact {
+                let t0 = std::time::Instant::now();
                 energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
+                ws.term_seconds[t] += t0.elapsed().as_secs_f64();
             }
         }
         self.zero_fixed(&mut ws.grad);
@@ -626,7 +647,14 @@ impl Potential {
 
     /// The first node any term reports as having passed through an obstacle between `from` and `to`.
     pub fn tunnelled(&self, from: &[Vec3], to: &[Vec3], ws: &mut Workspace) -> Option<usize> {
-        self.active_sets().find_map(|(t, a)| a.tunnelled(from, to, &mut ws.scratch[t]))
+        self.active_sets().find_map(|(t, a)| {
+            let t0 = std::time::Instant::now();
+            let found = a.tunnelled(from, to, &mut ws.scratch[t]);
+            let seconds = t0.elapsed().as_secs_f64();
+            ws.contact_seconds += seconds;
+            ws.term_seconds[t] += seconds;
+            found
+        })
     }
 
     /// The largest slip speed `ε_v` of a term with friction (0 without friction).

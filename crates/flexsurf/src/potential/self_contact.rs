@@ -10,15 +10,24 @@
 //! stiffness `c a n nᵀ` spread over the stencil by `wₖ wₗ` (action equals reaction: the weights sum to zero).
 //! The active set is found at the step's start and target, and refined after each solve as for obstacles.
 //!
+//! **Layer friction.** Coulomb friction between layers is the obstacles' law ([`super::friction`]) on the
+//! relative slip of a pair's two points: for a pair touching at the step's start, with its normal force `λ` and
+//! normal lagged there, the potential `μ λ f₀(|u|)` of the tangential part `u = P Σ wₖ (yₖ − xₖ)` of the
+//! stencil's displacement over the step, spread over the stencil by its weights, so each side takes the
+//! opposite force (action equals reaction) and a layer dragged along by another slides or sticks as Coulomb
+//! says. Its coefficient is the cloth–cloth `μ` of [`SelfContactParams::friction`], apart from the
+//! cloth–obstacle one of `[contact]`. The same linear models (tangent while sliding, majorant while sticking)
+//! and re-linearisations as for obstacles. A static solve has no layer friction (it has no step to slip over).
+//!
 //! **Intersection-free.** After a step, every pair is followed along the straight paths of its nodes by
 //! conservative advancement ([`Faces::first_touch`]): a pair that would come within `10⁻³ δ` of touching
 //! fails the step as tunnelled, and the stepper retakes it as two half steps. So the triangulated surface
 //! never passes through itself; the displayed Coons surface stays within its deviation from the triangles
 //! (second order in the grid spacing) of it, so a thickness larger than that deviation keeps it clear too.
 
-use super::contact::{add_all, records_fit, restore_scratch, save_scratch, Contact, Other, Stencil};
-use super::friction::MODEL_TOLERANCE;
-use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
+use super::contact::{add_all, records_fit, restore_scratch, save_scratch, Contact, Other, Stencil, FRICTION_ROUNDS};
+use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
+use super::{ActiveSet, Context, Motion, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::proximity::{Closest, Faces, Pair};
 use crate::energy::Sink;
 use crate::math::Vec3;
@@ -31,6 +40,17 @@ pub struct SelfContactParams {
     pub stiffness: f64,
     /// Contact thickness `δ` (m): two elements of the sheet push apart closer than this.
     pub thickness: f64,
+    /// Coulomb coefficient `μ` between layers of cloth (0 = frictionless).
+    pub friction: f64,
+    /// Slip speed `ε_v` (m/s) below which layer friction is static (smoothed), as for obstacles.
+    pub slip_speed: f64,
+}
+
+impl SelfContactParams {
+    /// Frictionless self-contact of penalty `stiffness` and thickness `thickness`.
+    pub fn frictionless(stiffness: f64, thickness: f64) -> Self {
+        Self { stiffness, thickness, friction: 0.0, slip_speed: super::contact::ContactParams::SLIP_SPEED }
+    }
 }
 
 /// Self-contact of the panels' surface.
@@ -48,7 +68,20 @@ pub struct SelfScratch {
     contacts: Vec<Contact>,
     /// The step's start (or the static solve's configuration): the pairs' sides.
     start: Vec<Vec3>,
+    /// Layer friction lagged from the step's start: the stencil of each pair touching there and its law.
+    lagged: Vec<(Stencil, Lagged)>,
+    /// Friction re-linearisations since the last assembly.
+    relinearized: usize,
+    /// The step's candidate pairs: those whose elements' boxes swept from the start to the target come within
+    /// the thickness and twice the [`SLACK`] (every close pair of a configuration within the slack of the
+    /// swept boxes is among them), with the target they were swept to.
+    #[serde(skip)]
+    candidates: Option<(Vec<Pair>, Vec<Vec3>)>,
 }
+
+/// How far (a multiple of the thickness, per coordinate) a configuration may leave a step's swept boxes and
+/// still be searched among the step's candidate pairs.
+const SLACK: f64 = 1.0;
 
 /// Fraction of the thickness at which continuous detection calls two elements touching.
 pub const TOUCH: f64 = 1e-3;
@@ -105,16 +138,26 @@ impl SelfContact {
         }
     }
 
+    /// The pairs closer than the thickness at `x`: among the step's candidates when `x` is within their slack,
+    /// else from the whole broad phase.
+    fn close(&self, s: &SelfScratch, x: &[Vec3]) -> Vec<Closest> {
+        let thickness = self.params.thickness;
+        match &s.candidates {
+            Some((pairs, target))
+                if s.start.len() == x.len() && Faces::within(x, &s.start, target, SLACK * thickness) =>
+            {
+                self.faces.close_among(pairs, x, thickness, true)
+            }
+            _ => self.faces.close(x, thickness),
+        }
+    }
+
     /// Adds the close pairs of `x` not yet held, as contacts; returns the largest force one would have had at
     /// `at` (the proposal a solve missed them at).
     fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
         let mut missed: f64 = 0.0;
-        let fresh: Vec<Closest> = self
-            .faces
-            .close(x, self.params.thickness)
-            .into_iter()
-            .filter(|c| s.pairs.binary_search(&c.pair).is_err())
-            .collect();
+        let fresh: Vec<Closest> =
+            self.close(s, x).into_iter().filter(|c| s.pairs.binary_search(&c.pair).is_err()).collect();
         for c in &fresh {
             let contact = self.record(c, &s.start);
             missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
@@ -125,6 +168,81 @@ impl SelfContact {
             sort(s);
         }
         missed
+    }
+}
+
+/// Layer friction lagged at the step's start: every pair touching there (not wholly fixed), its limit `μ λ` and
+/// normal, linearised about the slip the pair's motion predicts (as for obstacles: the last step's relative slip
+/// when it stuck, else `(v + ½ a Δt) Δt` of the relative velocity).
+fn lag_friction(params: &SelfContactParams, s: &mut SelfScratch, m: &Motion, fixed: &[bool]) {
+    s.lagged.clear();
+    if params.friction <= 0.0 {
+        return;
+    }
+    let eps = params.slip_speed * m.dt;
+    for c in s.contacts.iter().filter(|c| c.force > 0.0) {
+        if c.stencil.terms().all(|(k, _)| fixed[k]) {
+            continue;
+        }
+        let mut l = Lagged {
+            node: c.stencil.first(),
+            limit: params.friction * c.force,
+            normal: c.normal,
+            at: Vec3::ZERO,
+            majorant: false,
+        };
+        let st = &c.stencil;
+        let last = l.tangential(st.point(m.x) - st.point(m.x_prev));
+        let predicted = if last.length() < eps {
+            last
+        } else {
+            l.tangential((st.point(m.v) * 1.5 - st.point(m.v_prev) * 0.5) * m.dt)
+        };
+        l.linearize(predicted, eps, true);
+        s.lagged.push((c.stencil, l));
+    }
+}
+
+/// The layer friction's models into `sink`, the slips measured from `x`; returns their energy.
+fn layer_friction(
+    lagged: &[(Stencil, Lagged)],
+    eps: f64,
+    y: &[Vec3],
+    x: &[Vec3],
+    cx: &Context,
+    sink: &mut Sink,
+) -> f64 {
+    let mut total = 0.0;
+    for (st, l) in lagged {
+        let law = FrictionLaw { limit: l.limit, eps };
+        let (e, g, h) = l.model(&law, l.tangential(st.point(y) - st.point(x)));
+        sink.energy += e;
+        total += e;
+        st.spread(g, h, cx, sink);
+    }
+    total
+}
+
+impl SelfContact {
+    /// Re-linearises, at the proposal `z`, the friction models that are off there by more than the tolerance
+    /// of the step's largest limit (at most once per assembly: each costs a re-solve); true if any was.
+    fn relinearize(&self, s: &mut SelfScratch, z: &[Vec3], m: &Motion) -> bool {
+        if s.relinearized >= FRICTION_ROUNDS || s.lagged.is_empty() {
+            return false;
+        }
+        s.relinearized += 1;
+        let eps = self.params.slip_speed * m.dt;
+        let scale = s.lagged.iter().map(|(_, l)| l.limit).fold(0.0, f64::max);
+        let mut changed = false;
+        for (st, l) in &mut s.lagged {
+            let law = FrictionLaw { limit: l.limit, eps };
+            let u = l.tangential(st.point(z) - st.point(m.x));
+            if l.model_error(&law, u) > MODEL_TOLERANCE * scale {
+                l.linearize(u, eps, false);
+                changed = true;
+            }
+        }
+        changed
     }
 }
 
@@ -140,8 +258,13 @@ impl Term for SelfContact {
         TermInfo::new("self contact", Stage::Contact, Part::Contact)
     }
 
-    fn evaluate(&self, _y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
-        add_all(&self.scratch(scratch).contacts, cx, sink)
+    fn evaluate(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+        let s = self.scratch(scratch);
+        let mut total = add_all(&s.contacts, cx, sink);
+        if let Some(m) = cx.motion {
+            total += layer_friction(&s.lagged, self.params.slip_speed * m.dt, y, m.x, cx, sink);
+        }
+        total
     }
 
     fn active_set(&self) -> Option<&dyn ActiveSet> {
@@ -157,7 +280,8 @@ impl Term for SelfContact {
         restore_scratch(saved, scratch, "self-contact state", |s: &SelfScratch| {
             let fits = s.pairs.len() == s.contacts.len()
                 && (s.start.is_empty() || s.start.len() == n)
-                && records_fit(&s.contacts, n);
+                && records_fit(&s.contacts, n)
+                && s.lagged.iter().all(|(st, _)| (1..=4).contains(&st.len) && st.nodes.iter().all(|&k| k < n));
             fits.then_some(()).ok_or_else(|| format!("{n} nodes"))
         })
     }
@@ -175,16 +299,49 @@ impl ActiveSet for SelfContact {
         }
         s.pairs.clear();
         s.contacts.clear();
-        self.add_close(s, y, y);
+        s.relinearized = 0;
         if let Some(m) = cx.motion.filter(|m| m.predict) {
-            self.add_close(s, m.target, y);
+            let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
+            s.candidates = Some((self.faces.candidates(&s.start, Some(m.target), radius), m.target.to_vec()));
+        } else if cx.motion.is_none() {
+            s.candidates = None;
         }
+        self.add_close(s, y, y);
+        match cx.motion {
+            Some(m) if m.predict => {
+                lag_friction(&self.params, s, &m, cx.fixed);
+                self.add_close(s, m.target, y);
+            }
+            // A Newton iteration linearises the friction about the iterate.
+            Some(m) => {
+                let eps = self.params.slip_speed * m.dt;
+                for (st, l) in &mut s.lagged {
+                    l.linearize(l.tangential(st.point(y) - st.point(m.x)), eps, false);
+                }
+            }
+            None => s.lagged.clear(),
+        }
+    }
+
+    /// How far the layer friction at `y` is from the linear models the last assembly solved with, relative to
+    /// the largest limit `μλ` of the step.
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
+        let Some(m) = cx.motion else { return 0.0 };
+        let eps = self.params.slip_speed * m.dt;
+        let s = self.scratch(scratch);
+        let scale = s.lagged.iter().map(|(_, l)| l.limit).fold(0.0, f64::max);
+        let mut worst: f64 = 0.0;
+        for (st, l) in &s.lagged {
+            let law = FrictionLaw { limit: l.limit, eps };
+            worst = worst.max(l.model_error(&law, l.tangential(st.point(y) - st.point(m.x))) / scale);
+        }
+        worst
     }
 
     /// After a solve proposing `y + delta`: a contact stays while its gap there is inside the layer; the pairs
     /// close at the proposal join. True when the forces the solve got wrong exceed the tolerance of the
     /// step's largest contact force (as for obstacles).
-    fn refine(&self, y: &[Vec3], delta: &[Vec3], _cx: &Context, scratch: &mut Scratch) -> bool {
+    fn refine(&self, y: &[Vec3], delta: &[Vec3], cx: &Context, scratch: &mut Scratch) -> bool {
         let s = self.scratch(scratch);
         let z: Vec<Vec3> = y.iter().zip(delta).map(|(a, b)| *a + *b).collect();
         let largest = s.contacts.iter().map(|c| c.force.abs()).fold(0.0, f64::max);
@@ -202,13 +359,26 @@ impl ActiveSet for SelfContact {
         }
         (s.pairs, s.contacts) = kept.into_iter().unzip();
         let missed = self.add_close(s, &z, &z);
-        changed || (missed > tolerance && missed > 0.0)
+        let relinearized = cx.motion.is_some_and(|m| self.relinearize(s, &z, &m));
+        changed || relinearized || (missed > tolerance && missed > 0.0)
     }
 
     /// The first node of a pair whose elements would come within `10⁻³ δ` of each other on the straight
     /// paths from `from` to `to`.
-    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], _scratch: &mut Scratch) -> Option<usize> {
-        self.faces.first_touch(from, to, TOUCH * self.params.thickness).map(|(pair, _)| match pair {
+    fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize> {
+        let tolerance = TOUCH * self.params.thickness;
+        let s = self.scratch(scratch);
+        // The step's candidates hold every pair whose paths come within the tolerance when the step starts
+        // where they were swept from and ends within their slack.
+        let touch = match &s.candidates {
+            Some((pairs, target))
+                if s.start.as_slice() == from && Faces::within(to, from, target, SLACK * self.params.thickness) =>
+            {
+                self.faces.first_touch_among(pairs, from, to, tolerance)
+            }
+            _ => self.faces.first_touch(from, to, tolerance),
+        };
+        touch.map(|(pair, _)| match pair {
             Pair::PointFace(p, _) => p,
             Pair::EdgeEdge(e, _) => self.faces.edges[e][0],
         })
@@ -219,7 +389,15 @@ impl ActiveSet for SelfContact {
     }
 
     fn engaged(&self, scratch: &Scratch) -> bool {
-        scratch.get::<SelfScratch>().is_some_and(|s| !s.contacts.is_empty())
+        scratch.get::<SelfScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
+    }
+
+    fn slip_speed(&self) -> f64 {
+        if self.params.friction > 0.0 {
+            self.params.slip_speed
+        } else {
+            0.0
+        }
     }
 
     /// Self-contact has no penetration to measure: its distances are unsigned and no crossing is accepted.

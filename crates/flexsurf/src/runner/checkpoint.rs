@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -56,10 +56,11 @@ pub struct Checkpoint {
 /// [`Counters`] as saved.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CountersSaved {
-    seconds: [f64; 4],
+    /// Assembly, contact, self-contact, factorisation, solve.
+    seconds: [f64; 5],
     /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps, contact
-    /// steps.
-    counts: [usize; 8],
+    /// steps, self-contact records.
+    counts: [usize; 9],
     /// The largest final relative Newton residual.
     residual_max: f64,
 }
@@ -67,7 +68,7 @@ pub struct CountersSaved {
 impl From<Counters> for CountersSaved {
     fn from(c: Counters) -> Self {
         Self {
-            seconds: [c.assembly, c.contact, c.factorization, c.solve],
+            seconds: [c.assembly, c.contact, c.self_contact, c.factorization, c.solve],
             counts: [
                 c.steps,
                 c.solves,
@@ -77,6 +78,7 @@ impl From<Counters> for CountersSaved {
                 c.corrections,
                 c.unconverged,
                 c.contact_steps,
+                c.self_contact_pairs,
             ],
             residual_max: c.residual_max,
         }
@@ -85,11 +87,13 @@ impl From<Counters> for CountersSaved {
 
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
-        let [assembly, contact, factorization, solve] = c.seconds;
-        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps] = c.counts;
+        let [assembly, contact, self_contact, factorization, solve] = c.seconds;
+        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps, self_contact_pairs] =
+            c.counts;
         Counters {
             assembly,
             contact,
+            self_contact,
             factorization,
             solve,
             steps,
@@ -101,6 +105,7 @@ impl From<CountersSaved> for Counters {
             unconverged,
             contact_steps,
             residual_max: c.residual_max,
+            self_contact_pairs,
         }
     }
 }

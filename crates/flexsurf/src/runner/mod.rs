@@ -81,6 +81,9 @@ pub enum RunError {
     /// The static equilibrium solve failed (the message carries the hint that fits the failure).
     #[error(transparent)]
     Static(crate::integrate::statics::StaticError),
+    /// A pinned set could not be moved along its `[[pin]] motion`.
+    #[error("pin motion: {0}")]
+    Motion(#[from] crate::model::ModelError),
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {

@@ -152,6 +152,9 @@ fn step_all(
     while state.step < scene.steps && !halt.interrupted && halt.failure.is_none() {
         let left = scene.steps - state.step;
         let chunk = every.map_or(left, |e| (e - state.step % e).min(left));
+        // Moving pins are placed before each step.
+        let chunk = if scene.motions.is_empty() { chunk } else { 1 };
+        scene.drive(&mut state)?;
         let part = sim::run(&scene.model, &mut state, &mut stepper, chunk, |st, _| on_step(run, st, &mut halt))?;
         merge(&mut total, &part);
         let due = every.is_some_and(|e| state.step % e == 0);

@@ -7,6 +7,7 @@ use super::budget::{Estimate, Limits};
 use super::error::SceneWarning;
 use super::garment::GarmentInfo;
 use super::initial;
+use super::motion::PinMotion;
 use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
 use super::values::{Body, Checked, Parts};
@@ -47,6 +48,8 @@ pub struct Scene {
     pub output: OutputSpec,
     /// The garment, for garment scenes.
     pub garment: Option<GarmentInfo>,
+    /// The pinned sets carried along prescribed motions (`[[pin]] motion`).
+    pub motions: Vec<PinMotion>,
     /// The values outside the usual range of fabrics (valid, but most often a unit slip); front ends print them.
     pub warnings: Vec<SceneWarning>,
 }
@@ -80,6 +83,9 @@ pub struct SceneReport {
     pub warnings: Vec<SceneWarning>,
 }
 
+/// What a checked scene assembles into: the model, the initial positions, the garment and the pins' motions.
+type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Vec<PinMotion>);
+
 impl Scene {
     /// The run: a dynamic integration with its step parameters (time step [`Scene::dt`]), or a static solve.
     pub fn method(&self) -> Method {
@@ -92,6 +98,12 @@ impl Scene {
             Method::Dynamic(p) => p,
             Method::Static(_) => StepParams::with_dt(self.dt),
         }
+    }
+
+    /// Moves the pinned sets of [`Scene::motions`] in `state` to their positions at the end of the coming step
+    /// (of [`Scene::dt`]): the runner calls it before each step.
+    pub fn drive(&self, state: &mut State) -> Result<(), crate::model::ModelError> {
+        super::motion::drive(&self.motions, &self.model, state, self.dt)
     }
 
     /// The linear solver of the run (a static solve always factorises).
@@ -116,7 +128,7 @@ impl SceneSpec {
         let warnings = Warnings::default();
         let v = Validator::new(file, &warnings);
         let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
-        let (model, initial, garment) = self.assemble(&v, parts)?;
+        let (model, initial, garment, motions) = self.assemble(&v, parts)?;
         let integrator = self.integrator;
         let state = match integrator.kind.method(dt, integrator.solver) {
             Method::Static(_) => State::at_rest(initial),
@@ -140,6 +152,7 @@ impl SceneSpec {
             material,
             output: self.output,
             garment,
+            motions,
             warnings: warnings.into_inner(),
         })
     }
@@ -183,12 +196,21 @@ impl SceneSpec {
 
     /// The model and its initial positions from checked parts: the one place a scene constructs a [`Model`]
     /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables).
-    fn assemble(
-        &self,
-        v: &Validator<'_>,
-        parts: Parts<'_>,
-    ) -> Result<(Model, Vec<Vec3>, Option<GarmentInfo>), SceneError> {
-        let Parts { body, fabric, stiffness, laws, gravity, obstacles, contact, self_contact, pins, springs } = parts;
+    fn assemble(&self, v: &Validator<'_>, parts: Parts<'_>) -> Result<Assembled, SceneError> {
+        let Parts {
+            body,
+            fabric,
+            stiffness,
+            laws,
+            gravity,
+            obstacles,
+            contact,
+            self_contact,
+            contact_faces,
+            pins,
+            motions,
+            springs,
+        } = parts;
         let (mut model, initial, garment) = match body {
             Body::Sheets { sheets, initial } => {
                 let mut sheets = sheets.into_iter();
@@ -219,7 +241,9 @@ impl SceneSpec {
         model.obstacles = obstacles;
         model.contact = contact;
         model.self_contact = self_contact;
+        model.contact_faces = contact_faces;
         model.laws = laws;
+        let motions = motions.iter().map(|(i, p)| PinMotion::new(pins[*i].clone(), &initial, p)).collect();
         for nodes in pins {
             for k in nodes {
                 model.pinned[k] = true;
@@ -235,6 +259,6 @@ impl SceneSpec {
             }
         }
         let model = model.build().map_err(|e| v.bad(e.field, e.message))?;
-        Ok((model, initial, garment))
+        Ok((model, initial, garment, motions))
     }
 }

@@ -10,6 +10,7 @@
 //!   default in [`defaults`], and the JSON schema ([`SceneSpec::json_schema`]).
 //! - [`material`]: `[material]` and material files (presets, SI, KES-F and FAST units) resolved to SI constants.
 //! - [`initial`]: `[initial]`, the initial velocities and positions.
+//! - [`motion`]: `[[pin]] motion`, pinned sets carried along a prescribed rigid motion.
 //! - [`garment`]: `[garment]`, its check, and the call into [`crate::garment`], which builds the skirt.
 //! - `values.rs`: the check of every value of a scene (each key once), into the parts a model is built from.
 //! - `build.rs`: [`SceneSpec::build`], which checks every value and builds the [`Scene`] (model, initial state,
@@ -28,6 +29,7 @@ mod error;
 pub mod garment;
 pub mod initial;
 pub mod material;
+pub mod motion;
 pub use crate::ranges;
 pub mod spans;
 mod spec;
@@ -42,8 +44,8 @@ pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};
 pub use spec::{
     defaults, BuiltinBody, ContactSpec, FrameFormat, Initial, IntegratorKind, IntegratorSpec, MeshSpec, ModelSpec,
-    NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets, SphereSpec,
-    SpringSpec, SpringTarget, TimeSpec,
+    MotionSpec, NamedSet, NodeSetSpec, NurbsSpec, ObstacleSpec, OutputSpec, PlaneSpec, SceneSpec, SheetSpec, Sheets,
+    SphereSpec, SpringSpec, SpringTarget, TimeSpec,
 };
 
 use std::path::Path;

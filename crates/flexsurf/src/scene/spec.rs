@@ -347,6 +347,9 @@ pub struct ContactSpec {
     pub friction: f64,
     /// Slip speed `ε_v` (m/s) below which friction holds (smoothed static friction), default 1e-4.
     pub slip_speed: f64,
+    /// Also check points of the faces between the nodes (a thin feature of a body cannot pass through a face
+    /// between nodes), default false.
+    pub faces: bool,
 }
 
 impl Default for ContactSpec {
@@ -356,6 +359,7 @@ impl Default for ContactSpec {
             offset: defaults::CONTACT_OFFSET,
             friction: defaults::CONTACT_FRICTION,
             slip_speed: defaults::SLIP_SPEED,
+            faces: false,
         }
     }
 }
@@ -369,11 +373,16 @@ pub struct SelfContactSpec {
     pub thickness: f64,
     /// Penalty (N/m³). Default: as `[contact]`'s, from the fabric's weight over the thickness.
     pub stiffness: Option<f64>,
+    /// Coulomb coefficient between layers of cloth (cloth–cloth; `[contact] friction` is cloth–obstacle);
+    /// default 0 (frictionless).
+    pub friction: f64,
+    /// Slip speed (m/s) below which layer friction holds (smoothed static friction); default 1e-4.
+    pub slip_speed: f64,
 }
 
 impl Default for SelfContactSpec {
     fn default() -> Self {
-        Self { thickness: defaults::SELF_THICKNESS, stiffness: None }
+        Self { thickness: defaults::SELF_THICKNESS, stiffness: None, friction: 0.0, slip_speed: defaults::SLIP_SPEED }
     }
 }
 
@@ -414,6 +423,30 @@ pub struct NodeSetSpec {
     /// Explicit nodes `[[i, j], ...]`.
     #[serde(default)]
     pub nodes: Vec<[usize; 2]>,
+    /// A prescribed rigid motion of the pinned set (`[[pin]]` only).
+    #[serde(default)]
+    pub motion: Option<MotionSpec>,
+}
+
+/// `[[pin]] motion`: the pinned set turned about an axis and shifted, over `seconds` along a smooth step
+/// (zero velocity at its start and end), then held.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSpec {
+    /// Turns about the axis (signed, right-handed); default 0.
+    #[serde(default)]
+    pub turns: f64,
+    /// The rotation's axis (any non-zero length); default `[0, 0, 1]`.
+    #[serde(default)]
+    pub axis: Option<[f64; 3]>,
+    /// The rotation's centre (m); default the set's centroid at the start.
+    #[serde(default)]
+    pub center: Option<[f64; 3]>,
+    /// The whole translation (m); default `[0, 0, 0]`.
+    #[serde(default)]
+    pub shift: [f64; 3],
+    /// The motion's duration (s).
+    pub seconds: f64,
 }
 
 /// The word `initial`.

@@ -9,8 +9,9 @@ use super::budget::{self, Estimate, Limits};
 use super::garment::GarmentSpec;
 use super::initial::InitialCondition;
 use super::material::relative_to;
+use super::motion::MotionParams;
 use super::ranges;
-use super::spec::{BuiltinBody, ObstacleSpec, SceneSpec, SheetSpec, Sheets, SpringTarget};
+use super::spec::{BuiltinBody, MotionSpec, ObstacleSpec, SceneSpec, SheetSpec, Sheets, SpringTarget};
 use super::validate::Validator;
 use super::SceneError;
 use crate::contact::nurbs::NurbsBody;
@@ -94,8 +95,31 @@ pub(crate) struct Parts<'s> {
     pub(crate) obstacles: Vec<Obstacle>,
     pub(crate) contact: ContactParams,
     pub(crate) self_contact: Option<SelfContactParams>,
+    /// `contact.faces`.
+    pub(crate) contact_faces: bool,
     pub(crate) pins: Vec<Vec<usize>>,
+    /// The pins' motions, by pin.
+    pub(crate) motions: Vec<(usize, MotionParams)>,
     pub(crate) springs: Vec<SpringSet>,
+}
+
+/// The pins, their motions by pin, and the springs.
+type Constraints = (Vec<Vec<usize>>, Vec<(usize, MotionParams)>, Vec<SpringSet>);
+
+/// A checked `[[pin]] motion` (`key`).
+fn motion(v: &Validator<'_>, key: &str, m: &MotionSpec) -> Result<MotionParams, SceneError> {
+    let vector = |range, name: &str, p: [f64; 3]| v.numbers(range, &format!("{key}.{name}"), p).map(Vec3::from_array);
+    let axis = vector(&ranges::MOTION_AXIS, "axis", m.axis.unwrap_or([0.0, 0.0, 1.0]))?;
+    if axis.length() == 0.0 {
+        return Err(v.bad(&format!("{key}.axis"), "the axis must not be zero".into()));
+    }
+    Ok(MotionParams {
+        turns: v.number(&ranges::MOTION_TURNS, &format!("{key}.turns"), m.turns)?,
+        axis,
+        center: m.center.map(|c| vector(&ranges::MOTION_POINT, "center", c)).transpose()?,
+        shift: vector(&ranges::MOTION_POINT, "shift", m.shift)?,
+        seconds: v.number(&ranges::MOTION_SECONDS, &format!("{key}.seconds"), m.seconds)?,
+    })
 }
 
 /// A scene whose every value is checked: the parts of its model and its run settings.
@@ -147,7 +171,7 @@ impl SceneSpec {
             }
         }
         starts_outside(v, &obstacles, contact.offset, &body)?;
-        let (pins, springs) = self.constraints(v, &body.grids())?;
+        let (pins, motions, springs) = self.constraints(v, &body.grids())?;
         self.check_output(v)?;
         let self_contact = self.self_contact(v, material.fabric.density, gravity)?;
         let parts = Parts {
@@ -159,7 +183,9 @@ impl SceneSpec {
             obstacles,
             contact,
             self_contact,
+            contact_faces: self.contact.faces,
             pins,
+            motions,
             springs,
         };
         Ok(Checked { parts, dt, output_every, animation_every, condition, material: material.name, estimate })
@@ -203,7 +229,12 @@ impl SceneSpec {
             Some(k) => v.number(&ranges::SELF_STIFFNESS, "self_contact.stiffness", k)?,
             None => ContactParams::default_stiffness(density, gravity, thickness),
         };
-        Ok(Some(SelfContactParams { stiffness, thickness }))
+        Ok(Some(SelfContactParams {
+            stiffness,
+            thickness,
+            friction: v.number(&ranges::SELF_FRICTION, "self_contact.friction", c.friction)?,
+            slip_speed: v.number(&ranges::SELF_SLIP_SPEED, "self_contact.slip_speed", c.slip_speed)?,
+        }))
     }
 
     /// The checked `[sheet]` or `[garment]` (exactly one is given); a garment is fitted onto `obstacles` with
@@ -234,12 +265,9 @@ impl SceneSpec {
         }
     }
 
-    /// The checked `[[pin]]` node sets and `[[spring]]` tables on the sheets' `grids` (with their first nodes).
-    fn constraints(
-        &self,
-        v: &Validator<'_>,
-        grids: &[(Grid, usize)],
-    ) -> Result<(Vec<Vec<usize>>, Vec<SpringSet>), SceneError> {
+    /// The checked `[[pin]]` node sets (and their motions, by pin) and `[[spring]]` tables on the sheets'
+    /// `grids` (with their first nodes).
+    fn constraints(&self, v: &Validator<'_>, grids: &[(Grid, usize)]) -> Result<Constraints, SceneError> {
         let on = |sheet: usize, key: &str| {
             grids.get(sheet).copied().ok_or_else(|| {
                 v.bad(&format!("{key}.sheet"), format!("sheet {sheet} does not exist (the scene has {})", grids.len()))
@@ -252,6 +280,9 @@ impl SceneSpec {
             let nodes = v.node_set(&grid, pin.set, &pin.nodes, &key)?;
             pins.push(nodes.into_iter().map(|k| k + offset).collect());
         }
+        let motions = self.pins.iter().enumerate().filter_map(|(i, p)| p.motion.map(|m| (i, m)));
+        let motions =
+            motions.map(|(i, m)| Ok((i, motion(v, &format!("pin[{i}].motion"), &m)?))).collect::<Result<_, _>>()?;
         let mut springs = Vec::with_capacity(self.springs.len());
         for (i, sp) in self.springs.iter().enumerate() {
             let key = format!("spring[{i}]");
@@ -266,7 +297,7 @@ impl SceneSpec {
             let nodes = v.node_set(&grid, sp.set, &sp.nodes, &key)?.into_iter().map(|k| k + offset).collect();
             springs.push(SpringSet { nodes, target, stiffness });
         }
-        Ok((pins, springs))
+        Ok((pins, motions, springs))
     }
 
     /// Checks `[output]`.

@@ -117,3 +117,28 @@ fn ball_drop_gives_the_same_bits_for_any_thread_count() {
         assert!(r.0 == runs[0].0, "{k} threads: final positions differ from one thread's");
     }
 }
+
+/// The self-contact pile (`scenes/pile.toml` at 13², its layers falling onto each other) on one and two threads:
+/// the same bits after 60 steps (the broad phase's candidates and the closest points are computed in
+/// parallel), with self-contact records active and their cost counted.
+#[test]
+fn a_pile_with_self_contact_is_the_same_on_any_thread_count() {
+    let runs: Vec<(Vec<[u64; 3]>, usize, f64)> = [1, 2]
+        .iter()
+        .map(|&k| {
+            with_threads(k, || {
+                let scene = flexsurf::bench::pile(13, true).unwrap();
+                let mut state = scene.state.clone();
+                let mut stepper = Stepper::new(&scene.model, &scene.step_params()).unwrap();
+                for _ in 0..60 {
+                    stepper.step(&scene.model, &mut state).unwrap();
+                }
+                let c = stepper.counters;
+                (vec_bits(&state.x), c.self_contact_pairs, c.self_contact)
+            })
+        })
+        .collect();
+    assert!(runs[0].1 > 0 && runs[0].2 > 0.0, "the pile should touch itself: {} records, {} s", runs[0].1, runs[0].2);
+    assert!(runs[1].0 == runs[0].0, "2 threads: final positions differ from one thread's");
+    assert_eq!(runs[1].1, runs[0].1, "2 threads: other self-contact records");
+}
