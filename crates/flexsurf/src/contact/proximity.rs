@@ -18,7 +18,7 @@
 use crate::math::Vec3;
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::details::closest_points_segment_segment_with_locations_nD;
-use parry3d_f64::query::{PointQueryWithLocation, RayCast};
+use parry3d_f64::query::PointQueryWithLocation;
 use parry3d_f64::shape::Triangle;
 use rayon::prelude::*;
 
@@ -226,8 +226,8 @@ impl Faces {
 
     /// The first edge (an index of [`Faces::edges`]) that passes through a triangle it shares no node with at
     /// `x` (an index of [`Faces::triangles`]): a surface that intersects itself, which no step may start from.
-    /// The segment is cast as a ray against the triangle (parry); an edge lying in a triangle's plane is not
-    /// counted.
+    /// Only proper crossings count ([`segment_crosses`]): an edge touching a triangle or lying in its plane
+    /// does not.
     pub fn crossing(&self, x: &[Vec3]) -> Option<(usize, usize)> {
         let bound = |nodes: &[usize]| {
             let lo = nodes.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
@@ -242,9 +242,7 @@ impl Faces {
             if tri.contains(&a) || tri.contains(&b) {
                 return false;
             }
-            let triangle = Triangle::new(v(x[tri[0]]), v(x[tri[1]]), v(x[tri[2]]));
-            let ray = parry3d_f64::query::Ray::new(v(x[a]), v(x[b] - x[a]));
-            triangle.intersects_local_ray(&ray, 1.0)
+            segment_crosses(x[a], x[b], tri.map(|k| x[k]))
         })
     }
 
@@ -312,6 +310,18 @@ fn distance(pair: Pair, p: [Vec3; 4]) -> f64 {
 /// `Σ wₖ x_{nodes[k]}`.
 fn combine(nodes: &[usize; 4], weights: &[f64; 4], x: &[Vec3]) -> Vec3 {
     nodes.iter().zip(weights).fold(Vec3::ZERO, |acc, (&k, &w)| acc + x[k] * w)
+}
+
+/// Whether the segment `p–q` passes through the triangle `t`: its ends strictly on opposite sides of the
+/// triangle's plane and the point where it meets the plane strictly inside the triangle.
+fn segment_crosses(p: Vec3, q: Vec3, t: [Vec3; 3]) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let (dp, dq) = (n.dot(p - t[0]), n.dot(q - t[0]));
+    if !(dp > 0.0 && dq < 0.0 || dp < 0.0 && dq > 0.0) {
+        return false;
+    }
+    let r = p + (q - p) * (dp / (dp - dq));
+    (0..3).all(|i| n.dot((t[(i + 1) % 3] - t[i]).cross(r - t[i])) > 0.0)
 }
 
 /// The integer cells of a uniform grid of cells of `size` that the box `lo..hi` overlaps.
