@@ -260,7 +260,7 @@ impl PyMaterial {
     #[staticmethod]
     fn paper_cotton() -> Self {
         let (fabric, name) = (Fabric::paper_cotton(), "paper-cotton".into());
-        Self { material: ResolvedMaterial { fabric, name, warnings: Vec::new() } }
+        Self { material: ResolvedMaterial { fabric, name, warnings: Vec::new(), laws: Default::default() } }
     }
 
     /// Display name.

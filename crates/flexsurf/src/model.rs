@@ -111,6 +111,9 @@ pub struct ModelBuilder {
     pub self_contact: Option<SelfContactParams>,
     /// Obstacle contact also at points of the faces between the nodes ([`crate::potential::face_samples`]).
     pub contact_faces: bool,
+    /// Nonlinear laws of the fabric (`None`: linear). The stiffness must carry their quadratic parts
+    /// ([`crate::material::law::Laws::apply`] on the fabric, `kes` calibration; checked by `build`).
+    pub laws: Option<std::sync::Arc<crate::material::law::Laws>>,
 }
 
 impl ModelBuilder {
@@ -140,6 +143,7 @@ impl ModelBuilder {
             seams: Vec::new(),
             self_contact: None,
             contact_faces: false,
+            laws: None,
         }
     }
 
@@ -225,7 +229,35 @@ impl ModelBuilder {
         }
         sign("contact.offset", &ranges::CONTACT_OFFSET, c.offset)?;
         sign("contact.friction", &ranges::FRICTION, c.friction)?;
-        self.validate_self_contact()
+        self.validate_self_contact()?;
+        self.validate_laws()
+    }
+
+    /// The linear terms carry the quadratic part of each law: the stiffness coefficient of a direction with a
+    /// curve is the curve's smallest slope.
+    fn validate_laws(&self) -> Result<(), ModelError> {
+        let Some(laws) = &self.laws else { return Ok(()) };
+        let s = &self.stiffness;
+        let pairs = [
+            ("tensile warp", laws.tensile_warp.as_ref(), s.a11),
+            ("tensile weft", laws.tensile_weft.as_ref(), s.a22),
+            ("shear", laws.shear.as_ref(), s.a66),
+            ("bending warp", laws.bending_warp.as_ref(), s.d11),
+            ("bending weft", laws.bending_weft.as_ref(), s.d22),
+        ];
+        for (name, curve, coef) in pairs {
+            if let Some(c) = curve {
+                let k = c.min_slope();
+                if (coef - k).abs() > 1e-12 * k || (name.starts_with("tensile") && s.a12 != 0.0) {
+                    let message = format!(
+                        "the {name} curve's quadratic part {k:e} is not the stiffness's {coef:e} (apply the laws to \
+                         the fabric with `Laws::apply` and calibrate with `kes`)"
+                    );
+                    return Err(model_error("laws", message));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Self-contact's stiffness and thickness are positive, and the thickness under half the shortest rest
@@ -316,6 +348,9 @@ impl ModelBuilder {
             let seamed = SeamedEdges::of(p, &self.seams);
             let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
             terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, &panel.nodes, seamed));
+            if let Some(laws) = &self.laws {
+                terms.extend(elastic::nonlinear_terms(grid, rest, laws, options, &panel.nodes, seamed));
+            }
         }
         if !self.seams.is_empty() {
             let views: Vec<PanelView<'_>> =

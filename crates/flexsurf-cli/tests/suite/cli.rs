@@ -86,7 +86,7 @@ fn test_options_belong_to_their_test() {
     for args in [
         ["kes", "--direction", "weft"],
         ["kes", "--width", "0.02"],
-        ["kes", "--out", "unused"],
+        ["kes", "--level", "1"],
         ["kes", "--specimens", "2"],
         ["cantilever", "--specimen", "0.30"],
         ["cantilever", "--level", "0"],

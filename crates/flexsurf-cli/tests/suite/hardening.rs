@@ -39,11 +39,12 @@ fn regression_broken_pipe_panicked() {
     let scene = repo().join("scenes/ball_drop.toml");
     let scene = scene.to_str().unwrap();
     let out = d.join("out");
+    let kes = d.join("kes");
     for args in [
         vec!["check", scene],
         vec!["schema"],
         vec!["run", scene, "--out", out.to_str().unwrap(), "--steps", "3"],
-        vec!["test", "kes", "--json"],
+        vec!["test", "kes", "--json", "--out", kes.to_str().unwrap()],
     ] {
         let (code, err) = with_closed_stdout(&args);
         assert_eq!(code, 0, "{args:?}: {err}");

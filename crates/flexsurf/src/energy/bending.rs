@@ -201,10 +201,22 @@ fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usi
     }
     // ½ (gᵀκ)²/C₃₃ over (2κ12, κ11, κ22): measures (κ12, κ̄11, κ̄22), weights (2C₃₃, C₁₃, C₂₃).
     let gm = [2.0 * g[2], g[0], g[1]];
-    // κ̄11 from the column of corners (i, ·), or (i + 1, ·) on a free edge; κ̄22 from the row (·, j) or
-    // (·, j + 1). The support stays within the 3×3 nodes around corner (i, j): the symmetric average over
-    // all four corners needs 12 nodes and made the Cusick test's factorisations 1.8× slower, for the same
-    // first order (alternating the choice with the parity of i, j does not converge).
+    [v[1], v[2]] = cell_normal_stencils(grid, &ops, &mut sup);
+    for m in 0..MEASURES {
+        for q in 0..MEASURES {
+            d[m][q] = gm[m] * gm[q] / g[2] * wc;
+        }
+    }
+    Point::new(sup, a, b, v, MEASURES, d, rest)
+}
+
+/// The cell's averaged normal curvatures `κ̄11`, `κ̄22` as coefficients over `sup`: `κ̄11` from the column of
+/// corners (i, ·), or (i + 1, ·) on a free edge; `κ̄22` from the row (·, j) or (·, j + 1). The support stays
+/// within the 3×3 nodes around corner (i, j): the symmetric average over all four corners needs 12 nodes and
+/// made the Cusick test's factorisations 1.8× slower, for the same first order (alternating the choice with the
+/// parity of i, j does not converge).
+pub(crate) fn cell_normal_stencils(grid: &Grid, ops: &CellOps, sup: &mut Support) -> [Coefs; 2] {
+    let mut v = [[0.0; MAX_SUPPORT]; 2];
     let pairs = [[[0, 2], [1, 3]], [[0, 1], [2, 3]]];
     for (dir, choice) in pairs.iter().enumerate() {
         for pair in choice {
@@ -217,17 +229,12 @@ fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usi
                 .collect();
             if st.iter().all(Option::is_some) {
                 let avg: Vec<(usize, f64)> = st.into_iter().flatten().flatten().map(|(k, c)| (k, 0.5 * c)).collect();
-                v[1 + dir] = sup.scatter(&avg);
+                v[dir] = sup.scatter(&avg);
                 break;
             }
         }
     }
-    for m in 0..MEASURES {
-        for q in 0..MEASURES {
-            d[m][q] = gm[m] * gm[q] / g[2] * wc;
-        }
-    }
-    Point::new(sup, a, b, v, MEASURES, d, rest)
+    v
 }
 
 impl Point {
@@ -250,7 +257,7 @@ impl Point {
         Point { support, a, b, v, blocks: Vec::new(), ..self.clone() }
     }
 
-    fn new(
+    pub(crate) fn new(
         support: Support,
         a: Coefs,
         b: Coefs,
@@ -305,8 +312,23 @@ impl Point {
     /// blocks.
     #[inline]
     fn evaluate(&self, x: &[Vec3], out: Local) -> f64 {
+        self.evaluate_with(x, out, |kappa| {
+            let (mom, energy) = self.moments(kappa);
+            (mom, energy, self.d)
+        })
+    }
+
+    /// As the point's own evaluation with the moments, energy and tangent stiffness `∂P/∂κ` of the curvature
+    /// changes given by `law` (a nonlinear law's excess, `energy/nonlinear.rs`).
+    #[inline]
+    pub(crate) fn evaluate_with(
+        &self,
+        x: &[Vec3],
+        out: Local,
+        law: impl FnOnce(&[f64; MEASURES]) -> ([f64; MEASURES], f64, [[f64; MEASURES]; MEASURES]),
+    ) -> f64 {
         let (a, b, nc, _vs, kappa) = self.kernels(x);
-        let (mom, energy) = self.moments(&kappa);
+        let (mom, energy, d) = law(&kappa);
         if out.energy_only() {
             return energy;
         }
@@ -340,7 +362,7 @@ impl Point {
                     let mut blk = Mat3::ZERO;
                     for m in 0..self.count {
                         for q in 0..self.count {
-                            let dmq = self.d[m][q];
+                            let dmq = d[m][q];
                             if dmq == 0.0 {
                                 continue;
                             }

@@ -245,7 +245,7 @@ impl Cell {
 
 /// Adds the positive part of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`, written as
 /// `c|α||β|/2 [(â+b̂)(â+b̂)ᵀ − (â−b̂)(â−b̂)ᵀ]` and keeping the term whose sign is positive.
-fn positive_part(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
+pub(crate) fn positive_part(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
     let na = al.iter().map(|v| v * v).sum::<f64>().sqrt();
     let nb = be.iter().map(|v| v * v).sum::<f64>().sqrt();
     if na == 0.0 || nb == 0.0 || c == 0.0 {

@@ -10,6 +10,7 @@ pub mod bending;
 pub mod curvature;
 pub mod frame;
 pub mod membrane;
+pub mod nonlinear;
 mod parallel;
 pub mod terzopoulos;
 

@@ -16,10 +16,14 @@ use super::dense::{det3, with_column};
 use super::LabError;
 use crate::grid::Grid;
 use crate::integrate::statics::{StaticOptions, StaticSolver};
+use crate::material::law::Laws;
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
 use serde::Serialize;
+use std::sync::Arc;
+
+pub use super::kes_curves::{bending_loop, kes_curves, linear_laws, CurvePoint, CurveReport, CurveTest};
 
 /// The five constants the round trip compares.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -92,7 +96,7 @@ pub fn kes(fabric: &Fabric, calibration: Calibration) -> Result<KesReport, LabEr
     Ok(KesReport { input, recovered, relative_error })
 }
 
-fn solve(model: &Model, x: &mut [Vec3], test: &'static str) -> Result<(), LabError> {
+pub(super) fn solve(model: &Model, x: &mut [Vec3], test: &'static str) -> Result<(), LabError> {
     let opts = StaticOptions { tolerance: 1e-10, max_iterations: 100 };
     StaticSolver::new(model)
         .and_then(|mut s| s.solve(model, x, &opts))
@@ -102,13 +106,28 @@ fn solve(model: &Model, x: &mut [Vec3], test: &'static str) -> Result<(), LabErr
 
 /// Tension test with the warp at `angle` from the strip's axis (u1); returns `T/ε`.
 fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
+    // Line load T small enough for a linear response: strain ~1e-5.
+    let t = 1e-5 * f.tensile_warp.min(f.tensile_weft).min(f.shear);
+    let mut x = None;
+    Ok(t / tension_strain(f, s, None, angle, t, &mut x)?)
+}
+
+/// The tension strip's engineering strain under the nominal line load `t` (N/m) with the warp at `angle` from
+/// its axis; `x` is the start (the flat strip when `None`) and holds the equilibrium afterwards.
+pub(super) fn tension_strain(
+    f: &Fabric,
+    s: &Stiffness,
+    laws: Option<&Arc<Laws>>,
+    angle: f64,
+    t: f64,
+    x: &mut Option<Vec<Vec3>>,
+) -> Result<f64, LabError> {
     let (len, width, m, n) = (0.5, 0.04, 101, 9);
     let grid = Grid::sheet(m, n, len, width).expect("valid strip grid");
     let rest = grid.flat_positions(0.0);
     let opts = ElasticOptions { warp_angle: angle, ..Default::default() };
     let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO).options(opts);
-    // Line load T small enough for a linear response: strain ~1e-5.
-    let t = 1e-5 * f.tensile_warp.min(f.tensile_weft).min(f.shear);
+    model.laws = laws.cloned();
     for k in 0..grid.len() {
         let (i, j) = grid.coords(k);
         model.pinned[k] = i <= 1;
@@ -117,15 +136,14 @@ fn tension(f: &Fabric, s: &Stiffness, angle: f64) -> Result<f64, LabError> {
         }
     }
     let model = model.build()?;
-    let mut x = rest.clone();
-    solve(&model, &mut x, "tension")?;
+    let x = x.get_or_insert(rest);
+    solve(&model, x, "tension")?;
     // Strain between columns a and b (middle of the strip), averaged across the width.
     let (a, b) = (m / 2 - 5, m / 2 + 5);
     let stretch: f64 =
         (0..n).map(|j| (x[grid.index(b, j)].x - x[grid.index(a, j)].x) * grid.trapezoid(1, j)).sum::<f64>()
             / (0..n).map(|j| grid.trapezoid(1, j)).sum::<f64>();
-    let eps = stretch / ((b - a) as f64 * grid.h1) - 1.0;
-    Ok(t / eps)
+    Ok(stretch / ((b - a) as f64 * grid.h1) - 1.0)
 }
 
 /// Simple shear of a clamped square; returns `N12/γ`.
@@ -153,7 +171,24 @@ fn shear(f: &Fabric, s: &Stiffness) -> Result<f64, LabError> {
 
 /// Pure bending of a strip along warp (or weft); returns `M/κ`.
 fn bending(f: &Fabric, s: &Stiffness, along_weft: bool) -> Result<f64, LabError> {
-    let (len, width, m, n) = (0.2, 0.02, 41, 3);
+    let rigidity = if along_weft { f.bending_weft } else { f.bending_warp };
+    // Couple per width M with curvature ~0.1 1/m: a pure moment to 1e-3 under dead loads.
+    let moment = 0.1 * rigidity;
+    Ok(moment / bending_curvature(f, s, None, along_weft, moment, 0.2)?)
+}
+
+/// The curvature of a strip of length `len` along warp (or weft) clamped at one end, under the end couple
+/// `moment` per width (opposite line loads on its last two columns): from a least-squares parabola through its
+/// middle third. A pure moment to `O(θ²)` for an end rotation `θ = κ len` (so `len` keeps `θ` near 0.02).
+pub(super) fn bending_curvature(
+    f: &Fabric,
+    s: &Stiffness,
+    laws: Option<&Arc<Laws>>,
+    along_weft: bool,
+    moment: f64,
+    len: f64,
+) -> Result<f64, LabError> {
+    let (width, m, n) = (0.1 * len, 41, 3);
     // The strip runs along u1 for warp, along u2 for weft (warp along u1 in both).
     let (grid, d) = if along_weft {
         (Grid::sheet(n, m, width, len).expect("valid strip grid"), 1)
@@ -162,12 +197,10 @@ fn bending(f: &Fabric, s: &Stiffness, along_weft: bool) -> Result<f64, LabError>
     };
     let rest = grid.flat_positions(0.0);
     let mut model = ModelBuilder::new(grid, rest.clone(), *f, *s, ModelKind::Tfs, Vec3::ZERO);
+    model.laws = laws.cloned();
     let along = |k: usize| if d == 0 { grid.coords(k).0 } else { grid.coords(k).1 };
     let across = |k: usize| if d == 0 { grid.coords(k).1 } else { grid.coords(k).0 };
     let h = grid.spacing(d);
-    let rigidity = if along_weft { f.bending_weft } else { f.bending_warp };
-    // Couple per width M with curvature ~0.1 1/m: a pure moment to 1e-3 under dead loads.
-    let moment = 0.1 * rigidity;
     let force = moment * width / h / (n as f64 - 1.0);
     for k in 0..grid.len() {
         model.pinned[k] = along(k) <= 1;
@@ -188,7 +221,7 @@ fn bending(f: &Fabric, s: &Stiffness, along_weft: bool) -> Result<f64, LabError>
             (c as f64 * h, x[k].z)
         })
         .collect();
-    Ok(moment / (2.0 * parabola(&pts)))
+    Ok(2.0 * parabola(&pts))
 }
 
 /// Leading coefficient `a` of the least-squares `z = a s² + b s + c`.

@@ -4,6 +4,7 @@
 pub mod cantilever;
 pub mod cusick;
 pub mod kes;
+mod kes_curves;
 
 mod dense;
 

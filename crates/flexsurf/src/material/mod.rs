@@ -5,6 +5,7 @@
 //! the membrane `A` and bending `D` coefficients with the consistent `kes` reading (default) or the paper's
 //! literal one.
 
+pub mod law;
 pub mod units;
 
 use serde::{Deserialize, Serialize};

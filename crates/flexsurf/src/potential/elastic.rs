@@ -5,8 +5,10 @@ use super::{Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::energy::bending::Bending;
 use crate::energy::frame::Warp;
 use crate::energy::membrane::Membrane;
+use crate::energy::nonlinear::{NonlinearBending, NonlinearMembrane};
 use crate::energy::{terzopoulos, Sink};
 use crate::grid::Grid;
+use crate::material::law::Laws;
 use crate::material::Stiffness;
 use crate::math::Vec3;
 use crate::seam::SeamedEdges;
@@ -93,6 +95,34 @@ pub fn panel_terms(
     vec![Box::new(membrane), bending_term(bending, kind)]
 }
 
+/// The nonlinear excess terms of one panel (docs/model.md §4.5): the membrane's and the bending's, for the
+/// directions of `laws` that have a curve, on the same grid, rest shape, material frame, node numbering and
+/// seam selection as [`panel_terms`]. The linear terms must carry the laws' quadratic parts (the stiffness of
+/// a fabric to which [`Laws::apply`] was applied, `kes` calibration). The bending points on seams stay linear.
+pub fn nonlinear_terms(
+    grid: &Grid,
+    rest: &[Vec3],
+    laws: &Laws,
+    options: &ElasticOptions,
+    nodes: &[usize],
+    seamed: SeamedEdges,
+) -> Vec<Box<dyn Term>> {
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    if let Some(mut m) = NonlinearMembrane::new(grid, rest, laws, options.warp()) {
+        m.map_nodes(nodes);
+        terms.push(Box::new(m));
+    }
+    let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
+    if let Some(mut b) = NonlinearBending::new(grid, rest, laws, options.warp(), node, cell) {
+        if options.flat_pattern {
+            b.flatten_rest_curvature();
+        }
+        b.map_nodes(nodes);
+        terms.push(Box::new(b));
+    }
+    terms
+}
+
 /// The bending term of `kind` on these quadrature points.
 pub fn bending_term(bending: Bending, kind: ModelKind) -> Box<dyn Term> {
     match kind {
@@ -126,6 +156,8 @@ macro_rules! elastic_term {
 
 elastic_term!(Membrane, "membrane", Part::Membrane);
 elastic_term!(Bending, "bending", Part::Bending);
+elastic_term!(NonlinearMembrane, "membrane (nonlinear)", Part::Membrane);
+elastic_term!(NonlinearBending, "bending (nonlinear)", Part::Bending);
 
 /// The Terzopoulos & Fleischer bending force on the quadrature points of a [`Bending`] term: not the gradient
 /// of an energy (its value is the bending energy of the same curvatures, a diagnostic), with its lagged operator

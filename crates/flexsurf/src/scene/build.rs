@@ -209,6 +209,7 @@ impl SceneSpec {
             body,
             fabric,
             stiffness,
+            laws,
             gravity,
             obstacles,
             contact,
@@ -262,6 +263,7 @@ impl SceneSpec {
         model.contact = contact;
         model.self_contact = self_contact;
         model.contact_faces = contact_faces;
+        model.laws = laws;
         let motions = motions.iter().map(|(i, p)| PinMotion::new(pins[*i].clone(), &initial, p)).collect();
         for nodes in pins {
             for k in nodes {

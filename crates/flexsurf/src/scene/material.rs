@@ -5,6 +5,7 @@
 use super::error::{parse_toml, parse_toml_foreign, SceneError, SceneWarning};
 use super::ranges::{self, Range};
 use super::validate::{Validator, Warnings};
+use crate::material::law::{Curve, Interpolation, Laws};
 use crate::material::{units, Fabric};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -87,6 +88,101 @@ pub struct MaterialSpec {
     pub bending_poisson: Option<f64>,
     /// Twist rigidity D66: N·m (`kes`: gf·cm²/cm); default Huber's `2 D66 = √(D11 D22) − D12`.
     pub twist: Option<f64>,
+    /// Measured nonlinear laws (`[curves.tensile_warp]` …), each replacing the constant of the same name.
+    pub curves: Option<CurvesSpec>,
+    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops.
+    pub hysteresis: Option<HysteresisSpec>,
+}
+
+/// KES hysteresis loop widths: bending 2HB (N·m/m; `kes`: gf·cm/cm) per direction, shear 2HG (N/m; `kes`:
+/// gf/cm).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HysteresisSpec {
+    /// 2HB along warp.
+    pub bending_warp: Option<f64>,
+    /// 2HB along weft.
+    pub bending_weft: Option<f64>,
+    /// 2HG.
+    pub shear: Option<f64>,
+}
+
+/// Measured curves, one per direction, each replacing the linear constant of its name (docs/materials.md,
+/// "Nonlinear fabrics").
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CurvesSpec {
+    /// Tension along warp: strain (–; `kes`: %) → force per width (N/m; `kes`: gf/cm).
+    pub tensile_warp: Option<CurveSpec>,
+    /// Tension along weft, as `tensile_warp`.
+    pub tensile_weft: Option<CurveSpec>,
+    /// Shear: shear angle (rad; `kes`: degrees) → shear force per length (N/m; `kes`: gf/cm).
+    pub shear: Option<CurveSpec>,
+    /// Bending along warp: curvature (1/m; `kes`: 1/cm) → moment per width (N·m/m; `kes`: gf·cm/cm).
+    pub bending_warp: Option<CurveSpec>,
+    /// Bending along weft, as `bending_warp`.
+    pub bending_weft: Option<CurveSpec>,
+}
+
+/// One measured curve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    /// `[strain, resultant]` pairs with the strain increasing, in the table's units; the origin may be left out;
+    /// given for positive strains only, the law is the same with both signs reversed.
+    pub points: Vec<[f64; 2]>,
+    /// `linear` (default) or `monotone-cubic`.
+    #[serde(default)]
+    pub interpolation: Interpolation,
+}
+
+/// The five curve keys, the constant each replaces, and how a point in KES units and as measured becomes one
+/// in the model's variables (SI): tension by strain and nominal force per width to Green strain and the
+/// conjugate force per reference width, shear by angle to `γ = sin φ`.
+type Conversion = fn(f64, f64, bool) -> (f64, f64);
+
+fn tensile_point(strain: f64, force: f64, kes: bool) -> (f64, f64) {
+    let (e, t) = if kes { (strain / 100.0, units::tension_from_kes(force)) } else { (strain, force) };
+    (e + 0.5 * e * e, t / (1.0 + e))
+}
+
+fn shear_point(angle: f64, force: f64, kes: bool) -> (f64, f64) {
+    let (phi, n) = if kes { (angle.to_radians(), units::tension_from_kes(force)) } else { (angle, force) };
+    // The shear angle between unstretched warp and weft: `G12 = sin φ`.
+    (phi.sin(), n)
+}
+
+fn bending_point(curvature: f64, moment: f64, kes: bool) -> (f64, f64) {
+    // gf·cm/cm is gf: 9.80665e-3 N; 1/cm is 100/m.
+    if kes {
+        (curvature * 100.0, moment * units::GF)
+    } else {
+        (curvature, moment)
+    }
+}
+
+impl CurvesSpec {
+    /// `(key, curve)` of each curve given, with its conversion and the place of its law.
+    fn entries(&self) -> [(&'static str, Option<&CurveSpec>, Conversion); 5] {
+        [
+            ("tensile_warp", self.tensile_warp.as_ref(), tensile_point),
+            ("tensile_weft", self.tensile_weft.as_ref(), tensile_point),
+            ("shear", self.shear.as_ref(), shear_point),
+            ("bending_warp", self.bending_warp.as_ref(), bending_point),
+            ("bending_weft", self.bending_weft.as_ref(), bending_point),
+        ]
+    }
+}
+
+/// The law slot of a curve key.
+fn law_slot<'l>(laws: &'l mut Laws, key: &str) -> &'l mut Option<Curve> {
+    match key {
+        "tensile_warp" => &mut laws.tensile_warp,
+        "tensile_weft" => &mut laws.tensile_weft,
+        "shear" => &mut laws.shear,
+        "bending_warp" => &mut laws.bending_warp,
+        _ => &mut laws.bending_weft,
+    }
 }
 
 /// A resolved fabric and where it came from.
@@ -98,6 +194,9 @@ pub struct ResolvedMaterial {
     pub name: String,
     /// The constants outside the usual range of fabrics (of this table and of the file it extends).
     pub warnings: Vec<SceneWarning>,
+    /// Nonlinear laws (empty for a linear fabric); the fabric's constants of their directions are their
+    /// quadratic parts ([`Laws::apply`]).
+    pub laws: Laws,
 }
 
 type Setter = fn(&mut Fabric, f64);
@@ -107,8 +206,8 @@ type Given = (&'static Range, f64, Setter);
 /// A key's entry, its value as written, its conversion from KES units, and where it goes.
 type Field = (&'static Range, Option<f64>, fn(f64) -> f64, Setter);
 
-/// The fabric a table extends, the material file it comes from, and its name (all `None` for neither).
-type Base = (Option<Fabric>, Option<PathBuf>, Option<String>);
+/// The fabric a table extends, the material file it comes from, its name (all `None` for neither) and its laws.
+type Base = (Option<Fabric>, Option<PathBuf>, Option<String>, Laws);
 
 /// The keys a table without `preset` or `file` must give.
 const REQUIRED: [&str; 6] = ["density", "tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"];
@@ -170,7 +269,7 @@ impl MaterialSpec {
 
     /// As [`MaterialSpec::resolve`] with the checker `v` of the table, which collects the warnings.
     pub(crate) fn resolve_with(&self, v: &Validator<'_>) -> Result<ResolvedMaterial, SceneError> {
-        let (base, base_file, base_name) = self.base(v)?;
+        let (base, base_file, base_name, base_laws) = self.base(v)?;
         if self.units == Units::Fast
             && self.density.is_none()
             && (self.bending_warp.is_some() || self.bending_weft.is_some())
@@ -188,7 +287,12 @@ impl MaterialSpec {
         let mut fabric = match base {
             Some(f) => f,
             None => {
-                if let Some(missing) = REQUIRED.iter().find(|r| !given.iter().any(|(g, _, _)| g.key == **r)) {
+                let curve = |key: &str| {
+                    self.curves.as_ref().is_some_and(|c| c.entries().iter().any(|e| e.0 == key && e.1.is_some()))
+                };
+                if let Some(missing) =
+                    REQUIRED.iter().find(|r| !given.iter().any(|(g, _, _)| g.key == **r) && !curve(r))
+                {
                     return Err(v.bad(
                         missing,
                         "missing value: give `preset`, `file`, or all of density, tensile_warp, tensile_weft, \
@@ -214,8 +318,65 @@ impl MaterialSpec {
                 _ => v.bad_value(bad, value, what),
             });
         }
+        let laws = self.laws(v, base_laws, &given)?;
+        laws.apply(&mut fabric)
+            .map_err(|crate::material::MaterialError::Invalid { key, value, what }| v.bad_value(key, value, what))?;
         let name = self.name.clone().or(base_name).unwrap_or_else(|| "inline".to_string());
-        Ok(ResolvedMaterial { fabric, name, warnings: Vec::new() })
+        Ok(ResolvedMaterial { fabric, name, warnings: Vec::new(), laws })
+    }
+
+    /// The laws of this table over those of the file it extends: a curve given here replaces the base's law or
+    /// constant, a constant given here drops the base's curve of that direction. Giving both a direction's
+    /// constant and its curve is an error naming the curve.
+    fn laws(&self, v: &Validator<'_>, base: Laws, given: &[Given]) -> Result<Laws, SceneError> {
+        let mut laws = base;
+        for (range, _, _) in given {
+            if let Some(slot) = ["tensile_warp", "tensile_weft", "shear", "bending_warp", "bending_weft"]
+                .iter()
+                .find(|k| **k == range.key)
+            {
+                *law_slot(&mut laws, slot) = None;
+            }
+        }
+        if let Some(h) = &self.hysteresis {
+            let kes = self.units == Units::Kes;
+            let entries = [
+                ("bending_warp", h.bending_warp, if kes { units::GF } else { 1.0 }),
+                ("bending_weft", h.bending_weft, if kes { units::GF } else { 1.0 }),
+                ("shear", h.shear, if kes { units::tension_from_kes(1.0) } else { 1.0 }),
+            ];
+            for (i, (key, value, scale)) in entries.into_iter().enumerate() {
+                let Some(value) = value else { continue };
+                if !(value.is_finite() && value >= 0.0) {
+                    return Err(v.bad_value(&format!("hysteresis.{key}"), value, "must be finite and non-negative"));
+                }
+                laws.hysteresis[i] = value * scale;
+            }
+        }
+        let Some(curves) = &self.curves else { return Ok(laws) };
+        for (key, spec, convert) in curves.entries() {
+            let Some(spec) = spec else { continue };
+            let at = format!("curves.{key}.points");
+            if given.iter().any(|(g, _, _)| g.key == key) {
+                return Err(v.bad(&at, format!("give either `{key}` or its curve, not both")));
+            }
+            if self.units == Units::Fast {
+                return Err(v.bad(&at, "curves are given in `si` or `kes` units, not `fast`".into()));
+            }
+            if key == "shear"
+                && spec
+                    .points
+                    .iter()
+                    .any(|p| p[0].abs() >= if self.units == Units::Kes { 90.0 } else { std::f64::consts::FRAC_PI_2 })
+            {
+                return Err(v.bad(&at, "a shear angle must be below 90°".into()));
+            }
+            let kes = self.units == Units::Kes;
+            let points: Vec<(f64, f64)> = spec.points.iter().map(|p| convert(p[0], p[1], kes)).collect();
+            let curve = Curve::new(&points, spec.interpolation).map_err(|e| v.bad(&at, format!("the curve {e}")))?;
+            *law_slot(&mut laws, key) = Some(curve);
+        }
+        Ok(laws)
     }
 
     /// The fabric this table extends (a preset's or a material file's), the file, and its name.
@@ -224,7 +385,7 @@ impl MaterialSpec {
             (Some(_), Some(_)) => {
                 return Err(v.bad("file", "give either `preset` or `file`, not both".into()));
             }
-            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string())),
+            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string()), Laws::default()),
             (None, Some(rel)) => {
                 let path = relative_to(v.file(), rel);
                 let m = load_material_file(&path).map_err(|e| match e {
@@ -236,9 +397,9 @@ impl MaterialSpec {
                     other => SceneError::referenced(v.file(), v.key("file"), other),
                 })?;
                 v.extend(m.warnings);
-                (Some(m.fabric), Some(path), Some(m.name))
+                (Some(m.fabric), Some(path), Some(m.name), m.laws)
             }
-            (None, None) => (None, None, None),
+            (None, None) => (None, None, None, Laws::default()),
         })
     }
 }

@@ -94,6 +94,8 @@ pub(crate) struct Parts<'s> {
     pub(crate) body: Body<'s>,
     pub(crate) fabric: Fabric,
     pub(crate) stiffness: Stiffness,
+    /// The fabric's nonlinear laws, if it has any.
+    pub(crate) laws: Option<std::sync::Arc<crate::material::law::Laws>>,
     pub(crate) gravity: Vec3,
     pub(crate) obstacles: Vec<Obstacle>,
     pub(crate) contact: ContactParams,
@@ -150,6 +152,16 @@ impl SceneSpec {
         let material = self.material.resolve_with(&v.within("material"))?;
         let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
             .map_err(|e| v.bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
+        let laws = (!material.laws.is_empty()).then(|| std::sync::Arc::new(material.laws.clone()));
+        if material.laws.hysteretic() {
+            v.warn(
+                "material",
+                "its `[hysteresis]` loop widths are used by `flexsurf test kes` only, not by runs".into(),
+            );
+        }
+        if laws.is_some() && self.calibration != crate::material::Calibration::Kes {
+            return Err(v.bad("calibration", "a material with curves needs `calibration = \"kes\"`".into()));
+        }
         let gravity = Vec3::from_array(v.numbers(&ranges::GRAVITY, "gravity", self.gravity)?);
         let contact = self.contact(v, material.fabric.density, gravity, !obstacles.is_empty())?;
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
@@ -184,6 +196,7 @@ impl SceneSpec {
             body,
             fabric: material.fabric,
             stiffness,
+            laws,
             gravity,
             obstacles,
             contact,

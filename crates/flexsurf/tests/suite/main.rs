@@ -13,6 +13,7 @@ mod garments;
 mod hardening;
 mod lab;
 mod model;
+mod nonlinear;
 mod nurbs;
 mod outputs;
 mod panels;

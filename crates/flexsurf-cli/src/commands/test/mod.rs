@@ -9,6 +9,7 @@ pub mod kes;
 
 use anyhow::Result;
 use clap::Subcommand;
+use flexsurf::material::law::Laws;
 use flexsurf::material::{Calibration, Fabric};
 use std::path::PathBuf;
 
@@ -39,14 +40,25 @@ pub struct FabricArgs {
 }
 
 impl FabricArgs {
-    /// The fabric of `--material FILE`, or the paper's non-woven cotton, with its display name.
+    /// The fabric of `--material FILE`, or the paper's non-woven cotton, with its display name. A material with
+    /// curves is refused: these tests run its linear constants only (`test kes` and runs use the curves).
     fn load(&self) -> Result<(Fabric, String)> {
+        let (fabric, laws, name) = self.load_with_laws()?;
+        anyhow::ensure!(
+            laws.is_empty(),
+            "{name}: this virtual test does not use nonlinear curves yet (`flexsurf test kes` and scene runs do)"
+        );
+        Ok((fabric, name))
+    }
+
+    /// As [`FabricArgs::load`] with the material's nonlinear laws (empty for a linear one).
+    fn load_with_laws(&self) -> Result<(Fabric, Laws, String)> {
         Ok(match &self.material {
             Some(path) => {
                 let m = flexsurf::scene::material::load_material_file(path)?;
-                (m.fabric, m.name)
+                (m.fabric, m.laws, m.name)
             }
-            None => (Fabric::paper_cotton(), "paper-cotton".to_string()),
+            None => (Fabric::paper_cotton(), Laws::default(), "paper-cotton".to_string()),
         })
     }
 
