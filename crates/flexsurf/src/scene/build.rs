@@ -11,7 +11,7 @@ use super::motion::PinMotion;
 use super::pattern::LoadedPattern;
 use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
-use super::values::{Body, Checked, Parts};
+use super::values::{Body, Checked, Parts, SpringSet};
 use super::SceneError;
 use crate::garment::sewing::{sew, SewError, SewReport};
 use crate::integrate::{linsolve::SolverKind, Method, StepParams};
@@ -265,20 +265,7 @@ impl SceneSpec {
         model.contact_faces = contact_faces;
         model.laws = laws;
         let motions = motions.iter().map(|(i, p)| PinMotion::new(pins[*i].clone(), &initial, p)).collect();
-        for nodes in pins {
-            for k in nodes {
-                model.pinned[k] = true;
-            }
-        }
-        for sp in springs {
-            for k in sp.nodes {
-                model.springs.push(Spring {
-                    node: k,
-                    target: sp.target.unwrap_or(initial[k]),
-                    stiffness: sp.stiffness,
-                });
-            }
-        }
+        constrain(&mut model, pins, springs, &initial);
         let Some(pattern) = pattern else {
             let model = model.build().map_err(|e| v.bad(e.field, e.message))?;
             return Ok((model, initial, garment, motions, None));
@@ -294,6 +281,18 @@ impl SceneSpec {
         })?;
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
+    }
+}
+
+/// Pins the nodes of `pins` and adds the springs of `springs` (an `"initial"` target at `initial`) to `model`.
+fn constrain(model: &mut ModelBuilder, pins: Vec<Vec<usize>>, springs: Vec<SpringSet>, initial: &[Vec3]) {
+    for k in pins.into_iter().flatten() {
+        model.pinned[k] = true;
+    }
+    for sp in springs {
+        for k in sp.nodes {
+            model.springs.push(Spring { node: k, target: sp.target.unwrap_or(initial[k]), stiffness: sp.stiffness });
+        }
     }
 }
 
