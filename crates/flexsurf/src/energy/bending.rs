@@ -239,7 +239,7 @@ pub(crate) fn cell_normal_stencils(grid: &Grid, ops: &CellOps, sup: &mut Support
 
 impl Point {
     /// The same point with local node `k` renumbered `map[k]`, coefficients of nodes that become one summed.
-    fn mapped(&self, map: &[usize]) -> Point {
+    pub(crate) fn mapped(&self, map: &[usize]) -> Point {
         let mut support = Support::default();
         let (mut a, mut b, mut v) = ([0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT], [[0.0; MAX_SUPPORT]; MEASURES]);
         for (s, &k) in self.support.nodes().iter().enumerate() {

@@ -431,17 +431,7 @@ impl NonlinearBending {
     /// Renumbers the nodes: a point's support is rebuilt, coefficients of nodes that become one summed.
     pub fn map_nodes(&mut self, map: &[usize]) {
         for (p, _) in &mut self.points {
-            let mut support = Support::default();
-            let (mut a, mut b, mut v) = ([0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT], [[0.0; MAX_SUPPORT]; MEASURES]);
-            for (s, &k) in p.support.nodes().iter().enumerate() {
-                let t = support.slot(map[k]);
-                a[t] += p.a[s];
-                b[t] += p.b[s];
-                for m in 0..MEASURES {
-                    v[m][t] += p.v[m][s];
-                }
-            }
-            (p.support, p.a, p.b, p.v) = (support, a, b, v);
+            *p = p.mapped(map);
         }
     }
 
