@@ -143,16 +143,30 @@ impl Bending {
     }
 }
 
-/// The nodal quadrature point of node `k`: its normal curvatures `κ11`, `κ22` (those its 3-point second
-/// differences exist for) with the Schur-complement stiffness; `None` where neither exists.
-fn node_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, k: usize) -> Option<Point> {
-    let w = grid.h1 * grid.h2;
+/// The support of node `k`'s quadrature point (the node and its tangents' stencils), the tangents'
+/// coefficients on it and the material frame there (warp at `warp`); the bending and the nonlinear bending
+/// terms build their nodal points on it.
+pub(crate) fn node_frame(
+    grid: &Grid,
+    rest: &[Vec3],
+    warp: Warp,
+    k: usize,
+) -> (Support, [f64; MAX_SUPPORT], [f64; MAX_SUPPORT], Frame) {
     let (i, j) = grid.coords(k);
     let mut sup = Support::default();
     sup.slot(k);
     let a = sup.scatter(&tangent(grid, 0, i, j));
     let b = sup.scatter(&tangent(grid, 1, i, j));
     let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    (sup, a, b, frame)
+}
+
+/// The nodal quadrature point of node `k`: its normal curvatures `κ11`, `κ22` (those its 3-point second
+/// differences exist for) with the Schur-complement stiffness; `None` where neither exists.
+fn node_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, k: usize) -> Option<Point> {
+    let w = grid.h1 * grid.h2;
+    let (i, j) = grid.coords(k);
+    let (mut sup, a, b, frame) = node_frame(grid, rest, warp, k);
     let (c, _) = split(&frame.pull_back(dv), frame.is_aligned());
     let mut v = [[0.0; MAX_SUPPORT]; MEASURES];
     // (measure kind 0 = κ11 or 1 = κ22, quadrature weight): B11 with trapezoid weight across u2,

@@ -17,7 +17,7 @@
 //! stress stiffness; for bending the first sum alone. Secant: the membrane's positive stress part only, the
 //! bending's first sum with frozen normals. So the excess follows the conventions of the linear terms.
 
-use super::bending::{cell_normal_stencils, Point, MEASURES};
+use super::bending::{cell_normal_stencils, node_frame, Point, MEASURES};
 use super::frame::{Frame, Warp};
 use super::membrane::positive_part;
 use super::parallel::{assemble, Item, Local, Pool};
@@ -474,11 +474,7 @@ impl NonlinearBending {
 fn node_point(grid: &Grid, rest: &[Vec3], warp: Warp, k: usize) -> Option<(Point, Vec<Use<MEASURES>>)> {
     let w = grid.h1 * grid.h2;
     let (i, j) = grid.coords(k);
-    let mut sup = Support::default();
-    sup.slot(k);
-    let a = sup.scatter(&tangent(grid, 0, i, j));
-    let b = sup.scatter(&tangent(grid, 1, i, j));
-    let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    let (mut sup, a, b, frame) = node_frame(grid, rest, warp, k);
     let t = frame.voigt();
     let mut v = [[0.0; MAX_SUPPORT]; MEASURES];
     let mut uses = Vec::new();
