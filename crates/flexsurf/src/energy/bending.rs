@@ -193,17 +193,35 @@ fn node_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, k: usi
     Some(Point::new(sup, a, b, v, count, d, rest))
 }
 
-/// The quadrature point of cell `(i, j)`: the twist alone where the material frame is aligned with the grid,
-/// else the twist with the cell's averaged normal curvatures and the rank-one rest of the stiffness.
-fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usize, j: usize) -> Point {
-    let w = grid.h1 * grid.h2;
+/// A cell's quadrature point before its curvatures: the cell's operators, the support of its four corners,
+/// the tangents' and the twist's coefficients on it and the material frame there.
+pub(crate) struct CellFrame {
+    pub(crate) ops: CellOps,
+    pub(crate) sup: Support,
+    pub(crate) a: [f64; MAX_SUPPORT],
+    pub(crate) b: [f64; MAX_SUPPORT],
+    pub(crate) twist: [f64; MAX_SUPPORT],
+    pub(crate) frame: Frame,
+}
+
+/// The [`CellFrame`] of cell `(i, j)` (warp at `warp`); the bending and the nonlinear bending terms build their
+/// cell points on it.
+pub(crate) fn cell_frame(grid: &Grid, rest: &[Vec3], warp: Warp, i: usize, j: usize) -> CellFrame {
     let ops = CellOps::new(grid, i, j);
     let mut sup = Support::default();
     let st = |c: &[f64; 4]| -> Vec<(usize, f64)> { (0..4).map(|q| (ops.nodes[q], c[q])).collect() };
     let a = sup.scatter(&st(&ops.c1));
     let b = sup.scatter(&st(&ops.c2));
-    let tw = sup.scatter(&st(&ops.twist));
+    let twist = sup.scatter(&st(&ops.twist));
     let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    CellFrame { ops, sup, a, b, twist, frame }
+}
+
+/// The quadrature point of cell `(i, j)`: the twist alone where the material frame is aligned with the grid,
+/// else the twist with the cell's averaged normal curvatures and the rank-one rest of the stiffness.
+fn cell_point(grid: &Grid, rest: &[Vec3], dv: &[[f64; 3]; 3], warp: Warp, i: usize, j: usize) -> Point {
+    let w = grid.h1 * grid.h2;
+    let CellFrame { ops, mut sup, a, b, twist: tw, frame } = cell_frame(grid, rest, warp, i, j);
     let (_, g) = split(&frame.pull_back(dv), frame.is_aligned());
     let wc = w * frame.area;
     let mut v = [tw, [0.0; MAX_SUPPORT], [0.0; MAX_SUPPORT]];

@@ -17,7 +17,7 @@
 //! stress stiffness; for bending the first sum alone. Secant: the membrane's positive stress part only, the
 //! bending's first sum with frozen normals. So the excess follows the conventions of the linear terms.
 
-use super::bending::{cell_normal_stencils, node_frame, Point, MEASURES};
+use super::bending::{cell_frame, cell_normal_stencils, node_frame, CellFrame, Point, MEASURES};
 use super::frame::{Frame, Warp};
 use super::membrane::positive_part;
 use super::parallel::{assemble, Item, Local, Pool};
@@ -25,7 +25,7 @@ use super::{local_blocks, local_pairs, Operator, Sink};
 use crate::grid::Grid;
 use crate::material::law::{Curve, Laws};
 use crate::math::{diag, outer, Mat3, Vec3};
-use crate::ops::{combine, second, tangent, CellOps, Support, MAX_SUPPORT};
+use crate::ops::{second, tangent, CellOps, MAX_SUPPORT};
 use crate::sparse::BlockPattern;
 
 /// One law applied to a linear combination `m = gᵀ s` of a quadrature item's strains, with weight `c`.
@@ -500,13 +500,7 @@ fn node_point(grid: &Grid, rest: &[Vec3], warp: Warp, k: usize) -> Option<(Point
 /// The cell point of cell `(i, j)` (frames not aligned): twist and averaged normal curvatures, the material
 /// normal curvatures `(T κ')_r` of `κ' = (κ̄11, κ̄22, 2κ12)`.
 fn cell_point(grid: &Grid, rest: &[Vec3], warp: Warp, i: usize, j: usize) -> (Point, Vec<Use<MEASURES>>) {
-    let ops = CellOps::new(grid, i, j);
-    let mut sup = Support::default();
-    let st = |c: &[f64; 4]| -> Vec<(usize, f64)> { (0..4).map(|q| (ops.nodes[q], c[q])).collect() };
-    let a = sup.scatter(&st(&ops.c1));
-    let b = sup.scatter(&st(&ops.c2));
-    let tw = sup.scatter(&st(&ops.twist));
-    let frame = Frame::with_warp(combine(&sup, &a, rest), combine(&sup, &b, rest), warp);
+    let CellFrame { ops, mut sup, a, b, twist: tw, frame } = cell_frame(grid, rest, warp, i, j);
     let [v1, v2] = cell_normal_stencils(grid, &ops, &mut sup);
     let t = frame.voigt();
     let w = grid.h1 * grid.h2 * frame.area;
