@@ -9,6 +9,7 @@
 
 use crate::integrate::linsolve::SolverKind;
 use crate::integrate::{Counters, StepError, StepParams, Stepper};
+use crate::math::Vec3;
 use crate::scene::{Scene, SceneError, SceneSpec};
 use serde::Serialize;
 use std::path::Path;
@@ -97,6 +98,14 @@ pub struct BenchRow {
     pub factor_nnz: usize,
     /// Peak resident memory of the process during this measurement (bytes; 0 where not measurable).
     pub peak_bytes: u64,
+    /// Median seconds of one product `y = A x` with the last step matrix stored in full block rows, one
+    /// thread ([`crate::sparse::BlockRows`]): the *matrix stream* of issue 23.
+    pub product_seconds: f64,
+    /// Bytes one such product reads from the matrix.
+    pub product_bytes: usize,
+    /// The mean step (`wall_seconds / steps`) in matrix streams: how many products with the step matrix a
+    /// step costs, independently of the machine's speed.
+    pub streams_per_step: f64,
 }
 
 /// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
@@ -115,6 +124,8 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
     let wall_seconds = times.iter().sum();
     times.sort_by(f64::total_cmp);
     let step_median = if times.is_empty() { 0.0 } else { times[times.len() / 2] };
+    let full = crate::sparse::BlockRows::from_symmetric(stepper.matrix(), scene.model.potential.pattern());
+    let product_seconds = product_time(&full);
     let c = stepper.counters;
     let s = steps.max(1) as f64;
     let per_step = Counters {
@@ -135,7 +146,28 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
         per_step,
         factor_nnz: stepper.factor_nnz(),
         peak_bytes: peak_memory(),
+        product_seconds,
+        product_bytes: full.bytes(),
+        streams_per_step: if product_seconds > 0.0 { wall_seconds / s / product_seconds } else { 0.0 },
     })
+}
+
+/// Median seconds of one product with `a` (one thread): at least 5 products and 0.2 s of them, after one
+/// product that brings the matrix into memory.
+pub fn product_time(a: &crate::sparse::BlockRows) -> f64 {
+    let n = a.rows();
+    let x: Vec<Vec3> = (0..n).map(|k| Vec3::new(1.0, 0.5, -0.25) * (1.0 + (k % 7) as f64)).collect();
+    let mut y = vec![Vec3::ZERO; n];
+    a.mul(&x, &mut y);
+    let (mut times, start) = (Vec::new(), Instant::now());
+    while times.len() < 5 || start.elapsed().as_secs_f64() < 0.2 {
+        let t = Instant::now();
+        a.mul(&x, &mut y);
+        times.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(&y);
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
 }
 
 /// Least-squares exponent `p` of `t ∝ nodes^p` over the rows (their median step times).

@@ -227,9 +227,98 @@ impl BlockMatrix {
     }
 }
 
+/// The full (both triangles) block-row copy of a [`BlockMatrix`]: each node's row of 3×3 blocks with its
+/// column nodes, as a general sparse matrix of the step matrix's shape is stored. Its product is the unit of
+/// work `flexsurf bench` divides a step by (a *matrix stream*, issue 23): every stored block and index read
+/// once, one thread.
+#[derive(Debug, Clone)]
+pub struct BlockRows {
+    row_start: Vec<usize>,
+    cols: Vec<u32>,
+    blocks: Vec<Mat3>,
+}
+
+impl BlockRows {
+    /// The full copy of `a` on `pattern` (its extra pairs included).
+    pub fn from_symmetric(a: &BlockMatrix, pattern: &BlockPattern) -> Self {
+        let n = pattern.n;
+        let mut rows: Vec<Vec<(usize, Mat3)>> = vec![Vec::new(); n];
+        for j in 0..n {
+            for blk in pattern.col_start[j]..pattern.col_start[j + 1] {
+                let i = pattern.rows[blk];
+                rows[i].push((j, a.blocks[blk]));
+                if i != j {
+                    rows[j].push((i, a.blocks[blk].transpose()));
+                }
+            }
+        }
+        for (&(i, j), m) in a.extra.pairs().iter().zip(&a.extra.blocks) {
+            rows[i].push((j, *m));
+            rows[j].push((i, m.transpose()));
+        }
+        let mut out = Self { row_start: vec![0], cols: Vec::new(), blocks: Vec::new() };
+        for mut r in rows {
+            r.sort_by_key(|e| e.0);
+            out.cols.extend(r.iter().map(|e| e.0 as u32));
+            out.blocks.extend(r.iter().map(|e| e.1));
+            out.row_start.push(out.cols.len());
+        }
+        out
+    }
+
+    /// Rows (nodes).
+    pub fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+
+    /// Stored blocks (both triangles).
+    pub fn blocks(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Bytes one product reads from the matrix (blocks, column indices, row starts).
+    pub fn bytes(&self) -> usize {
+        self.blocks.len() * std::mem::size_of::<Mat3>()
+            + self.cols.len() * std::mem::size_of::<u32>()
+            + self.row_start.len() * std::mem::size_of::<usize>()
+    }
+
+    /// `y = A x`, row by row.
+    pub fn mul(&self, x: &[Vec3], y: &mut [Vec3]) {
+        for (i, out) in y.iter_mut().enumerate().take(self.row_start.len() - 1) {
+            let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+            let mut s = Vec3::ZERO;
+            for (m, &j) in self.blocks[a..b].iter().zip(&self.cols[a..b]) {
+                s += *m * x[j as usize];
+            }
+            *out = s;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn full_rows_multiply_as_the_symmetric_matrix() {
+        let p = BlockPattern::from_pairs(3, [(0, 1), (2, 1)]);
+        let mut a = BlockMatrix::zeros(&p);
+        let m = |k: f64| Mat3::from_cols_array(&[k, 1.0, 2.0, 3.0, k, 4.0, 5.0, 6.0, k]);
+        for (id, k) in (0..p.blocks()).zip([7.0, 8.0, 9.0, 10.0, 11.0]) {
+            a.blocks[id] = m(k);
+        }
+        a.extra.add(2, 0, m(-1.0));
+        let x = [Vec3::new(1.0, -2.0, 0.5), Vec3::new(0.3, 0.1, -1.0), Vec3::new(2.0, 1.0, 1.0)];
+        let (mut want, mut got) = (vec![Vec3::ZERO; 3], vec![Vec3::ZERO; 3]);
+        a.mul_add(&p, &x, &mut want);
+        let full = BlockRows::from_symmetric(&a, &p);
+        full.mul(&x, &mut got);
+        assert_eq!(full.blocks(), 2 * p.blocks() - 3 + 2);
+        for (w, g) in want.iter().zip(&got) {
+            assert!((*w - *g).length() < 1e-12 * w.length().max(1.0), "{w} {g}");
+        }
+    }
 
     #[test]
     fn csc_layout_matches_blocks() {
