@@ -223,3 +223,127 @@ fn the_ball_drop_converges_its_free_fall_and_reports_its_contact_steps() {
     assert_eq!(stepper.counters.contact_steps, contact);
     assert_eq!(stepper.counters.unconverged, unconverged);
 }
+
+// ---------------------------------------------------------------------------------------------------------------
+// The capstan: a light strip over a cylinder with weights at its ends (issue 23, item 1)
+// ---------------------------------------------------------------------------------------------------------------
+
+/// The capstan's radius (m), the strip's legs (m) and gravity (m/s²).
+const R: f64 = 0.1;
+const LEG: f64 = 0.25;
+const G: f64 = 9.81;
+
+/// The capstan: a fixed cylinder of radius [`R`] along the y axis (a ball would let the strip slip off its top
+/// sideways, the great circle being an unstable path for a taut strip).
+#[derive(Debug)]
+struct Cylinder;
+
+impl flexsurf::contact::shape::Shape for Cylinder {
+    fn distance_within(
+        &self,
+        p: Vec3,
+        _hint: &mut Option<flexsurf::contact::nurbs::Hint>,
+        _radius: f64,
+    ) -> Option<(f64, Vec3)> {
+        let radial = Vec3::new(p.x, 0.0, p.z);
+        let r = radial.length();
+        Some((r - R, if r > 0.0 { radial / r } else { Vec3::Z }))
+    }
+}
+
+/// A strip 4 mm wide laid half round the cylinder (over its top, across the plane y = 0) with vertical legs
+/// of [`LEG`], weights `m1` and `m2` (kg) hanging at its ends, Coulomb friction `mu` on the cylinder and gravity along
+/// −z. The strip is light (0.01 kg/m², 0.04 g in all) and nearly inextensible (100 × cotton's tensile
+/// stiffness), so the weights see the massless, inextensible strip of the closed form. Returns the model, the
+/// strip's start positions, and each end's nodes.
+fn capstan(m1: f64, m2: f64, mu: f64) -> (Model, Vec<Vec3>, [Vec<usize>; 2]) {
+    let f = Fabric { density: 0.01, damping: 0.0, tensile_warp: 2.13e6, tensile_weft: 4.3e5, ..Fabric::paper_cotton() };
+    let stiffness = Stiffness::calibrate(&f, Calibration::Kes).unwrap();
+    let offset = 0.002;
+    // The strip's centre line at the contact layer's outer edge, unstretched: its arc is half a circle of this
+    // radius.
+    let r = R + offset;
+    let length = 2.0 * LEG + std::f64::consts::PI * r;
+    let m = 93;
+    let grid = Grid::sheet(m, 3, length, 0.004).unwrap();
+    let rest = grid.flat_positions(0.0);
+    // The contact layer carries the weights' pressure with a compression of about 0.1 mm.
+    let contact_stiffness = 1e7;
+    let h = grid.spacing(0);
+    let x0: Vec<Vec3> = (0..grid.len())
+        .map(|k| {
+            let (i, _) = grid.coords(k);
+            let (s, y) = (i as f64 * h, rest[k].y - 0.002);
+            if s < LEG {
+                Vec3::new(-r, y, -(LEG - s))
+            } else if s > LEG + std::f64::consts::PI * r {
+                Vec3::new(r, y, -(s - LEG - std::f64::consts::PI * r))
+            } else {
+                let phi = std::f64::consts::PI - (s - LEG) / r;
+                Vec3::new(r * phi.cos(), y, r * phi.sin())
+            }
+        })
+        .collect();
+    let ends: [Vec<usize>; 2] =
+        [(0..3).map(|j| grid.index(0, j)).collect(), (0..3).map(|j| grid.index(m - 1, j)).collect()];
+    let mut builder = ModelBuilder::new(grid, rest, f, stiffness, ModelKind::Tfs, Vec3::new(0.0, 0.0, -G));
+    builder.obstacles.push(flexsurf::contact::Obstacle::Custom(std::sync::Arc::new(Cylinder)));
+    builder.contact = flexsurf::potential::contact::ContactParams {
+        stiffness: contact_stiffness,
+        offset,
+        friction: mu,
+        ..Default::default()
+    };
+    for (end, mass) in ends.iter().zip([m1, m2]) {
+        for &k in end {
+            builder.loads[k] = Vec3::new(0.0, 0.0, -G * mass / end.len() as f64);
+        }
+    }
+    let mut model = builder.build().unwrap();
+    for (end, mass) in ends.iter().zip([m1, m2]) {
+        for &k in end {
+            model.mass[k] += mass / end.len() as f64;
+        }
+    }
+    (model, x0, ends)
+}
+
+/// How far the heavier weight sank in `t` seconds from rest (m), stepped at `dt` with `scheme`.
+fn capstan_slide(m1: f64, m2: f64, mu: f64, dt: f64, t: f64, scheme: Scheme) -> f64 {
+    let (model, x0, ends) = capstan(m1, m2, mu);
+    let mut state = integrate::start(&model, x0.clone(), vec![Vec3::ZERO; x0.len()], dt).unwrap();
+    let mut stepper = Stepper::new(&model, &StepParams { scheme, ..StepParams::with_dt(dt) }).unwrap();
+    for _ in 0..(t / dt).round() as usize {
+        stepper.step(&model, &mut state).unwrap();
+    }
+    let depth = |x: &[Vec3]| ends[0].iter().map(|&k| x[k].z).sum::<f64>() / ends[0].len() as f64;
+    depth(&x0) - depth(&state.x)
+}
+
+/// The capstan's closed form: with `T₁ = T₂ e^{μπ}` over the half wrap, `m₁ g − T₁ = m₁ a` and
+/// `T₂ − m₂ g = m₂ a` give `a = g (m₁ − m₂ e^{μπ}) / (m₁ + m₂ e^{μπ})`.
+fn capstan_acceleration(m1: f64, m2: f64, mu: f64) -> f64 {
+    let e = (mu * std::f64::consts::PI).exp();
+    G * (m1 - m2 * e) / (m1 + m2 * e)
+}
+
+/// Issue 23's capstan target, not met (docs/model.md §8.5): the weights (35 g and 10 g, μ = 0.3) must sink as
+/// the closed form says (6.79 cm in 0.3 s) within 2 % at Δt = 5 ms and as Δt is refined. Measured at 8f5745b (the step of main):
+/// linearised +3.7 % (10 ms: −18 %), BDF2 +1.9 % (10 ms: −21 %), but both +4 to +5 % at 2.5 ms and 1 ms; with
+/// contact steps iterated to the Newton tolerance, BDF2 +9.5 % at 5 ms and +5.8 to +6.7 % below. The refined
+/// limit lies about 5 % above the closed form on this grid and on one three times finer (an effective μ of
+/// 0.294 instead of 0.3), whatever the step: its cause is not found yet.
+#[test]
+#[ignore = "issue 23: the capstan slide is 4-10 % off its closed form (see the doc comment)"]
+fn a_strip_slides_round_a_cylinder_as_the_capstan_equation_says() {
+    let (m1, m2, mu, t) = (0.035, 0.010, 0.3, 0.3);
+    let exact = 0.5 * capstan_acceleration(m1, m2, mu) * t * t;
+    for scheme in [Scheme::Bdf2, Scheme::Linearized] {
+        for dt in [0.005, 0.0025, 0.001] {
+            let d = capstan_slide(m1, m2, mu, dt, t, scheme);
+            let error = d / exact - 1.0;
+            println!("capstan, {scheme:?}, dt {dt}: {d:.6} m against {exact:.6} m ({:+.2} %)", 100.0 * error);
+            assert!(error.abs() < 0.02, "{scheme:?}, Δt = {dt}: {d} m against {exact} m");
+        }
+    }
+}
