@@ -6,10 +6,12 @@
 //! - [`obj`], [`ply`], [`gltf`]: mesh files for external viewers, each with a [`MeshWriter`] (its extension
 //!   and its writer with the frame settings) that [`crate::scene::FrameFormat::writer`] names for the frames of
 //!   a run. A new frame format is one file here with its `WRITER`, a variant of `FrameFormat` and its arm there.
+//! - [`dxf`]: panel outlines read from DXF files (pattern CAD), for the pattern format.
 //! - [`render`]: a deterministic software rasteriser that draws cloth meshes and analytic obstacles (sphere,
 //!   ground plane) to PNG, and tiles several views into a captioned panel.
 
 pub mod atomic;
+pub mod dxf;
 pub mod glb;
 pub mod gltf;
 pub mod input;

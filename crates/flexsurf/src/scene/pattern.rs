@@ -58,8 +58,13 @@ pub struct PanelEntry {
     /// Its name, which seams and holds use.
     pub name: String,
     /// The closed outline, counter-clockwise as seen from the fabric's right side; exactly four vertices
-    /// carry a `corner` name. The first corner is the grid's origin.
+    /// carry a `corner` name. The first corner is the grid's origin. Empty when `dxf` gives it.
+    #[serde(default)]
     pub outline: Vec<VertexEntry>,
+    /// The outline read from a DXF file instead (pattern CAD): the closed polyline on a layer, with its
+    /// corners chosen by position.
+    #[serde(default)]
+    pub dxf: Option<DxfEntry>,
     /// The grain line (warp direction) `[x, y]` in the pattern plane.
     pub grain: [f64; 2],
     /// The panel's material (a name): must be the scene's material, one fabric per garment for now.
@@ -67,6 +72,32 @@ pub struct PanelEntry {
     pub material: Option<String>,
     /// Where the panel goes before sewing.
     pub placement: PlacementEntry,
+}
+
+/// `dxf = { file, layer, unit, corners }`: a panel's outline from a DXF file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DxfEntry {
+    /// The DXF file, relative to the pattern file.
+    pub file: PathBuf,
+    /// The layer whose one closed polyline (`LWPOLYLINE` or `POLYLINE`, with arcs as bulges) is the outline.
+    pub layer: String,
+    /// The drawing's length unit (`mm`, `cm`, `m`, `in` or `ft`); default: the file's `$INSUNITS`.
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// The four corners, in the order of a written outline's (the first is the grid's origin): each the
+    /// outline vertex at `at`, in the drawing's units.
+    pub corners: Vec<CornerEntry>,
+}
+
+/// A corner of a DXF outline: its name and where it is, in the drawing's units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CornerEntry {
+    /// The corner's name.
+    pub name: String,
+    /// Its position `[x, y]` in the drawing; the nearest outline vertex within 1 % of the outline's size.
+    pub at: [f64; 2],
 }
 
 /// One vertex of an outline.
@@ -218,9 +249,25 @@ impl PatternSpec {
         }
     }
 
-    /// Builds the pattern; a [`PatternError`] becomes an error of `file` at its key.
+    /// Builds the pattern (its DXF outlines read, relative to `file`); a [`PatternError`] becomes an error of
+    /// `file` at its key.
     pub fn build(&self, file: &Path) -> Result<BuiltPattern, SceneError> {
-        self.pattern().build().map_err(|e: PatternError| SceneError::invalid(file, e.key, e.message))
+        let spec = self.with_dxf_outlines(file)?;
+        spec.pattern().build().map_err(|e: PatternError| SceneError::invalid(file, e.key, e.message))
+    }
+
+    /// The pattern with every panel's `dxf` outline read into its `outline`.
+    pub fn with_dxf_outlines(&self, file: &Path) -> Result<PatternSpec, SceneError> {
+        let mut spec = self.clone();
+        for (p, panel) in spec.panels.iter_mut().enumerate() {
+            let Some(d) = &panel.dxf else { continue };
+            if !panel.outline.is_empty() {
+                let message = "give the outline either as `outline` or as `dxf`, not both".to_string();
+                return Err(SceneError::invalid(file, format!("panel[{p}].dxf"), message));
+            }
+            panel.outline = d.outline(file, p).map_err(|(key, message)| SceneError::invalid(file, key, message))?;
+        }
+        Ok(spec)
     }
 
     /// Each hold's panel nodes (numbered panel after panel) and stiffness.
@@ -241,6 +288,50 @@ impl PatternSpec {
             out.extend(nodes.into_iter().map(|k| (offset + k, hold.stiffness)));
         }
         Ok(out)
+    }
+}
+
+impl DxfEntry {
+    /// The outline's vertices, its four corners named, for panel `p` of the pattern file `file`; errors as
+    /// (key, message).
+    fn outline(&self, file: &Path, p: usize) -> Result<Vec<VertexEntry>, (String, String)> {
+        let key = |k: &str| format!("panel[{p}].dxf.{k}");
+        let unit = match self.unit.as_deref() {
+            None => None,
+            Some(u) => Some(
+                crate::io::dxf::unit_metres(u)
+                    .ok_or_else(|| (key("unit"), format!("`{u}` is not a unit this reads: mm, cm, m, in or ft")))?,
+            ),
+        };
+        let path = relative_to(file, &self.file);
+        let (outline, scale) =
+            crate::io::dxf::read_outline(&path, &self.layer, unit).map_err(|message| (key("file"), message))?;
+        if self.corners.len() != 4 {
+            return Err((key("corners"), format!("{} corners given; a panel has four", self.corners.len())));
+        }
+        let (lo, hi) = outline.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), v| {
+            ([lo[0].min(v.at[0]), lo[1].min(v.at[1])], [hi[0].max(v.at[0]), hi[1].max(v.at[1])])
+        });
+        let reach = 0.01 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+        let mut vertices: Vec<VertexEntry> =
+            outline.iter().map(|v| VertexEntry { at: v.at, corner: None, curve: v.curve }).collect();
+        for (c, corner) in self.corners.iter().enumerate() {
+            let at = [corner.at[0] * scale, corner.at[1] * scale];
+            let bad = |message: String| (format!("panel[{p}].dxf.corners[{c}]"), message);
+            let (i, d) = crate::io::dxf::nearest_vertex(&outline, at).unwrap_or((0, f64::INFINITY));
+            if d > reach {
+                let far = d / scale;
+                return Err(bad(format!("corner `{}`: no outline vertex within 1 % of the outline's size (the nearest is {far:.4} drawing units away)", corner.name)));
+            }
+            if let Some(other) = &vertices[i].corner {
+                return Err(bad(format!("corner `{}` is at the same vertex as corner `{other}`", corner.name)));
+            }
+            vertices[i].corner = Some(corner.name.clone());
+        }
+        // The grid's origin is the first corner given: the outline starts there.
+        let first = vertices.iter().position(|v| v.corner.as_deref() == Some(&self.corners[0].name)).unwrap_or(0);
+        vertices.rotate_left(first);
+        Ok(vertices)
     }
 }
 

@@ -1,7 +1,8 @@
 //! Garments from sewing patterns (issue 20): the Coons grid of a rectangle is the plain grid; node counts are
 //! matched along seams; a flat pattern of two rectangles sewn along their common side steps as the one square
 //! sheet; a pattern that cannot be sewn is a one-line error naming the panel and edge; the shipped straight
-//! skirt sews closed on the mannequin.
+//! skirt sews closed on the mannequin; an outline read from DXF (pattern CAD) is the outline written out, its
+//! arcs on their circles, and its errors name the key.
 
 use flexsurf::garment::pattern::{BuiltPattern, Pattern, Placement};
 use flexsurf::garment::sewing::{sew, SewingParams};
@@ -460,4 +461,116 @@ fn a_pattern_error_names_the_scene_and_the_pattern_file() {
     assert!(m.contains("`seam[0]`") && m.contains("panel `right` edge a → d 0.5000 m"), "{m}");
     assert_eq!(e.key(), "seam[0]");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Outlines from DXF (pattern CAD)
+// ---------------------------------------------------------------------------------------------------------------
+
+/// Writes a DXF file `name` in `dir` with one closed `LWPOLYLINE` per `(layer, vertices [x, y, bulge])`, its
+/// `$INSUNITS` set to `units`; returns its path.
+fn write_dxf(
+    dir: &Path,
+    name: &str,
+    units: dxf::enums::Units,
+    polylines: &[(&str, Vec<[f64; 3]>)],
+) -> std::path::PathBuf {
+    let mut drawing = dxf::Drawing::new();
+    drawing.header.version = dxf::enums::AcadVersion::R2000;
+    drawing.header.default_drawing_units = units;
+    for (layer, vertices) in polylines {
+        let mut poly = dxf::entities::LwPolyline::default();
+        poly.set_is_closed(true);
+        poly.vertices = vertices
+            .iter()
+            .map(|v| dxf::LwPolylineVertex { x: v[0], y: v[1], bulge: v[2], ..Default::default() })
+            .collect();
+        let mut entity = dxf::entities::Entity::new(dxf::entities::EntityType::LwPolyline(poly));
+        entity.common.layer = layer.to_string();
+        drawing.add_entity(entity);
+    }
+    let path = dir.join(name);
+    drawing.save_file(&path).unwrap();
+    path
+}
+
+/// A one-panel pattern `name` whose outline is the `layer` of `panel.dxf`, with `corners` (name, [x, y] in the
+/// drawing's units) and extra `dxf` keys.
+fn dxf_pattern(layer: &str, corners: &[(&str, [f64; 2])], extra: &str) -> String {
+    let corners: Vec<String> =
+        corners.iter().map(|(n, [x, y])| format!("{{ name = \"{n}\", at = [{x}, {y}] }}")).collect();
+    format!(
+        "edge_length = 0.05\n[[panel]]\nname = \"p\"\ngrain = [1.0, 0.0]\ndxf = {{ file = \"panel.dxf\", layer = \"{layer}\", corners = [{}]{extra} }}\nplacement = {{ flat = {{}} }}\n",
+        corners.join(", ")
+    )
+}
+
+#[test]
+fn a_panel_read_from_dxf_is_the_panel_written_out() {
+    // A 600 × 400 mm rectangle drawn clockwise from its top-left corner, in millimetres: the same grid as the
+    // outline written in metres, counter-clockwise from the lower left.
+    let dir = flexsurf::testing::scratch("garments", "dxf-rectangle");
+    let clockwise = vec![[0.0, 400.0, 0.0], [600.0, 400.0, 0.0], [600.0, 0.0, 0.0], [0.0, 0.0, 0.0]];
+    write_dxf(
+        &dir,
+        "panel.dxf",
+        dxf::enums::Units::Millimeters,
+        &[("FRONT", clockwise), ("OTHER", vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])],
+    );
+    let corners = [("a", [0.0, 0.0]), ("b", [600.0, 0.0]), ("c", [600.0, 400.0]), ("d", [0.0, 400.0])];
+    let file = dir.join("pattern.toml");
+    let from_dxf = parse(&dxf_pattern("FRONT", &corners, "")).build(&file).unwrap();
+    let written = build(&format!("edge_length = 0.05\n{}", rectangle("p", [0.0, 0.0, 0.6, 0.4])));
+    let (a, b) = (&from_dxf.panels[0], &written.panels[0]);
+    assert_eq!((a.grid.count(0), a.grid.count(1)), (b.grid.count(0), b.grid.count(1)));
+    assert_eq!(a.corners, b.corners);
+    for (p, q) in a.flat.iter().zip(&b.flat) {
+        assert!((*p - *q).length() < 1e-12, "{p} against {q}");
+    }
+}
+
+#[test]
+fn a_dxf_arc_edge_lies_on_its_circle() {
+    // A 0.4 × 0.3 m panel whose top edge is a 60° arc bulging up (bulge tan(60°/4)), in metres: the grid's top
+    // row lies on that circle, radius 0.2/sin 30° = 0.4, centre 0.4 cos 30° below the chord's midpoint.
+    let dir = flexsurf::testing::scratch("garments", "dxf-arc");
+    let bulge = (60f64.to_radians() / 4.0).tan();
+    let outline = vec![[0.0, 0.0, 0.0], [0.4, 0.0, 0.0], [0.4, 0.3, bulge], [0.0, 0.3, 0.0]];
+    write_dxf(&dir, "panel.dxf", dxf::enums::Units::Meters, &[("TOP", outline)]);
+    let corners = [("a", [0.0, 0.0]), ("b", [0.4, 0.0]), ("c", [0.4, 0.3]), ("d", [0.0, 0.3])];
+    let built = parse(&dxf_pattern("TOP", &corners, "")).build(&dir.join("pattern.toml")).unwrap();
+    let panel = &built.panels[0];
+    let (m, n) = (panel.grid.count(0), panel.grid.count(1));
+    let centre = Vec3::new(0.2, 0.3 - 0.4 * 30f64.to_radians().cos(), 0.0);
+    for i in 0..m {
+        let p = panel.flat[panel.grid.index(i, n - 1)];
+        let r = (p - centre).length();
+        assert!((r - 0.4).abs() < 1e-4 * 0.4, "top node {i} at {p}: {r} m from the centre");
+        assert!(p.y >= 0.3 - 1e-12, "top node {i} at {p} below the chord");
+    }
+}
+
+#[test]
+fn dxf_outline_errors_name_the_key_and_what_is_wrong() {
+    let dir = flexsurf::testing::scratch("garments", "dxf-errors");
+    let square = vec![[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [100.0, 100.0, 0.0], [0.0, 100.0, 0.0]];
+    write_dxf(&dir, "panel.dxf", dxf::enums::Units::Unitless, &[("P", square)]);
+    let file = dir.join("pattern.toml");
+    let corners = [("a", [0.0, 0.0]), ("b", [100.0, 0.0]), ("c", [100.0, 100.0]), ("d", [0.0, 100.0])];
+    let error = |text: String| parse(&text).build(&file).unwrap_err().to_string();
+    let no_unit = error(dxf_pattern("P", &corners, ""));
+    assert!(no_unit.contains("panel[0].dxf.file") && no_unit.contains("give `unit`"), "{no_unit}");
+    let no_layer = error(dxf_pattern("Q", &corners, ", unit = \"mm\""));
+    assert!(no_layer.contains("no polyline on layer `Q`") && no_layer.contains("[\"P\"]"), "{no_layer}");
+    let bad_unit = error(dxf_pattern("P", &corners, ", unit = \"furlong\""));
+    assert!(bad_unit.contains("panel[0].dxf.unit"), "{bad_unit}");
+    let far = [("a", [0.0, 0.0]), ("b", [100.0, 0.0]), ("c", [100.0, 100.0]), ("d", [0.0, 50.0])];
+    let far = error(dxf_pattern("P", &far, ", unit = \"mm\""));
+    assert!(far.contains("panel[0].dxf.corners[3]") && far.contains("corner `d`"), "{far}");
+    let three = error(dxf_pattern("P", &corners[..3], ", unit = \"mm\""));
+    assert!(three.contains("3 corners given"), "{three}");
+    for e in [no_unit, no_layer, bad_unit, far, three] {
+        println!("{e}");
+        assert!(!e.contains('\n') && e.contains("pattern.toml"), "{e}");
+    }
 }
