@@ -74,6 +74,18 @@ pub struct PanelSpec {
     pub rest: Vec<Vec3>,
     /// Warp direction and rest-shape options.
     pub options: ElasticOptions,
+    /// The panel's own fabric, when it is not the builder's (a garment of several fabrics).
+    pub material: Option<PanelMaterial>,
+}
+
+/// A panel's own fabric: its constants (density and damping for the masses) and calibrated stiffness (its
+/// membrane and bending terms). The seams' bending across panels and nonlinear laws stay the builder's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PanelMaterial {
+    /// The fabric's constants.
+    pub fabric: Fabric,
+    /// Its calibrated coefficients.
+    pub stiffness: Stiffness,
 }
 
 /// Everything a [`Model`] is made of, filled in before [`ModelBuilder::build`] validates it and builds the
@@ -129,7 +141,7 @@ impl ModelBuilder {
     ) -> Self {
         let n = grid.len();
         Self {
-            panels: vec![PanelSpec { grid, rest, options: ElasticOptions::default() }],
+            panels: vec![PanelSpec { grid, rest, options: ElasticOptions::default(), material: None }],
             fabric,
             stiffness,
             kind,
@@ -159,7 +171,7 @@ impl ModelBuilder {
     /// panel's nodes (not pinned, no load).
     pub fn panel(mut self, grid: Grid, rest: Vec<Vec3>, options: ElasticOptions) -> Self {
         let n = grid.len();
-        self.panels.push(PanelSpec { grid, rest, options });
+        self.panels.push(PanelSpec { grid, rest, options, material: None });
         self.pinned.extend(std::iter::repeat_n(false, n));
         self.loads.extend(std::iter::repeat_n(Vec3::ZERO, n));
         self
@@ -237,6 +249,10 @@ impl ModelBuilder {
     /// curve is the curve's smallest slope.
     fn validate_laws(&self) -> Result<(), ModelError> {
         let Some(laws) = &self.laws else { return Ok(()) };
+        if let Some(p) = self.panels.iter().position(|p| p.material.is_some()) {
+            let message = format!("panel {p} has its own fabric: nonlinear laws need one fabric for every panel");
+            return Err(model_error("laws", message));
+        }
         let s = &self.stiffness;
         let pairs = [
             ("tensile warp", laws.tensile_warp.as_ref(), s.a11),
@@ -293,9 +309,17 @@ impl ModelBuilder {
             .map(|(p, map)| Panel { grid: p.grid, nodes: map.clone(), rest: p.rest.clone() })
             .collect();
         let welded = |p: &[f64]| -> Vec<f64> { scatter_add(&panels, p, n) };
-        let area = welded(&self.panels.iter().flat_map(|p| rest_areas(&p.grid, &p.rest)).collect::<Vec<_>>());
-        let mass: Vec<f64> = area.iter().map(|a| a * self.fabric.density).collect();
-        let damping = area.iter().map(|a| a * self.fabric.damping).collect();
+        let areas: Vec<Vec<f64>> = self.panels.iter().map(|p| rest_areas(&p.grid, &p.rest)).collect();
+        let area = welded(&areas.concat());
+        // Each panel's share of a node's area carries that panel's density and damping.
+        let per_area = |f: fn(&Fabric) -> f64| -> Vec<f64> {
+            let of = |p: &PanelSpec| f(p.material.as_ref().map_or(&self.fabric, |m| &m.fabric));
+            welded(
+                &self.panels.iter().zip(&areas).flat_map(|(p, a)| a.iter().map(move |a| a * of(p))).collect::<Vec<_>>(),
+            )
+        };
+        let mass: Vec<f64> = per_area(|f| f.density);
+        let damping = per_area(|f| f.damping);
         let mut terms = self.elastic_terms(&panels);
         let loads = scatter_add(&panels, &self.loads, n);
         terms.push(Box::new(External::new(self.gravity, &mass, &loads)));
@@ -347,7 +371,8 @@ impl ModelBuilder {
         for (p, (spec, panel)) in self.panels.iter().zip(panels).enumerate() {
             let seamed = SeamedEdges::of(p, &self.seams);
             let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
-            terms.extend(elastic::panel_terms(grid, rest, &self.stiffness, self.kind, options, &panel.nodes, seamed));
+            let stiffness = spec.material.as_ref().map_or(&self.stiffness, |m| &m.stiffness);
+            terms.extend(elastic::panel_terms(grid, rest, stiffness, self.kind, options, &panel.nodes, seamed));
             if let Some(laws) = &self.laws {
                 terms.extend(elastic::nonlinear_terms(grid, rest, laws, options, &panel.nodes, seamed));
             }

@@ -239,6 +239,9 @@ impl SceneSpec {
                 for p in panels {
                     model = model.panel(p.grid, p.flat.clone(), p.options);
                 }
+                for (spec, material) in model.panels.iter_mut().zip(&loaded.materials) {
+                    spec.material = *material;
+                }
                 pattern = Some(loaded);
                 (model, initial, None)
             }

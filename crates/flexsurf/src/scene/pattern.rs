@@ -67,7 +67,8 @@ pub struct PanelEntry {
     pub dxf: Option<DxfEntry>,
     /// The grain line (warp direction) `[x, y]` in the pattern plane.
     pub grain: [f64; 2],
-    /// The panel's material (a name): must be the scene's material, one fabric per garment for now.
+    /// The panel's fabric: the scene's material name (or none) for the scene's fabric, else a preset name or a
+    /// material file (relative to the pattern file).
     #[serde(default)]
     pub material: Option<String>,
     /// Where the panel goes before sewing.
@@ -366,12 +367,21 @@ pub(crate) struct LoadedPattern {
     pub(crate) holds: Vec<(usize, f64)>,
     /// The sewing phase's settings.
     pub(crate) sewing: SewingParams,
+    /// Each panel's own fabric (`None`: the scene's).
+    pub(crate) materials: Vec<Option<crate::model::PanelMaterial>>,
 }
 
 impl PatternUse {
     /// Reads the pattern file named by the scene's `[pattern]` (checked by `v`) and builds it; `material` is the
-    /// scene's material name, which every panel that names one must name.
-    pub(crate) fn load(&self, v: &Validator<'_>, dt: f64, material: &str) -> Result<LoadedPattern, SceneError> {
+    /// scene's material name (a panel naming it, or none, takes the scene's fabric; another name is a preset or
+    /// a material file, calibrated with `calibration`).
+    pub(crate) fn load(
+        &self,
+        v: &Validator<'_>,
+        dt: f64,
+        material: &str,
+        calibration: crate::material::Calibration,
+    ) -> Result<LoadedPattern, SceneError> {
         let path = relative_to(v.file(), &self.file);
         let spec = PatternSpec::load(&path).map_err(|e| match e {
             SceneError::Io { source, .. } => {
@@ -380,16 +390,16 @@ impl PatternUse {
             other => SceneError::referenced(v.file(), v.key("pattern.file"), other),
         })?;
         let inside = |e: SceneError| SceneError::referenced(v.file(), v.key("pattern.file"), e);
-        if let Some((p, panel)) =
-            spec.panels.iter().enumerate().find(|(_, q)| q.material.as_deref().is_some_and(|m| m != material))
-        {
-            let message = format!(
-                "panel `{}` asks for the material `{}` but the scene's is `{material}`: one fabric per garment for now",
-                panel.name,
-                panel.material.as_deref().unwrap_or_default()
-            );
-            return Err(inside(SceneError::invalid(&path, format!("panel[{p}].material"), message)));
-        }
+        let materials = spec
+            .panels
+            .iter()
+            .enumerate()
+            .map(|(p, panel)| match panel.material.as_deref() {
+                Some(m) if m != material => panel_material(&path, p, m, calibration).map(Some),
+                _ => Ok(None),
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(inside)?;
         let built = spec.build(&path).map_err(inside)?;
         for (key, message) in &built.warnings {
             v.extend(vec![super::SceneWarning {
@@ -413,6 +423,34 @@ impl PatternUse {
             .name
             .clone()
             .unwrap_or_else(|| path.file_stem().map_or_else(|| "pattern".into(), |s| s.to_string_lossy().into_owned()));
-        Ok(LoadedPattern { file: path, name, built, holds, sewing })
+        Ok(LoadedPattern { file: path, name, built, holds, sewing, materials })
     }
+}
+
+/// Panel `p`'s own fabric `name` in the pattern file `file`: a preset, else a material file relative to the
+/// pattern file; linear (a material with curves needs every panel to share it), calibrated with
+/// `calibration`.
+fn panel_material(
+    file: &Path,
+    p: usize,
+    name: &str,
+    calibration: crate::material::Calibration,
+) -> Result<crate::model::PanelMaterial, SceneError> {
+    use super::material::{load_material_file, Preset};
+    let key = format!("panel[{p}].material");
+    let fabric = match [Preset::PaperCotton].into_iter().find(|preset| preset.name() == name) {
+        Some(preset) => preset.fabric(),
+        None => {
+            let resolved = load_material_file(&relative_to(file, Path::new(name)))
+                .map_err(|e| SceneError::referenced(file, key.clone(), e))?;
+            if !resolved.laws.is_empty() {
+                let message = format!("`{name}` has nonlinear curves: a garment with curves is of one fabric");
+                return Err(SceneError::invalid(file, key, message));
+            }
+            resolved.fabric
+        }
+    };
+    let stiffness = crate::material::Stiffness::calibrate(&fabric, calibration)
+        .map_err(|e| SceneError::invalid(file, key, format!("`{name}`: {e}")))?;
+    Ok(crate::model::PanelMaterial { fabric, stiffness })
 }

@@ -167,7 +167,7 @@ impl SceneSpec {
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
         let mut body = match &self.pattern {
             Some(p) if self.sheet.is_none() && self.garment.is_none() => {
-                let pattern = p.load(v, dt, &material.name)?;
+                let pattern = p.load(v, dt, &material.name, self.calibration)?;
                 // The sizes are known now: the memory estimate of the panels (the cadences do not change).
                 let sizes = pattern.built.panels.iter().map(|q| ("pattern.file".to_string(), [q.grid.m, q.grid.n]));
                 estimate = budget::check_sizes(self, v, limits, Some(sizes.collect()))?.estimate;

@@ -590,3 +590,79 @@ fn dxf_outline_errors_name_the_key_and_what_is_wrong() {
         assert!(!e.contains('\n') && e.contains("pattern.toml"), "{e}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------------------------
+// A garment of two fabrics
+// ---------------------------------------------------------------------------------------------------------------
+
+/// Two 0.3 × 0.1 m panels sewn end to end, the right one of another fabric (a quarter of the tensile stiffness,
+/// 0.2 kg/m²): the sewn strip weighs `ρ₁A₁ + ρ₂A₂`, and pulled by 0.2 N (a uniform traction on its free end,
+/// the other end pinned, no gravity) it stretches by `F L₁/(E₁ w) + F L₂/(E₂ w)` = 1.408e-4 m, the two panels in
+/// series (Poisson's ratio 0; Green's strain leaves 1.5 ε ≈ 2e-4 of nonlinearity).
+#[test]
+fn panels_of_two_fabrics_weigh_their_own_and_stretch_in_series() {
+    let text = format!(
+        "edge_length = 0.025\n{}{}{}",
+        rectangle("left", [0.0, 0.0, 0.3, 0.1]),
+        rectangle("right", [0.3, 0.0, 0.6, 0.1]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (f1, s1) = cotton();
+    let f2 = Fabric { tensile_warp: f1.tensile_warp / 4.0, density: 0.2, ..f1 };
+    let s2 = Stiffness::calibrate(&f2, Calibration::Kes).unwrap();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let mut builder = ModelBuilder::new(l.grid, l.flat.clone(), f1, s1, ModelKind::Tfs, Vec3::ZERO)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    builder.panels[1].material = Some(flexsurf::model::PanelMaterial { fabric: f2, stiffness: s2 });
+    let (force, n) = (0.2, r.grid.n);
+    for j in 0..l.grid.n {
+        builder.pinned[l.grid.index(0, j)] = true;
+    }
+    for j in 0..n {
+        // Tributary shares of the end's width: half at the two corners.
+        let share = if j == 0 || j == n - 1 { 0.5 } else { 1.0 } / (n - 1) as f64;
+        builder.loads[l.grid.len() + r.grid.index(r.grid.m - 1, j)] = Vec3::new(force * share, 0.0, 0.0);
+    }
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
+    let model = &sewn.model;
+    let weight: f64 = model.mass.iter().sum();
+    let expected = f1.density * 0.03 + f2.density * 0.03;
+    assert!((weight - expected).abs() < 1e-12 * expected, "mass {weight} kg against {expected} kg");
+    let mut x = sewn.x.clone();
+    flexsurf::integrate::statics::StaticSolver::new(model)
+        .unwrap()
+        .solve(model, &mut x, &flexsurf::integrate::statics::StaticOptions::default())
+        .unwrap();
+    let end: Vec<usize> = (0..n).map(|j| model.panels[1].global(r.grid.index(r.grid.m - 1, j))).collect();
+    let stretch = end.iter().map(|&k| x[k].x - sewn.x[k].x).sum::<f64>() / n as f64;
+    let series = force * 0.3 / (f1.tensile_warp * 0.1) + force * 0.3 / (f2.tensile_warp * 0.1);
+    eprintln!("two fabrics in series: stretched {stretch:.6e} m against {series:.6e} m");
+    assert!((stretch / series - 1.0).abs() < 1e-3, "stretched {stretch} m, in series {series} m");
+}
+
+/// A pattern's panel naming a material file (`materials/denim.toml`, relative to the pattern) takes that
+/// fabric: the straight skirt with a denim back weighs its cotton front (half the all-cotton skirt, the two
+/// panels being alike) plus the back scaled by denim's density over cotton's.
+#[test]
+fn a_pattern_panel_takes_its_own_material_file() {
+    let dir = flexsurf::testing::scratch("garments", "panel-material");
+    for sub in ["scenes", "garments", "materials"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+    }
+    std::fs::copy(repo().join("scenes/straight_skirt.toml"), dir.join("scenes/straight_skirt.toml")).unwrap();
+    std::fs::copy(repo().join("materials/denim.toml"), dir.join("materials/denim.toml")).unwrap();
+    let pattern = std::fs::read_to_string(repo().join("garments/straight_skirt.toml")).unwrap();
+    let pattern = pattern.replacen("name = \"back\"", "name = \"back\"\nmaterial = \"../materials/denim.toml\"", 1);
+    std::fs::write(dir.join("garments/straight_skirt.toml"), pattern).unwrap();
+    let cotton = flexsurf::scene::load(&repo().join("scenes/straight_skirt.toml")).unwrap();
+    let mixed = flexsurf::scene::load(&dir.join("scenes/straight_skirt.toml")).unwrap();
+    // denim.toml's weight: 40 mg/cm² = 0.4 kg/m².
+    let all_cotton: f64 = cotton.model.mass.iter().sum();
+    let expected = 0.5 * all_cotton * (1.0 + 0.4 / cotton.model.fabric.density);
+    let weight: f64 = mixed.model.mass.iter().sum();
+    assert!((weight / expected - 1.0).abs() < 1e-9, "mass {weight} kg against {expected} kg");
+}
