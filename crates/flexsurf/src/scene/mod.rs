@@ -42,6 +42,7 @@ mod values;
 pub use budget::Limits;
 pub use build::{Scene, SceneReport, SewingInfo};
 pub use error::{SceneError, SceneWarning};
+pub(crate) use error::parse_toml;
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};

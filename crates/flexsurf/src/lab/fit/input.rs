@@ -1,0 +1,185 @@
+//! The fit file (TOML): the material file to start from, the free constants with their bounds, and the targets
+//! with their measured values and uncertainties. Errors name the file, the dotted key and what is wrong.
+//!
+//! ```toml
+//! material = "../materials/woven-medium.toml"   # relative to this file
+//! units = "kes"          # of bounds, starts and targets: "si" (default) or "kes" (see below)
+//! max_iterations = 30    # Levenberg–Marquardt iterations (default 30)
+//! columns = 66           # node columns of the virtual cantilever's coarse strip (the fine one has 2·66 − 2)
+//!
+//! [free.bending_warp]    # density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist
+//! lower = 0.01           # default: start / 100
+//! upper = 1.0            # default: start · 100
+//! start = 0.05           # default: the material's value
+//!
+//! [[target]]
+//! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
+//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}
+//! sigma = 0.02                       # the value's standard uncertainty
+//! ```
+//!
+//! `units = "kes"`: constants and KES values in KES-F units (weight mg/cm², tensile gf/cm, shear gf/(cm·deg),
+//! bending and twist gf·cm²/cm), bending lengths in cm; `"si"`: kg/m², N/m, N/m per rad, N·m and m.
+
+use super::targets::{Instrument, KesValue, Quantity, Target};
+use super::{Constant, FitProblem, Free};
+use crate::lab::cantilever::Direction;
+use crate::material::{units, Calibration};
+use crate::scene::material::load_material_file;
+use crate::scene::SceneError;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Units of a fit file's numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum FitUnits {
+    #[default]
+    Si,
+    Kes,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FitSpec {
+    material: PathBuf,
+    #[serde(default)]
+    calibration: Calibration,
+    #[serde(default)]
+    units: FitUnits,
+    max_iterations: Option<usize>,
+    columns: Option<usize>,
+    free: BTreeMap<String, FreeSpec>,
+    #[serde(default)]
+    target: Vec<TargetSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FreeSpec {
+    start: Option<f64>,
+    lower: Option<f64>,
+    upper: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetSpec {
+    quantity: String,
+    value: f64,
+    sigma: f64,
+}
+
+/// SI value of constant `c` given in `u`.
+fn constant_si(c: Constant, u: FitUnits, v: f64) -> f64 {
+    match (u, c) {
+        (FitUnits::Si, _) => v,
+        (FitUnits::Kes, Constant::Density) => units::density_from_kes(v),
+        (FitUnits::Kes, Constant::TensileWarp | Constant::TensileWeft) => units::tension_from_kes(v),
+        (FitUnits::Kes, Constant::Shear) => units::shear_from_kes(v),
+        (FitUnits::Kes, Constant::BendingWarp | Constant::BendingWeft | Constant::Twist) => {
+            units::bending_from_kes(v)
+        }
+    }
+}
+
+/// The quantity named `name`, and the SI value of a number of it given in `u`.
+fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, fn(f64) -> f64)> {
+    let kes = u == FitUnits::Kes;
+    let id = |v: f64| v;
+    if let Some(d) = name.strip_prefix("bending_length.") {
+        let d = match d {
+            "warp" => Direction::Warp,
+            "weft" => Direction::Weft,
+            "bias" => Direction::Bias,
+            _ => return None,
+        };
+        return Some((Quantity::BendingLength(d), if kes { |v| v * 1e-2 } else { id }));
+    }
+    let (k, conv): (KesValue, fn(f64) -> f64) = match name.strip_prefix("kes.")? {
+        "bending_warp" => (KesValue::BendingWarp, units::bending_from_kes),
+        "bending_weft" => (KesValue::BendingWeft, units::bending_from_kes),
+        "shear" => (KesValue::Shear, units::shear_from_kes),
+        "tensile_warp" => (KesValue::TensileWarp, units::tension_from_kes),
+        "tensile_weft" => (KesValue::TensileWeft, units::tension_from_kes),
+        "tensile_bias" => (KesValue::TensileBias, units::tension_from_kes),
+        "weight" => (KesValue::Weight, units::density_from_kes),
+        _ => return None,
+    };
+    Some((Quantity::Kes(k), if kes { conv } else { id }))
+}
+
+/// Reads a fit file.
+pub fn load_fit_file(path: &Path) -> Result<FitProblem, SceneError> {
+    let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
+    problem_from_toml(&text, path)
+}
+
+/// Reads a fit file's text; `file` names it in errors and the material file is found relative to it.
+pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneError> {
+    let spec: FitSpec = crate::scene::parse_toml(text, file)?;
+    let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+    if spec.columns.is_some_and(|c| !(4..=100_000).contains(&c)) {
+        return Err(bad("columns".into(), "must be 4 to 100000 node columns".into()));
+    }
+    let material_path = crate::scene::material::relative_to(file, &spec.material);
+    let m = load_material_file(&material_path).map_err(|e| match e {
+        SceneError::Io { source, .. } => {
+            bad("material".into(), format!("cannot read material file {}: {source}", material_path.display()))
+        }
+        other => SceneError::referenced(file, "material".into(), other),
+    })?;
+    if !m.laws.is_empty() {
+        return Err(bad("material".into(), "the material has nonlinear laws; a fit takes a linear material".into()));
+    }
+    let mut fabric = m.fabric;
+    let mut free = Vec::new();
+    for (key, f) in &spec.free {
+        let c = Constant::from_key(key).ok_or_else(|| {
+            bad(format!("free.{key}"), "not a constant a fit can free (density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist)".into())
+        })?;
+        let si = |v: f64| constant_si(c, spec.units, v);
+        if let Some(s) = f.start {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(bad(format!("free.{key}.start"), "must be a positive number".into()));
+            }
+            c.set(&mut fabric, si(s));
+        }
+        let Some(start) = c.get(&fabric) else {
+            return Err(bad(format!("free.{key}"), "the material leaves twist to Huber's rule; give `start`".into()));
+        };
+        let lower = f.lower.map_or(start / 100.0, si);
+        let upper = f.upper.map_or(start * 100.0, si);
+        if !(lower.is_finite() && upper.is_finite() && lower > 0.0 && lower <= upper) {
+            return Err(bad(format!("free.{key}"), "bounds must be finite with 0 < lower ≤ upper".into()));
+        }
+        if !(lower..=upper).contains(&start) {
+            return Err(bad(format!("free.{key}.start"), "the start lies outside the bounds".into()));
+        }
+        free.push(Free { constant: c, lower, upper });
+    }
+    let mut targets = Vec::new();
+    for (i, t) in spec.target.iter().enumerate() {
+        let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
+            return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
+        };
+        if !(t.value.is_finite() && t.value > 0.0) {
+            return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
+        }
+        if !(t.sigma.is_finite() && t.sigma > 0.0) {
+            return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
+        }
+        targets.push(Target { quantity: q, value: conv(t.value), sigma: conv(t.sigma) });
+    }
+    let problem = FitProblem {
+        fabric,
+        calibration: spec.calibration,
+        free,
+        targets,
+        instrument: spec.columns.map_or_else(Instrument::default, |c| Instrument { columns: (c, (2 * c).saturating_sub(2)) }),
+        max_iterations: spec.max_iterations.unwrap_or(30),
+    };
+    super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
+    Ok(problem)
+}

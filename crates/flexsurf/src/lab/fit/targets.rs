@@ -1,0 +1,210 @@
+//! What a fit can be asked to explain, and the model's value of each with its exact derivatives in the free
+//! constants.
+//!
+//! - **Peirce bending length** (warp, weft, bias): the virtual cantilever of [`crate::lab::cantilever`], the
+//!   overhang `L*` at which the grid-extrapolated chord angle `Θ = 2θ_fine − θ_coarse` is 41.5°, halved. By the
+//!   implicit function theorem `dc/dp = −½ (∂Θ/∂p) / (∂Θ/∂L)`; `∂Θ/∂p` is the adjoint of both static solves
+//!   ([`super::adjoint`]), `∂Θ/∂L` (the overhang is geometry, not a constant of the energy) a central difference
+//!   of two solves at `L*(1 ± 1e-4)`, one factor common to every constant.
+//! - **KES-F characteristic values** (B warp/weft, G, tensile warp/weft/bias, W): what the Kawabata instruments
+//!   read, which the virtual KES round trip returns to 2e-4 (docs/materials.md): the constants themselves, and on
+//!   the bias the orthotropic `4 / (1/E1 + 1/E2 + 1/G − 2ν12/E1)`; closed forms, differentiated exactly.
+
+use super::adjoint::Equilibrium;
+use super::calib::Constant;
+use crate::lab::cantilever::{hang_pair, secant_on_log, strip_rigidity, Direction, Strip, G, PEIRCE_ANGLE};
+use crate::lab::LabError;
+use crate::material::{Calibration, Fabric, Stiffness};
+use serde::Serialize;
+
+/// A KES-F characteristic value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KesValue {
+    /// B along warp (N·m).
+    BendingWarp,
+    /// B along weft (N·m).
+    BendingWeft,
+    /// G (N/m per rad).
+    Shear,
+    /// Tensile stiffness along warp (N/m).
+    TensileWarp,
+    /// Tensile stiffness along weft (N/m).
+    TensileWeft,
+    /// Tensile stiffness on the 45° bias (N/m).
+    TensileBias,
+    /// W, the areal density (kg/m²).
+    Weight,
+}
+
+/// What a target measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// The Peirce bending length `c` (m) of a strip cut this way.
+    BendingLength(Direction),
+    /// A KES-F value.
+    Kes(KesValue),
+}
+
+impl Quantity {
+    /// The name a fit file and a report use.
+    pub fn name(self) -> String {
+        match self {
+            Quantity::BendingLength(d) => format!("bending_length.{}", direction_name(d)),
+            Quantity::Kes(k) => format!("kes.{}", kes_name(k)),
+        }
+    }
+}
+
+/// `warp`, `weft` or `bias`.
+pub fn direction_name(d: Direction) -> &'static str {
+    match d {
+        Direction::Warp => "warp",
+        Direction::Weft => "weft",
+        Direction::Bias => "bias",
+    }
+}
+
+/// The fit file's name of a KES value.
+pub fn kes_name(k: KesValue) -> &'static str {
+    match k {
+        KesValue::BendingWarp => "bending_warp",
+        KesValue::BendingWeft => "bending_weft",
+        KesValue::Shear => "shear",
+        KesValue::TensileWarp => "tensile_warp",
+        KesValue::TensileWeft => "tensile_weft",
+        KesValue::TensileBias => "tensile_bias",
+        KesValue::Weight => "weight",
+    }
+}
+
+/// A measured value the fit explains.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Target {
+    /// What was measured.
+    pub quantity: Quantity,
+    /// The measured value (SI).
+    pub value: f64,
+    /// Its standard uncertainty (SI, positive).
+    pub sigma: f64,
+}
+
+/// The virtual cantilever's grids (node columns of the coarse and the fine strip; the fine strip's cells are half
+/// the coarse one's, `fine = 2·coarse − 2`, for the extrapolation `2θ_fine − θ_coarse`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Instrument {
+    /// Node columns of the coarse and the fine strip ([`crate::lab::cantilever::COLUMNS`] as the test runs).
+    pub columns: (usize, usize),
+}
+
+impl Default for Instrument {
+    fn default() -> Self {
+        Self { columns: crate::lab::cantilever::COLUMNS }
+    }
+}
+
+/// A bending length and its derivatives.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BendingLength {
+    /// `c = L*/2` (m).
+    pub value: f64,
+    /// `dc/dp` for each free constant.
+    pub gradient: Vec<f64>,
+    /// `∂Θ/∂L` at `L*` (degrees per m).
+    pub dtheta_dl: f64,
+}
+
+/// The extrapolated chord angle `Θ(L)` (degrees).
+fn theta(f: &Fabric, s: &Stiffness, strip: Strip, l: f64, ins: &Instrument) -> Result<f64, LabError> {
+    let (c, fi) = hang_pair(f, s, strip, l, ins.columns)?;
+    Ok(2.0 * fi.angle - c.angle)
+}
+
+/// The Peirce bending length of `f` on `strip` and (with `free` not empty) its derivatives in `free`.
+pub fn bending_length(
+    f: &Fabric,
+    calibration: Calibration,
+    strip: Strip,
+    free: &[Constant],
+    ins: &Instrument,
+) -> Result<BendingLength, LabError> {
+    let s = Stiffness::calibrate(f, calibration)?;
+    let peirce = 2.0 * (strip_rigidity(f, strip.direction)? / (f.density * G)).cbrt();
+    let f0 = theta(f, &s, strip, peirce, ins)? - PEIRCE_ANGLE;
+    let l = secant_on_log((peirce, f0), 30, (1e-11, 1e-15), |l| theta(f, &s, strip, l, ins).map(|t| t - PEIRCE_ANGLE))?;
+    if free.is_empty() {
+        return Ok(BendingLength { value: 0.5 * l, gradient: Vec::new(), dtheta_dl: f64::NAN });
+    }
+    let (coarse, fine) = hang_pair(f, &s, strip, l, ins.columns)?;
+    let mut dtheta = vec![0.0; free.len()];
+    for (h, weight) in [(&coarse, -1.0), (&fine, 2.0)] {
+        let mut eq = Equilibrium::new(&h.specimen.builder, &h.model, &h.x)?;
+        for (d, v) in dtheta.iter_mut().zip(eq.sensitivities(&h.angle_gradient(), free, calibration)?) {
+            *d += weight * v;
+        }
+    }
+    let dl = 1e-4 * l;
+    let dtheta_dl = (theta(f, &s, strip, l + dl, ins)? - theta(f, &s, strip, l - dl, ins)?) / (2.0 * dl);
+    let gradient = dtheta.iter().map(|d| -0.5 * d / dtheta_dl).collect();
+    Ok(BendingLength { value: 0.5 * l, gradient, dtheta_dl })
+}
+
+/// A KES value of `f` and its derivatives in `free`.
+pub fn kes_value(f: &Fabric, k: KesValue, free: &[Constant]) -> (f64, Vec<f64>) {
+    let direct = |c: Constant| -> (f64, Vec<f64>) {
+        let v = c.get(f).unwrap_or(f64::NAN);
+        (v, free.iter().map(|&p| if p == c { 1.0 } else { 0.0 }).collect())
+    };
+    match k {
+        KesValue::BendingWarp => direct(Constant::BendingWarp),
+        KesValue::BendingWeft => direct(Constant::BendingWeft),
+        KesValue::Shear => direct(Constant::Shear),
+        KesValue::TensileWarp => direct(Constant::TensileWarp),
+        KesValue::TensileWeft => direct(Constant::TensileWeft),
+        KesValue::Weight => direct(Constant::Density),
+        KesValue::TensileBias => {
+            let (e1, e2, g, nu) = (f.tensile_warp, f.tensile_weft, f.shear, f.poisson);
+            let sum = 1.0 / e1 + 1.0 / e2 + 1.0 / g - 2.0 * nu / e1;
+            let d = |p: Constant| match p {
+                Constant::TensileWarp => (2.0 * nu - 1.0) / (e1 * e1),
+                Constant::TensileWeft => -1.0 / (e2 * e2),
+                Constant::Shear => -1.0 / (g * g),
+                _ => 0.0,
+            };
+            (4.0 / sum, free.iter().map(|&p| -4.0 / (sum * sum) * d(p)).collect())
+        }
+    }
+}
+
+/// The model's values of `targets` for `f` and (row per target) their derivatives in `free`. Bending lengths of
+/// one direction are computed once.
+pub fn evaluate(
+    f: &Fabric,
+    calibration: Calibration,
+    free: &[Constant],
+    targets: &[Target],
+    ins: &Instrument,
+) -> Result<(Vec<f64>, Vec<Vec<f64>>), LabError> {
+    let mut lengths: Vec<(Direction, BendingLength)> = Vec::new();
+    let mut values = Vec::with_capacity(targets.len());
+    let mut rows = Vec::with_capacity(targets.len());
+    for t in targets {
+        let (v, row) = match t.quantity {
+            Quantity::BendingLength(d) => {
+                let i = match lengths.iter().position(|(e, _)| *e == d) {
+                    Some(i) => i,
+                    None => {
+                        lengths.push((d, bending_length(f, calibration, Strip::new(d), free, ins)?));
+                        lengths.len() - 1
+                    }
+                };
+                (lengths[i].1.value, lengths[i].1.gradient.clone())
+            }
+            Quantity::Kes(k) => kes_value(f, k, free),
+        };
+        values.push(v);
+        rows.push(row);
+    }
+    Ok((values, rows))
+}
