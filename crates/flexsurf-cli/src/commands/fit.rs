@@ -71,7 +71,13 @@ fn print_report(p: &FitProblem, r: &FitReport, file: &Path) {
     for t in &r.residuals {
         println!("{:<22} {:>13.6e} {:>13.6e} {:>11.3e} {:>9.3}", t.target, t.measured, t.model, t.sigma, t.normalised);
     }
-    println!("χ² = {:.4e} with {} degrees of freedom; singular values {:.3e?}", r.chi_squared, r.degrees_of_freedom, r.singular_values);
+    let sv: Vec<String> = r.singular_values.iter().map(|s| format!("{s:.3e}")).collect();
+    println!(
+        "χ² = {:.4e} with {} degrees of freedom; singular values {}",
+        r.chi_squared,
+        r.degrees_of_freedom,
+        sv.join(", ")
+    );
     if !r.not_identifiable.is_empty() {
         println!("not identifiable from these targets: {}", r.not_identifiable.join(", "));
     }

@@ -41,8 +41,8 @@ mod values;
 
 pub use budget::Limits;
 pub use build::{Scene, SceneReport, SewingInfo};
-pub use error::{SceneError, SceneWarning};
 pub(crate) use error::parse_toml;
+pub use error::{SceneError, SceneWarning};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use initial::{InitialCondition, InitialSpec};
 pub use material::{MaterialSpec, Preset, Units};

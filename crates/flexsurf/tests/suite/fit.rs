@@ -47,11 +47,14 @@ fn calibration_jacobian_is_the_derivative_of_the_calibration() {
         for &c in consts {
             let d = jacobian(&fab, c, Calibration::Kes).unwrap();
             for k in 0..COEFFICIENTS {
-                let fd = central(&fab, c, 1e-6, |g| {
-                    coefficients(&Stiffness::calibrate(g, Calibration::Kes).unwrap(), g)[k]
-                });
+                let fd =
+                    central(&fab, c, 1e-6, |g| coefficients(&Stiffness::calibrate(g, Calibration::Kes).unwrap(), g)[k]);
                 let scale = d[k].abs().max(fd.abs()).max(1e-300);
-                assert!((d[k] - fd).abs() <= 1e-7 * scale + 1e-12 * fd.abs(), "{c:?} coefficient {k}: {} vs {fd}", d[k]);
+                assert!(
+                    (d[k] - fd).abs() <= 1e-7 * scale + 1e-12 * fd.abs(),
+                    "{c:?} coefficient {k}: {} vs {fd}",
+                    d[k]
+                );
             }
         }
     }
@@ -96,7 +99,11 @@ fn adjoint_sensitivities_agree_with_central_differences() {
         for (k, &c) in free.iter().enumerate() {
             let fd = central(&f, c, 1e-4, |g| chord(g, strip, l, &[]).0) * c.get(&f).unwrap();
             let err = (adj[k] - fd).abs() / top;
-            eprintln!("{d:?} θ = {theta:.6}°, dΘ/dln {}: adjoint {:.10e}, FD {fd:.10e}, error {err:.1e}", c.key(), adj[k]);
+            eprintln!(
+                "{d:?} θ = {theta:.6}°, dΘ/dln {}: adjoint {:.10e}, FD {fd:.10e}, error {err:.1e}",
+                c.key(),
+                adj[k]
+            );
             assert!(err < 1e-6, "{d:?} {c:?}: adjoint {:e} vs FD {fd:e} ({err:.1e} of the largest)", adj[k]);
         }
     }
@@ -148,7 +155,10 @@ fn problem(truth: &Fabric, noise: [f64; 4], rel_sigma: f64) -> FitProblem {
     FitProblem {
         fabric: start,
         calibration: Calibration::Kes,
-        free: free.iter().map(|&c| Free { constant: c, lower: c.get(truth).unwrap() / 50.0, upper: c.get(truth).unwrap() * 50.0 }).collect(),
+        free: free
+            .iter()
+            .map(|&c| Free { constant: c, lower: c.get(truth).unwrap() / 50.0, upper: c.get(truth).unwrap() * 50.0 })
+            .collect(),
         targets,
         instrument: SMALL,
         max_iterations: 30,
@@ -164,7 +174,13 @@ fn fit_round_trip_recovers_the_constants() {
     assert!(r.converged && r.not_identifiable.is_empty(), "{r:#?}");
     for c in &r.constants {
         let t = Constant::from_key(c.name).unwrap().get(&truth).unwrap();
-        eprintln!("  {}: {:.6e} (truth {t:.6e}, error {:.1e}, se {:.1e})", c.name, c.value, c.value / t - 1.0, c.log_standard_error);
+        eprintln!(
+            "  {}: {:.6e} (truth {t:.6e}, error {:.1e}, se {:.1e})",
+            c.name,
+            c.value,
+            c.value / t - 1.0,
+            c.log_standard_error
+        );
         assert!((c.value / t - 1.0).abs() < 1e-3, "{}: {} vs {t}", c.name, c.value);
     }
     // With noise of 1 sd 0.1 % on every target (fixed draws): within 1 %, and the truth within 3 standard errors.
@@ -174,7 +190,12 @@ fn fit_round_trip_recovers_the_constants() {
     for c in &r.constants {
         let t = Constant::from_key(c.name).unwrap().get(&truth).unwrap();
         let z = (c.value - t) / c.standard_error;
-        eprintln!("  {}: error {:.2e}, se {:.2e} (relative), truth at {z:.2} se", c.name, c.value / t - 1.0, c.log_standard_error);
+        eprintln!(
+            "  {}: error {:.2e}, se {:.2e} (relative), truth at {z:.2} se",
+            c.name,
+            c.value / t - 1.0,
+            c.log_standard_error
+        );
         assert!((c.value / t - 1.0).abs() < 1e-2, "{}: {} vs {t}", c.name, c.value);
         assert!(z.abs() < 3.0, "{}: the truth lies {z:.2} standard errors off", c.name);
     }

@@ -42,7 +42,8 @@ fn linear(e: crate::integrate::linsolve::LinearError) -> LabError {
 impl<'a> Equilibrium<'a> {
     /// The equilibrium `x` of `model`, built by `builder`: assembles the exact Hessian at `x`.
     pub fn new(builder: &'a ModelBuilder, model: &'a Model, x: &'a [Vec3]) -> Result<Self, LabError> {
-        let solver = LinearSolver::new(SolverKind::Cholesky, model.potential.pattern(), &model.panels).map_err(linear)?;
+        let solver =
+            LinearSolver::new(SolverKind::Cholesky, model.potential.pattern(), &model.panels).map_err(linear)?;
         let mut ws = Workspace::new(&model.potential);
         model.potential.cold(&mut ws);
         let want = Want { grad: true, hess: Some(Operator::Exact) };
@@ -105,10 +106,8 @@ impl<'a> Equilibrium<'a> {
         calibration: Calibration,
     ) -> Result<Vec<f64>, LabError> {
         let lam = self.adjoint(dq_dx)?;
-        let jac = constants
-            .iter()
-            .map(|&c| jacobian(&self.builder.fabric, c, calibration))
-            .collect::<Result<Vec<_>, _>>()?;
+        let jac =
+            constants.iter().map(|&c| jacobian(&self.builder.fabric, c, calibration)).collect::<Result<Vec<_>, _>>()?;
         let mut out = vec![0.0; constants.len()];
         for k in 0..COEFFICIENTS {
             if jac.iter().all(|j| j[k] == 0.0) {

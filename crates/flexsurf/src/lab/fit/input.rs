@@ -78,9 +78,7 @@ fn constant_si(c: Constant, u: FitUnits, v: f64) -> f64 {
         (FitUnits::Kes, Constant::Density) => units::density_from_kes(v),
         (FitUnits::Kes, Constant::TensileWarp | Constant::TensileWeft) => units::tension_from_kes(v),
         (FitUnits::Kes, Constant::Shear) => units::shear_from_kes(v),
-        (FitUnits::Kes, Constant::BendingWarp | Constant::BendingWeft | Constant::Twist) => {
-            units::bending_from_kes(v)
-        }
+        (FitUnits::Kes, Constant::BendingWarp | Constant::BendingWeft | Constant::Twist) => units::bending_from_kes(v),
     }
 }
 
@@ -177,7 +175,9 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         calibration: spec.calibration,
         free,
         targets,
-        instrument: spec.columns.map_or_else(Instrument::default, |c| Instrument { columns: (c, (2 * c).saturating_sub(2)) }),
+        instrument: spec
+            .columns
+            .map_or_else(Instrument::default, |c| Instrument { columns: (c, (2 * c).saturating_sub(2)) }),
         max_iterations: spec.max_iterations.unwrap_or(30),
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;

@@ -43,20 +43,36 @@ fn normal(at: &Evaluation, n: usize) -> (Mat<f64>, Vec<f64>) {
     (a, g)
 }
 
-/// The Levenberg–Marquardt step `(A + μ (diag A + ε)) δ = −g`, `None` where the matrix cannot be factorised.
-fn step(a: &Mat<f64>, g: &[f64], mu: f64) -> Option<Vec<f64>> {
-    let n = g.len();
-    let big = (0..n).map(|p| a[(p, p)]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
-    let m = Mat::from_fn(n, n, |p, q| if p == q { a[(p, p)] + mu * (a[(p, p)] + 1e-12 * big) } else { a[(p, q)] });
+/// The Levenberg–Marquardt step `(A + μ (diag A + ε)) δ = −g` on the parameters not held (`held`: at a bound
+/// the gradient pushes against; their step is zero), `None` where the matrix cannot be factorised.
+fn step(a: &Mat<f64>, g: &[f64], mu: f64, held: &[bool]) -> Option<Vec<f64>> {
+    let idx: Vec<usize> = (0..g.len()).filter(|&p| !held[p]).collect();
+    let n = idx.len();
+    let mut out = vec![0.0; g.len()];
+    if n == 0 {
+        return Some(out);
+    }
+    let big = idx.iter().map(|&p| a[(p, p)]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let m = Mat::from_fn(n, n, |p, q| {
+        let (p, q) = (idx[p], idx[q]);
+        if p == q {
+            a[(p, p)] + mu * (a[(p, p)] + 1e-12 * big)
+        } else {
+            a[(p, q)]
+        }
+    });
     let llt = m.llt(Side::Lower).ok()?;
-    let rhs = Mat::from_fn(n, 1, |p, _| -g[p]);
+    let rhs = Mat::from_fn(n, 1, |p, _| -g[idx[p]]);
     let d = llt.solve(&rhs);
-    Some((0..n).map(|p| d[(p, 0)]).collect())
+    for (k, &p) in idx.iter().enumerate() {
+        out[p] = d[(k, 0)];
+    }
+    Some(out)
 }
 
 /// Minimises `½|r(θ)|²` over `lower ≤ θ ≤ upper` from `theta` (clamped into the box): Levenberg–Marquardt
-/// with Marquardt's diagonal scaling, each trial point projected onto the bounds, accepted when it lowers the
-/// cost.
+/// with Marquardt's diagonal scaling, parameters on a bound that the gradient pushes against held there, each
+/// trial point projected onto the bounds, accepted when it lowers the cost.
 pub fn minimise<E>(
     theta: &[f64],
     (lower, upper): (&[f64], &[f64]),
@@ -75,7 +91,9 @@ pub fn minimise<E>(
             converged = true;
             break;
         }
-        let Some(d) = step(&a, &g, mu) else {
+        let held: Vec<bool> =
+            (0..n).map(|p| (theta[p] <= lower[p] && g[p] > 0.0) || (theta[p] >= upper[p] && g[p] < 0.0)).collect();
+        let Some(d) = step(&a, &g, mu, &held) else {
             mu *= 10.0;
             continue;
         };
