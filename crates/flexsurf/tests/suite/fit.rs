@@ -7,10 +7,14 @@ use flexsurf::lab::cantilever::{Direction, Strip};
 use flexsurf::lab::fit::adjoint::Equilibrium;
 use flexsurf::lab::fit::calib::{coefficients, jacobian, Constant, COEFFICIENTS};
 use flexsurf::lab::fit::targets::{bending_length, evaluate};
-use flexsurf::lab::fit::{fit, FitProblem, Free, Instrument, KesValue, Quantity, Target};
+use flexsurf::lab::fit::{fit, FitProblem, Free, Instrument, KesValue, Quantity, Target, Warm};
 use flexsurf::material::{units, Calibration, Fabric, Stiffness};
 
-const SMALL: Instrument = Instrument { columns: (18, 34) };
+/// Small instruments: strips of 18 and 34 node columns, a 24 cm drape specimen on the level-0 grid.
+fn small() -> Instrument {
+    let specimen = 0.24;
+    Instrument { columns: (18, 34), specimen, drape_grid: flexsurf::lab::cusick::default_polar(specimen, 0) }
+}
 
 /// A light woven (issue 21's medium fabric) with Poisson couplings, so every entry of the Jacobian is exercised.
 fn woven() -> Fabric {
@@ -65,7 +69,7 @@ fn calibration_jacobian_is_the_derivative_of_the_calibration() {
 /// The extrapolated chord angle `2θ_fine − θ_coarse` of `strip` at overhang `l`, and its adjoint gradient.
 fn chord(f: &Fabric, strip: Strip, l: f64, free: &[Constant]) -> (f64, Vec<f64>) {
     let s = Stiffness::calibrate(f, Calibration::Kes).unwrap();
-    let (coarse, fine) = flexsurf::lab::cantilever::hang_pair(f, &s, strip, l, SMALL.columns).unwrap();
+    let (coarse, fine) = flexsurf::lab::cantilever::hang_pair(f, &s, strip, l, small().columns).unwrap();
     let mut grad = vec![0.0; free.len()];
     for (h, w) in [(&coarse, -1.0), (&fine, 2.0)] {
         let mut eq = Equilibrium::new(&h.specimen.builder, &h.model, &h.x).unwrap();
@@ -116,11 +120,11 @@ fn bending_length_derivatives_agree_with_central_differences() {
     let f = woven();
     let free = [Constant::Density, Constant::Shear, Constant::BendingWarp];
     let strip = Strip::new(Direction::Warp);
-    let b = bending_length(&f, Calibration::Kes, strip, &free, &SMALL).unwrap();
+    let b = bending_length(&f, Calibration::Kes, strip, &free, &small()).unwrap();
     let adj: Vec<f64> = free.iter().zip(&b.gradient).map(|(c, g)| g * c.get(&f).unwrap()).collect();
     let top = adj.iter().fold(0.0, |a: f64, b| a.max(b.abs()));
     for (k, &c) in free.iter().enumerate() {
-        let fd = central(&f, c, 1e-4, |g| bending_length(g, Calibration::Kes, strip, &[], &SMALL).unwrap().value)
+        let fd = central(&f, c, 1e-4, |g| bending_length(g, Calibration::Kes, strip, &[], &small()).unwrap().value)
             * c.get(&f).unwrap();
         let err = (adj[k] - fd).abs() / top;
         eprintln!("c = {:.9} m, dc/dln {}: adjoint {:.10e}, FD {fd:.10e}, error {err:.1e}", b.value, c.key(), adj[k]);
@@ -140,7 +144,7 @@ fn problem(truth: &Fabric, noise: [f64; 4], rel_sigma: f64) -> FitProblem {
         Quantity::Kes(KesValue::Weight),
     ];
     let probe: Vec<Target> = quantities.iter().map(|&q| Target { quantity: q, value: 1.0, sigma: 1.0 }).collect();
-    let (values, _) = evaluate(truth, Calibration::Kes, &[], &probe, &SMALL).unwrap();
+    let (values, _) = evaluate(truth, Calibration::Kes, &[], &probe, &small(), &mut Warm::default()).unwrap();
     let targets = quantities
         .iter()
         .zip(&values)
@@ -160,7 +164,7 @@ fn problem(truth: &Fabric, noise: [f64; 4], rel_sigma: f64) -> FitProblem {
             .map(|&c| Free { constant: c, lower: c.get(truth).unwrap() / 50.0, upper: c.get(truth).unwrap() * 50.0 })
             .collect(),
         targets,
-        instrument: SMALL,
+        instrument: small(),
         max_iterations: 30,
     }
 }
@@ -242,5 +246,31 @@ fn fit_file_errors_name_the_file_and_the_key() {
         let e = problem_from_toml(&text, &file).unwrap_err();
         let m = e.to_string();
         assert!(m.contains("fit.toml") && m.contains(key), "{m}");
+    }
+}
+
+/// The hem drape coefficient's adjoint sensitivities against central differences of static solves continued from
+/// the drape (the same fold pattern), on a small drape meter.
+#[test]
+fn drape_coefficient_sensitivities_agree_with_central_differences() {
+    use flexsurf::lab::fit::targets::drape_coefficient;
+    let f = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
+    let ins = small();
+    let free = [Constant::Density, Constant::Shear, Constant::BendingWarp, Constant::BendingWeft];
+    let mut warm = Warm::default();
+    let t0 = std::time::Instant::now();
+    let (dc, grad) = drape_coefficient(&f, Calibration::Kes, &free, &ins, &mut warm).unwrap();
+    eprintln!("DC {dc:.4} % in {:.2} s", t0.elapsed().as_secs_f64());
+    assert!(dc > 30.0 && dc < 100.0, "{dc}");
+    let adj: Vec<f64> = free.iter().zip(&grad).map(|(c, g)| g * c.get(&f).unwrap()).collect();
+    let top = adj.iter().fold(0.0, |a: f64, b| a.max(b.abs()));
+    for (k, &c) in free.iter().enumerate() {
+        let fd = central(&f, c, 1e-4, |g| {
+            let mut w = warm.clone();
+            drape_coefficient(g, Calibration::Kes, &[], &ins, &mut w).unwrap().0
+        }) * c.get(&f).unwrap();
+        let err = (adj[k] - fd).abs() / top;
+        eprintln!("dDC/dln {}: adjoint {:.10e}, FD {fd:.10e}, error {err:.1e}", c.key(), adj[k]);
+        assert!(err < 1e-6, "{c:?}: adjoint {:e} vs FD {fd:e} ({err:.1e} of the largest)", adj[k]);
     }
 }

@@ -6,6 +6,8 @@
 //! units = "kes"          # of bounds, starts and targets: "si" (default) or "kes" (see below)
 //! max_iterations = 30    # Levenberg–Marquardt iterations (default 30)
 //! columns = 66           # node columns of the virtual cantilever's coarse strip (the fine one has 2·66 − 2)
+//! drape_specimen = 0.30  # the drape meter's specimen diameter (m; default 0.30)
+//! drape_level = 1        # its grid level, as `flexsurf test cusick --level` (0, 1, 2; default 1)
 //!
 //! [free.bending_warp]    # density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist
 //! lower = 0.01           # default: start / 100
@@ -14,7 +16,7 @@
 //!
 //! [[target]]
 //! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
-//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}
+//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%)
 //! sigma = 0.02                       # the value's standard uncertainty
 //! ```
 //!
@@ -50,6 +52,8 @@ struct FitSpec {
     units: FitUnits,
     max_iterations: Option<usize>,
     columns: Option<usize>,
+    drape_specimen: Option<f64>,
+    drape_level: Option<usize>,
     free: BTreeMap<String, FreeSpec>,
     #[serde(default)]
     target: Vec<TargetSpec>,
@@ -86,6 +90,9 @@ fn constant_si(c: Constant, u: FitUnits, v: f64) -> f64 {
 fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, fn(f64) -> f64)> {
     let kes = u == FitUnits::Kes;
     let id = |v: f64| v;
+    if name == "cusick.dc" {
+        return Some((Quantity::DrapeCoefficient, id));
+    }
     if let Some(d) = name.strip_prefix("bending_length.") {
         let d = match d {
             "warp" => Direction::Warp,
@@ -108,6 +115,17 @@ fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, fn(f64) -> f64)> {
     Some((Quantity::Kes(k), if kes { conv } else { id }))
 }
 
+/// The instruments a fit file asks for (checked by [`problem_from_toml`]).
+fn instrument(spec: &FitSpec) -> Instrument {
+    let mut ins = Instrument::default();
+    if let Some(c) = spec.columns {
+        ins.columns = (c, (2 * c).saturating_sub(2));
+    }
+    ins.specimen = spec.drape_specimen.unwrap_or(ins.specimen);
+    ins.drape_grid = crate::lab::cusick::default_polar(ins.specimen, spec.drape_level.unwrap_or(1));
+    ins
+}
+
 /// Reads a fit file.
 pub fn load_fit_file(path: &Path) -> Result<FitProblem, SceneError> {
     let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
@@ -120,6 +138,12 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
     let bad = |key: String, message: String| SceneError::invalid(file, key, message);
     if spec.columns.is_some_and(|c| !(4..=100_000).contains(&c)) {
         return Err(bad("columns".into(), "must be 4 to 100000 node columns".into()));
+    }
+    if spec.drape_specimen.is_some_and(|d| !(d.is_finite() && d > crate::lab::cusick::DISC && d <= 2.0)) {
+        return Err(bad("drape_specimen".into(), "must be a diameter (m) above the 0.18 m disc, at most 2 m".into()));
+    }
+    if spec.drape_level.is_some_and(|l| l > 2) {
+        return Err(bad("drape_level".into(), "must be 0, 1 or 2".into()));
     }
     let material_path = crate::scene::material::relative_to(file, &spec.material);
     let m = load_material_file(&material_path).map_err(|e| match e {
@@ -175,9 +199,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         calibration: spec.calibration,
         free,
         targets,
-        instrument: spec
-            .columns
-            .map_or_else(Instrument::default, |c| Instrument { columns: (c, (2 * c).saturating_sub(2)) }),
+        instrument: instrument(&spec),
         max_iterations: spec.max_iterations.unwrap_or(30),
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;

@@ -10,7 +10,7 @@ mod lm;
 pub mod targets;
 
 pub use calib::Constant;
-pub use targets::{evaluate, Instrument, KesValue, Quantity, Target};
+pub use targets::{evaluate, Instrument, KesValue, Quantity, Target, Warm};
 
 use super::LabError;
 use crate::material::{Calibration, Fabric};
@@ -157,9 +157,10 @@ pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
     let start: Vec<f64> = p.free.iter().map(|f| f.constant.get(&p.fabric).unwrap_or(f64::NAN).ln()).collect();
     let lower: Vec<f64> = p.free.iter().map(|f| f.lower.ln()).collect();
     let upper: Vec<f64> = p.free.iter().map(|f| f.upper.ln()).collect();
+    let mut warm = Warm::default();
     let residuals = |theta: &[f64]| -> Result<lm::Evaluation, LabError> {
         let f = with_theta(&p.fabric, &p.free, theta);
-        let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument)?;
+        let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, &mut warm)?;
         let r = values.iter().zip(&p.targets).map(|(v, t)| (v - t.value) / t.sigma).collect();
         let j = rows
             .iter()

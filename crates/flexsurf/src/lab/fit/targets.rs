@@ -14,8 +14,12 @@ use super::adjoint::Equilibrium;
 use super::calib::Constant;
 use crate::lab::cantilever::{hang_pair, secant_on_log, strip_rigidity, Direction, Strip, G, PEIRCE_ANGLE};
 use crate::lab::LabError;
+use crate::lab::cusick::{cusick_settled, default_polar, equilibrate, specimen_builder, PolarGrid, Settle, DISC};
 use crate::material::{Calibration, Fabric, Stiffness};
+use crate::math::Vec3;
+use crate::model::Model;
 use serde::Serialize;
+use std::f64::consts::PI;
 
 /// A KES-F characteristic value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -45,6 +49,8 @@ pub enum Quantity {
     BendingLength(Direction),
     /// A KES-F value.
     Kes(KesValue),
+    /// The Cusick drape coefficient (%) of the virtual drape meter, from its hem polygon ([`drape_coefficient`]).
+    DrapeCoefficient,
 }
 
 impl Quantity {
@@ -53,6 +59,7 @@ impl Quantity {
         match self {
             Quantity::BendingLength(d) => format!("bending_length.{}", direction_name(d)),
             Quantity::Kes(k) => format!("kes.{}", kes_name(k)),
+            Quantity::DrapeCoefficient => "cusick.dc".into(),
         }
     }
 }
@@ -90,18 +97,32 @@ pub struct Target {
     pub sigma: f64,
 }
 
-/// The virtual cantilever's grids (node columns of the coarse and the fine strip; the fine strip's cells are half
-/// the coarse one's, `fine = 2·coarse − 2`, for the extrapolation `2θ_fine − θ_coarse`).
+/// The virtual instruments: the cantilever's grids (node columns of the coarse and the fine strip; the fine
+/// strip's cells are half the coarse one's, `fine = 2·coarse − 2`, for the extrapolation `2θ_fine − θ_coarse`)
+/// and the drape meter's specimen and grid.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Instrument {
     /// Node columns of the coarse and the fine strip ([`crate::lab::cantilever::COLUMNS`] as the test runs).
     pub columns: (usize, usize),
+    /// The drape meter's specimen diameter (m).
+    pub specimen: f64,
+    /// The drape meter's polar grid.
+    pub drape_grid: PolarGrid,
 }
 
 impl Default for Instrument {
     fn default() -> Self {
-        Self { columns: crate::lab::cantilever::COLUMNS }
+        let specimen = 0.30;
+        Self { columns: crate::lab::cantilever::COLUMNS, specimen, drape_grid: default_polar(specimen, 1) }
     }
+}
+
+/// What carries over between evaluations of a fit: the last drape, which starts the next one's static solve
+/// (the same fold pattern followed as the constants change, instead of a new relaxation that may pick another).
+#[derive(Debug, Clone, Default)]
+pub struct Warm {
+    /// The last drape's positions.
+    pub drape: Option<Vec<Vec3>>,
 }
 
 /// A bending length and its derivatives.
@@ -177,15 +198,74 @@ pub fn kes_value(f: &Fabric, k: KesValue, free: &[Constant]) -> (f64, Vec<f64>) 
     }
 }
 
+/// The drape coefficient (%) of the drape `x` of `model` from its hem polygon, `100 (A_hem − A_disc) /
+/// (A_flat − A_disc)` (`A_hem` the area the hem's xy projection encloses, `A_flat` the flat hem's), and its
+/// gradient in the node positions. The drape meter's shadow is the area inside the hem where the hem is the
+/// outermost part of the drape and its projection does not cross itself (as on a meter's drapes); this smooth
+/// reading is what an adjoint can differentiate, where `flexsurf test cusick` rasterises the display surface.
+pub fn hem_drape_coefficient(model: &Model, x: &[Vec3]) -> Result<(f64, Vec<Vec3>), LabError> {
+    let grid = model.sheet_grid().copied().ok_or_else(|| LabError::Input("drape: not one polar sheet".into()))?;
+    let (m, n) = (grid.m, grid.n);
+    let hem: Vec<usize> = (0..n).map(|j| grid.index(m - 1, j)).collect();
+    let area = |p: &dyn Fn(usize) -> Vec3| -> f64 {
+        0.5 * (0..n).map(|j| p(hem[j]).x * p(hem[(j + 1) % n]).y - p(hem[(j + 1) % n]).x * p(hem[j]).y).sum::<f64>()
+    };
+    let a_disc = PI * 0.25 * DISC * DISC;
+    let flat = area(&|k| model.rest[k]) - a_disc;
+    let dc = 100.0 * (area(&|k| x[k]) - a_disc) / flat;
+    let mut g = vec![Vec3::ZERO; x.len()];
+    for j in 0..n {
+        let (prev, next) = (x[hem[(j + n - 1) % n]], x[hem[(j + 1) % n]]);
+        g[hem[j]] = Vec3::new(next.y - prev.y, prev.x - next.x, 0.0) * (50.0 / flat);
+    }
+    Ok((dc, g))
+}
+
+/// Static-solve tolerance of the drape (largest nodal force imbalance in largest nodal weights).
+pub const DRAPE_TOLERANCE: f64 = 1e-9;
+
+/// The hem drape coefficient (%) of `f` on the drape meter of `ins` and its derivatives in `free`: the drape
+/// continues from `warm` by a static solve when there is one (else a relaxation from the flat specimen, as
+/// `flexsurf test cusick` drapes specimen 0), and is left in `warm` for the next.
+pub fn drape_coefficient(
+    f: &Fabric,
+    calibration: Calibration,
+    free: &[Constant],
+    ins: &Instrument,
+    warm: &mut Warm,
+) -> Result<(f64, Vec<f64>), LabError> {
+    let s = Stiffness::calibrate(f, calibration)?;
+    let builder = specimen_builder(f, s, ins.specimen, ins.drape_grid)?;
+    let model = builder.clone().build()?;
+    let continued = warm.drape.take().and_then(|mut x| equilibrate(&model, &mut x, DRAPE_TOLERANCE).ok().map(|_| x));
+    let x = match continued {
+        Some(x) => x,
+        None => {
+            let settle = Settle { equilibrium: Some(DRAPE_TOLERANCE), ..Settle::default() };
+            cusick_settled(f, calibration, ins.specimen, ins.drape_grid, 0, &settle)?.x
+        }
+    };
+    let (dc, dx) = hem_drape_coefficient(&model, &x)?;
+    let gradient = if free.is_empty() {
+        Vec::new()
+    } else {
+        Equilibrium::new(&builder, &model, &x)?.sensitivities(&dx, free, calibration)?
+    };
+    warm.drape = Some(x);
+    Ok((dc, gradient))
+}
+
 /// The model's values of `targets` for `f` and (row per target) their derivatives in `free`. Bending lengths of
-/// one direction are computed once.
+/// one direction are computed once; the drape continues from `warm`.
 pub fn evaluate(
     f: &Fabric,
     calibration: Calibration,
     free: &[Constant],
     targets: &[Target],
     ins: &Instrument,
+    warm: &mut Warm,
 ) -> Result<(Vec<f64>, Vec<Vec<f64>>), LabError> {
+    let mut drape: Option<(f64, Vec<f64>)> = None;
     let mut lengths: Vec<(Direction, BendingLength)> = Vec::new();
     let mut values = Vec::with_capacity(targets.len());
     let mut rows = Vec::with_capacity(targets.len());
@@ -202,6 +282,12 @@ pub fn evaluate(
                 (lengths[i].1.value, lengths[i].1.gradient.clone())
             }
             Quantity::Kes(k) => kes_value(f, k, free),
+            Quantity::DrapeCoefficient => {
+                if drape.is_none() {
+                    drape = Some(drape_coefficient(f, calibration, free, ins, warm)?);
+                }
+                drape.clone().unwrap_or_default()
+            }
         };
         values.push(v);
         rows.push(row);
