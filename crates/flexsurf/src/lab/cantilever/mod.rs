@@ -31,7 +31,7 @@ use super::LabError;
 use crate::lab::dense::Mat3;
 use crate::material::{Calibration, Fabric, Stiffness};
 use plate::{extrapolated, solve_pair};
-pub use plate::{hang_pair, Hanging, Specimen, COLUMNS};
+pub use plate::{hang_pair, hang_pair_from, Columns, Hanging, Specimen, COLUMNS};
 use serde::Serialize;
 
 /// Standard gravity of the test (m/s²).

@@ -16,8 +16,8 @@ pub(super) fn extrapolated(f: &Fabric, s: &Stiffness, strip: Strip, l: f64) -> R
     solve_pair(f, s, strip, l).map(|(a, b, c, _)| (a, b, c))
 }
 
-/// Columns of the fine solution.
-pub(crate) type Columns = Vec<[Vec3; Strip::ACROSS]>;
+/// Node columns of a solved strip, from the ledge edge to the tip, each across the width.
+pub type Columns = Vec<[Vec3; Strip::ACROSS]>;
 
 /// (extrapolated angle, fine angle, fine tip drop, fine columns) at overhang `l`. The coarse solution,
 /// interpolated along the strip, starts the fine solve.
@@ -77,23 +77,52 @@ pub fn hang_pair(
     l: f64,
     columns: (usize, usize),
 ) -> Result<(Hanging, Hanging), LabError> {
-    let k = strip_rigidity(f, strip.direction)?;
-    let shape = Elastica::new(f.density * G * l.powi(3) / k);
-    // Start from the heavy elastica of the strip's nominal rigidity (from a flat start Newton needs about a
-    // hundred damped steps).
-    let elastica = |sigma: f64, y: f64| {
-        let (sx, drop) = shape.at(sigma);
-        Vec3::new(sx * l, y, -drop * l)
-    };
-    let coarse = chord(f, s, strip, l, columns.0, &elastica)?;
-    let cols = coarse.columns();
-    let along = |sigma: f64, a: usize| {
-        let t = sigma * (cols.len() - 1) as f64;
-        let i = (t.floor() as usize).min(cols.len() - 2);
-        cols[i][a].lerp(cols[i + 1][a], t - i as f64)
-    };
+    hang_pair_from(f, s, strip, l, columns, None)
+}
+
+/// Interpolates `cols` (node columns from the ledge edge to the tip) at `σ` (arc length / overhang) across
+/// column `a`.
+fn along(cols: &Columns, sigma: f64, a: usize) -> Vec3 {
+    let t = sigma * (cols.len() - 1) as f64;
+    let i = (t.floor() as usize).min(cols.len() - 2);
+    cols[i][a].lerp(cols[i + 1][a], t - i as f64)
+}
+
+/// As [`hang_pair`], the coarse strip started from `start` (the node columns of a strip hanging at overhang
+/// `start.1`, stretched along to `l`) instead of the heavy elastica: for searches and fits that solve many
+/// nearby strips.
+pub fn hang_pair_from(
+    f: &Fabric,
+    s: &Stiffness,
+    strip: Strip,
+    l: f64,
+    columns: (usize, usize),
+    start: Option<(&Columns, f64)>,
+) -> Result<(Hanging, Hanging), LabError> {
     let hw = strip.width / (Strip::ACROSS - 1) as f64;
-    let from_coarse = |sigma: f64, y: f64| along(sigma, ((y + 0.5 * strip.width) / hw).round() as usize);
+    let across = |y: f64| ((y + 0.5 * strip.width) / hw).round() as usize;
+    let coarse = match start {
+        Some((cols, l0)) => {
+            let from = |sigma: f64, y: f64| {
+                let p = along(cols, sigma, across(y));
+                Vec3::new(p.x * l / l0, p.y, p.z * l / l0)
+            };
+            chord(f, s, strip, l, columns.0, &from)?
+        }
+        None => {
+            let k = strip_rigidity(f, strip.direction)?;
+            let shape = Elastica::new(f.density * G * l.powi(3) / k);
+            // Start from the heavy elastica of the strip's nominal rigidity (from a flat start Newton needs about
+            // a hundred damped steps).
+            let elastica = |sigma: f64, y: f64| {
+                let (sx, drop) = shape.at(sigma);
+                Vec3::new(sx * l, y, -drop * l)
+            };
+            chord(f, s, strip, l, columns.0, &elastica)?
+        }
+    };
+    let cols = coarse.columns();
+    let from_coarse = |sigma: f64, y: f64| along(&cols, sigma, across(y));
     let fine = chord(f, s, strip, l, columns.1, &from_coarse)?;
     Ok((coarse, fine))
 }
@@ -108,6 +137,8 @@ pub struct Specimen {
     weft: bool,
     /// Node columns.
     pub m: usize,
+    /// Overhang (m).
+    pub overhang: f64,
 }
 
 impl Specimen {
@@ -141,7 +172,7 @@ impl Specimen {
             builder.pinned[node(0, a)] = true;
             builder.pinned[node(1, a)] = true;
         }
-        Ok(Self { builder, grid, weft, m })
+        Ok(Self { builder, grid, weft, m, overhang: l })
     }
 
     /// The node of column `i` (0 and 1 clamped, `m − 1` the tip), `a` across.

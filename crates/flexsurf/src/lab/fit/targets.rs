@@ -12,7 +12,7 @@
 
 use super::adjoint::Equilibrium;
 use super::calib::Constant;
-use crate::lab::cantilever::{hang_pair, secant_on_log, strip_rigidity, Direction, Strip, G, PEIRCE_ANGLE};
+use crate::lab::cantilever::{hang_pair_from, strip_rigidity, Direction, Hanging, Strip, G, PEIRCE_ANGLE};
 use crate::lab::LabError;
 use crate::lab::cusick::{cusick_settled, default_polar, equilibrate, specimen_builder, PolarGrid, Settle, DISC};
 use crate::material::{Calibration, Fabric, Stiffness};
@@ -123,6 +123,8 @@ impl Default for Instrument {
 pub struct Warm {
     /// The last drape's positions.
     pub drape: Option<Vec<Vec3>>,
+    /// The last overhang `L*` (m) and `∂Θ/∂L` of each cantilever direction.
+    pub lengths: Vec<(Direction, f64, f64)>,
 }
 
 /// A bending length and its derivatives.
@@ -136,28 +138,67 @@ pub struct BendingLength {
     pub dtheta_dl: f64,
 }
 
-/// The extrapolated chord angle `Θ(L)` (degrees).
-fn theta(f: &Fabric, s: &Stiffness, strip: Strip, l: f64, ins: &Instrument) -> Result<f64, LabError> {
-    let (c, fi) = hang_pair(f, s, strip, l, ins.columns)?;
+/// The extrapolated chord angle `Θ(L)` (degrees), the strips started from `near` (a coarse strip at a nearby
+/// overhang).
+fn theta(f: &Fabric, s: &Stiffness, strip: Strip, l: f64, ins: &Instrument, near: &Hanging) -> Result<f64, LabError> {
+    let start = (&near.columns(), near.specimen.overhang);
+    let (c, fi) = hang_pair_from(f, s, strip, l, ins.columns, Some(start))?;
     Ok(2.0 * fi.angle - c.angle)
 }
 
-/// The Peirce bending length of `f` on `strip` and (with `free` not empty) its derivatives in `free`.
+/// The overhang `L*` where `Θ(L) = 41.5°`, by secant steps from `l0` and `l0 − f(l0)/slope` (a slope from the
+/// last evaluation of a fit) or `1.05 l0`, to `|Θ − 41.5°| < 1e-11°`; returns it with the strips solved there.
+fn peirce_overhang(
+    f: &Fabric,
+    s: &Stiffness,
+    strip: Strip,
+    ins: &Instrument,
+    (l0, slope): (f64, Option<f64>),
+) -> Result<(f64, Hanging, Hanging), LabError> {
+    let at = |l: f64, near: Option<&Hanging>| -> Result<(f64, Hanging, Hanging), LabError> {
+        let cols = near.map(|h| (h.columns(), h.specimen.overhang));
+        let start = cols.as_ref().map(|(c, l)| (c, *l));
+        let (c, fi) = hang_pair_from(f, s, strip, l, ins.columns, start)?;
+        Ok((2.0 * fi.angle - c.angle - PEIRCE_ANGLE, c, fi))
+    };
+    let (mut la, mut a) = (l0, at(l0, None)?);
+    let mut lb = match slope.filter(|s| s.is_finite() && *s > 0.0) {
+        Some(slope) => (l0 - a.0 / slope).clamp(0.5 * l0, 2.0 * l0),
+        None => 1.05 * l0,
+    };
+    if a.0.abs() < 1e-11 {
+        return Ok((la, a.1, a.2));
+    }
+    let mut b = at(lb, Some(&a.1))?;
+    for _ in 0..30 {
+        if b.0.abs() < 1e-11 || (b.0 - a.0).abs() < 1e-15 {
+            break;
+        }
+        let next = (lb - b.0 * (lb - la) / (b.0 - a.0)).clamp(0.5 * lb, 2.0 * lb);
+        (la, a) = (lb, b);
+        lb = next;
+        b = at(lb, Some(&a.1))?;
+    }
+    Ok((lb, b.1, b.2))
+}
+
+/// The Peirce bending length of `f` on `strip` and (with `free` not empty) its derivatives in `free`; `warm`: the
+/// overhang and `∂Θ/∂L` of a nearby fabric's (the last evaluation of a fit) to start the search from.
 pub fn bending_length(
     f: &Fabric,
     calibration: Calibration,
     strip: Strip,
     free: &[Constant],
     ins: &Instrument,
+    warm: Option<(f64, f64)>,
 ) -> Result<BendingLength, LabError> {
     let s = Stiffness::calibrate(f, calibration)?;
     let peirce = 2.0 * (strip_rigidity(f, strip.direction)? / (f.density * G)).cbrt();
-    let f0 = theta(f, &s, strip, peirce, ins)? - PEIRCE_ANGLE;
-    let l = secant_on_log((peirce, f0), 30, (1e-11, 1e-15), |l| theta(f, &s, strip, l, ins).map(|t| t - PEIRCE_ANGLE))?;
+    let start = warm.map_or((peirce, None), |(l, slope)| (l, Some(slope)));
+    let (l, coarse, fine) = peirce_overhang(f, &s, strip, ins, start)?;
     if free.is_empty() {
         return Ok(BendingLength { value: 0.5 * l, gradient: Vec::new(), dtheta_dl: f64::NAN });
     }
-    let (coarse, fine) = hang_pair(f, &s, strip, l, ins.columns)?;
     let mut dtheta = vec![0.0; free.len()];
     for (h, weight) in [(&coarse, -1.0), (&fine, 2.0)] {
         let mut eq = Equilibrium::new(&h.specimen.builder, &h.model, &h.x)?;
@@ -166,7 +207,8 @@ pub fn bending_length(
         }
     }
     let dl = 1e-4 * l;
-    let dtheta_dl = (theta(f, &s, strip, l + dl, ins)? - theta(f, &s, strip, l - dl, ins)?) / (2.0 * dl);
+    let dtheta_dl =
+        (theta(f, &s, strip, l + dl, ins, &coarse)? - theta(f, &s, strip, l - dl, ins, &coarse)?) / (2.0 * dl);
     let gradient = dtheta.iter().map(|d| -0.5 * d / dtheta_dl).collect();
     Ok(BendingLength { value: 0.5 * l, gradient, dtheta_dl })
 }
@@ -275,7 +317,13 @@ pub fn evaluate(
                 let i = match lengths.iter().position(|(e, _)| *e == d) {
                     Some(i) => i,
                     None => {
-                        lengths.push((d, bending_length(f, calibration, Strip::new(d), free, ins)?));
+                        let last = warm.lengths.iter().find(|w| w.0 == d).map(|w| (w.1, w.2));
+                        let b = bending_length(f, calibration, Strip::new(d), free, ins, last)?;
+                        warm.lengths.retain(|w| w.0 != d);
+                        if b.dtheta_dl.is_finite() {
+                            warm.lengths.push((d, 2.0 * b.value, b.dtheta_dl));
+                        }
+                        lengths.push((d, b));
                         lengths.len() - 1
                     }
                 };
