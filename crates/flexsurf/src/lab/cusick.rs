@@ -258,7 +258,12 @@ fn annulus(specimen: f64, grid: PolarGrid) -> Result<Annulus, LabError> {
 
 /// The flat specimen's model builder (its inner two rings clamped) of diameter `specimen` on `grid`, as
 /// [`cusick_settled`] builds it: for the drape's sensitivities ([`crate::lab::fit`]).
-pub fn specimen_builder(fabric: &Fabric, s: Stiffness, specimen: f64, grid: PolarGrid) -> Result<ModelBuilder, LabError> {
+pub fn specimen_builder(
+    fabric: &Fabric,
+    s: Stiffness,
+    specimen: f64,
+    grid: PolarGrid,
+) -> Result<ModelBuilder, LabError> {
     let ring = annulus(specimen, grid)?;
     clamped_builder(fabric, s, &ring, [grid.radial + 2, grid.angular]).map(|(b, _)| b)
 }

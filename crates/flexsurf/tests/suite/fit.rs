@@ -124,8 +124,9 @@ fn bending_length_derivatives_agree_with_central_differences() {
     let adj: Vec<f64> = free.iter().zip(&b.gradient).map(|(c, g)| g * c.get(&f).unwrap()).collect();
     let top = adj.iter().fold(0.0, |a: f64, b| a.max(b.abs()));
     for (k, &c) in free.iter().enumerate() {
-        let fd = central(&f, c, 1e-4, |g| bending_length(g, Calibration::Kes, strip, &[], &small(), None).unwrap().value)
-            * c.get(&f).unwrap();
+        let fd =
+            central(&f, c, 1e-4, |g| bending_length(g, Calibration::Kes, strip, &[], &small(), None).unwrap().value)
+                * c.get(&f).unwrap();
         let err = (adj[k] - fd).abs() / top;
         eprintln!("c = {:.9} m, dc/dln {}: adjoint {:.10e}, FD {fd:.10e}, error {err:.1e}", b.value, c.key(), adj[k]);
         assert!(err < 1e-6, "{c:?}: adjoint {:e} vs FD {fd:e} ({err:.1e} of the largest)", adj[k]);
@@ -163,7 +164,8 @@ fn problem_of(truth: &Fabric, quantities: &[Quantity], noise: [f64; 4], rel_sigm
     for (c, m) in free.iter().zip(start) {
         c.set(&mut from, c.get(truth).unwrap() * m);
     }
-    let bounds = |c: Constant| Free { constant: c, lower: c.get(truth).unwrap() / 50.0, upper: c.get(truth).unwrap() * 50.0 };
+    let bounds =
+        |c: Constant| Free { constant: c, lower: c.get(truth).unwrap() / 50.0, upper: c.get(truth).unwrap() * 50.0 };
     FitProblem {
         fabric: from,
         calibration: Calibration::Kes,
@@ -183,7 +185,12 @@ fn check_fit(p: &FitProblem, truth: &Fabric, tol: f64, cover: bool, what: &str) 
     for c in &r.constants {
         let t = Constant::from_key(c.name).unwrap().get(truth).unwrap();
         let z = (c.value - t) / c.standard_error;
-        eprintln!("  {}: error {:.2e}, relative se {:.2e}, truth at {z:.2} se", c.name, c.value / t - 1.0, c.log_standard_error);
+        eprintln!(
+            "  {}: error {:.2e}, relative se {:.2e}, truth at {z:.2} se",
+            c.name,
+            c.value / t - 1.0,
+            c.log_standard_error
+        );
         assert!((c.value / t - 1.0).abs() < tol, "{what}: {}: {} vs {t}", c.name, c.value);
         assert!(!cover || z.abs() < 3.0, "{what}: {}: the truth lies {z:.2} standard errors off", c.name);
     }

@@ -12,9 +12,9 @@
 
 use super::adjoint::Equilibrium;
 use super::calib::Constant;
-use crate::lab::cantilever::{hang_pair_from, strip_rigidity, Direction, Hanging, Strip, G, PEIRCE_ANGLE};
-use crate::lab::LabError;
+use crate::lab::cantilever::{hang_pair_from, strip_rigidity, Columns, Direction, Hanging, Strip, G, PEIRCE_ANGLE};
 use crate::lab::cusick::{cusick_settled, default_polar, equilibrate, specimen_builder, PolarGrid, Settle, DISC};
+use crate::lab::LabError;
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::Model;
@@ -123,8 +123,8 @@ impl Default for Instrument {
 pub struct Warm {
     /// The last drape's positions.
     pub drape: Option<Vec<Vec3>>,
-    /// The last overhang `L*` (m) and `∂Θ/∂L` of each cantilever direction.
-    pub lengths: Vec<(Direction, f64, f64)>,
+    /// The last overhang `L*` (m), `∂Θ/∂L` and coarse strip of each cantilever direction.
+    pub lengths: Vec<(Direction, f64, f64, Columns)>,
 }
 
 /// A bending length and its derivatives.
@@ -136,6 +136,9 @@ pub struct BendingLength {
     pub gradient: Vec<f64>,
     /// `∂Θ/∂L` at `L*` (degrees per m).
     pub dtheta_dl: f64,
+    /// The coarse strip's node columns at `L*` (to start the next search from).
+    #[serde(skip)]
+    pub columns: Columns,
 }
 
 /// The extrapolated chord angle `Θ(L)` (degrees), the strips started from `near` (a coarse strip at a nearby
@@ -153,15 +156,16 @@ fn peirce_overhang(
     s: &Stiffness,
     strip: Strip,
     ins: &Instrument,
-    (l0, slope): (f64, Option<f64>),
+    (l0, slope, near): (f64, Option<f64>, Option<(&Columns, f64)>),
 ) -> Result<(f64, Hanging, Hanging), LabError> {
-    let at = |l: f64, near: Option<&Hanging>| -> Result<(f64, Hanging, Hanging), LabError> {
-        let cols = near.map(|h| (h.columns(), h.specimen.overhang));
-        let start = cols.as_ref().map(|(c, l)| (c, *l));
-        let (c, fi) = hang_pair_from(f, s, strip, l, ins.columns, start)?;
+    let at = |l: f64, near: &Hanging| -> Result<(f64, Hanging, Hanging), LabError> {
+        let (c, fi) = hang_pair_from(f, s, strip, l, ins.columns, Some((&near.columns(), near.specimen.overhang)))?;
         Ok((2.0 * fi.angle - c.angle - PEIRCE_ANGLE, c, fi))
     };
-    let (mut la, mut a) = (l0, at(l0, None)?);
+    let (mut la, mut a) = (l0, {
+        let (c, fi) = hang_pair_from(f, s, strip, l0, ins.columns, near)?;
+        (2.0 * fi.angle - c.angle - PEIRCE_ANGLE, c, fi)
+    });
     let mut lb = match slope.filter(|s| s.is_finite() && *s > 0.0) {
         Some(slope) => (l0 - a.0 / slope).clamp(0.5 * l0, 2.0 * l0),
         None => 1.05 * l0,
@@ -169,7 +173,7 @@ fn peirce_overhang(
     if a.0.abs() < 1e-11 {
         return Ok((la, a.1, a.2));
     }
-    let mut b = at(lb, Some(&a.1))?;
+    let mut b = at(lb, &a.1)?;
     for _ in 0..30 {
         if b.0.abs() < 1e-11 || (b.0 - a.0).abs() < 1e-15 {
             break;
@@ -177,27 +181,28 @@ fn peirce_overhang(
         let next = (lb - b.0 * (lb - la) / (b.0 - a.0)).clamp(0.5 * lb, 2.0 * lb);
         (la, a) = (lb, b);
         lb = next;
-        b = at(lb, Some(&a.1))?;
+        b = at(lb, &a.1)?;
     }
     Ok((lb, b.1, b.2))
 }
 
 /// The Peirce bending length of `f` on `strip` and (with `free` not empty) its derivatives in `free`; `warm`: the
-/// overhang and `∂Θ/∂L` of a nearby fabric's (the last evaluation of a fit) to start the search from.
+/// overhang, `∂Θ/∂L` and coarse strip of a nearby fabric's (the last evaluation of a fit) to start from.
 pub fn bending_length(
     f: &Fabric,
     calibration: Calibration,
     strip: Strip,
     free: &[Constant],
     ins: &Instrument,
-    warm: Option<(f64, f64)>,
+    warm: Option<(f64, f64, &Columns)>,
 ) -> Result<BendingLength, LabError> {
     let s = Stiffness::calibrate(f, calibration)?;
     let peirce = 2.0 * (strip_rigidity(f, strip.direction)? / (f.density * G)).cbrt();
-    let start = warm.map_or((peirce, None), |(l, slope)| (l, Some(slope)));
+    let start = warm.map_or((peirce, None, None), |(l, slope, cols)| (l, Some(slope), Some((cols, l))));
     let (l, coarse, fine) = peirce_overhang(f, &s, strip, ins, start)?;
     if free.is_empty() {
-        return Ok(BendingLength { value: 0.5 * l, gradient: Vec::new(), dtheta_dl: f64::NAN });
+        let columns = coarse.columns();
+        return Ok(BendingLength { value: 0.5 * l, gradient: Vec::new(), dtheta_dl: f64::NAN, columns });
     }
     let mut dtheta = vec![0.0; free.len()];
     for (h, weight) in [(&coarse, -1.0), (&fine, 2.0)] {
@@ -210,7 +215,7 @@ pub fn bending_length(
     let dtheta_dl =
         (theta(f, &s, strip, l + dl, ins, &coarse)? - theta(f, &s, strip, l - dl, ins, &coarse)?) / (2.0 * dl);
     let gradient = dtheta.iter().map(|d| -0.5 * d / dtheta_dl).collect();
-    Ok(BendingLength { value: 0.5 * l, gradient, dtheta_dl })
+    Ok(BendingLength { value: 0.5 * l, gradient, dtheta_dl, columns: coarse.columns() })
 }
 
 /// A KES value of `f` and its derivatives in `free`.
@@ -317,11 +322,11 @@ pub fn evaluate(
                 let i = match lengths.iter().position(|(e, _)| *e == d) {
                     Some(i) => i,
                     None => {
-                        let last = warm.lengths.iter().find(|w| w.0 == d).map(|w| (w.1, w.2));
+                        let last = warm.lengths.iter().find(|w| w.0 == d).map(|w| (w.1, w.2, &w.3));
                         let b = bending_length(f, calibration, Strip::new(d), free, ins, last)?;
                         warm.lengths.retain(|w| w.0 != d);
                         if b.dtheta_dl.is_finite() {
-                            warm.lengths.push((d, 2.0 * b.value, b.dtheta_dl));
+                            warm.lengths.push((d, 2.0 * b.value, b.dtheta_dl, b.columns.clone()));
                         }
                         lengths.push((d, b));
                         lengths.len() - 1
