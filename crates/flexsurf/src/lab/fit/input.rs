@@ -86,8 +86,11 @@ fn constant_si(c: Constant, u: FitUnits, v: f64) -> f64 {
     }
 }
 
+/// A conversion to SI.
+type Conversion = fn(f64) -> f64;
+
 /// The quantity named `name`, and the SI value of a number of it given in `u`.
-fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, fn(f64) -> f64)> {
+fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, Conversion)> {
     let kes = u == FitUnits::Kes;
     let id = |v: f64| v;
     if name == "cusick.dc" {

@@ -156,7 +156,8 @@ pub fn statistics(j: &[Vec<f64>], n: usize, rank_tolerance: f64) -> Statistics {
     let mut se2 = vec![0.0; n];
     let mut degenerate = vec![false; n];
     for k in 0..n {
-        let zero = !(sv[k] > rank_tolerance * top);
+        // NaN singular values count as zero.
+        let zero = sv[k].is_nan() || sv[k] <= rank_tolerance * top;
         for p in 0..n {
             let w = v[(p, k)] * v[(p, k)];
             if zero {
