@@ -81,4 +81,9 @@ fn print_report(p: &FitProblem, r: &FitReport, file: &Path) {
     if !r.not_identifiable.is_empty() {
         println!("not identifiable from these targets: {}", r.not_identifiable.join(", "));
     }
+    for d in &r.null_directions {
+        let terms: Vec<String> =
+            d.iter().filter(|(_, w)| w.abs() > 1e-3).map(|(k, w)| format!("{w:+.3} ln {k}")).collect();
+        println!("the targets do not change along: {}", terms.join(" "));
+    }
 }

@@ -272,6 +272,20 @@ fn drape_coefficient_sensitivities_agree_with_central_differences() {
     let (dc, grad) = drape_coefficient(&f, Calibration::Kes, &free, &ins, &mut warm).unwrap();
     eprintln!("DC {dc:.4} % in {:.2} s", t0.elapsed().as_secs_f64());
     assert!(dc > 30.0 && dc < 100.0, "{dc}");
+    // The hem polygon's reading against the meter's rasterised shadow of the same drape.
+    let drape = flexsurf::lab::cusick::cusick_settled(
+        &f,
+        Calibration::Kes,
+        ins.specimen,
+        ins.drape_grid,
+        0,
+        &flexsurf::lab::cusick::Settle::default(),
+    )
+    .unwrap();
+    let (hem, _) = flexsurf::lab::fit::targets::hem_drape_coefficient(&drape.model, &drape.x).unwrap();
+    let raster = drape.report.drape_coefficient;
+    eprintln!("hem DC {hem:.3} %, rasterised shadow DC {raster:.3} %, {} nodes", drape.report.nodes);
+    assert!((hem - raster).abs() < 1.0, "hem {hem} vs raster {raster}");
     let adj: Vec<f64> = free.iter().zip(&grad).map(|(c, g)| g * c.get(&f).unwrap()).collect();
     let top = adj.iter().fold(0.0, |a: f64, b| a.max(b.abs()));
     for (k, &c) in free.iter().enumerate() {

@@ -135,6 +135,9 @@ pub struct Statistics {
     /// Each parameter lies (by more than 10 % of its weight) in a right singular direction whose singular value
     /// is below `rank_tolerance` times the largest.
     pub degenerate: Vec<bool>,
+    /// Those right singular directions (unit vectors in the parameters): moving the parameters along one leaves
+    /// the residuals unchanged to first order.
+    pub null_directions: Vec<Vec<f64>>,
 }
 
 /// [`Statistics`] of `j` (`n` parameters): singular values below `rank_tolerance` times the largest count as zero.
@@ -148,6 +151,7 @@ pub fn statistics(j: &[Vec<f64>], n: usize, rank_tolerance: f64) -> Statistics {
             singular_values: vec![f64::NAN; n],
             standard_errors: vec![f64::INFINITY; n],
             degenerate: vec![true; n],
+            null_directions: Vec::new(),
         };
     };
     let (s, v) = (svd.S(), svd.V());
@@ -155,9 +159,13 @@ pub fn statistics(j: &[Vec<f64>], n: usize, rank_tolerance: f64) -> Statistics {
     let top = sv.iter().copied().fold(0.0, f64::max);
     let mut se2 = vec![0.0; n];
     let mut degenerate = vec![false; n];
+    let mut null_directions = Vec::new();
     for k in 0..n {
         // NaN singular values count as zero.
         let zero = sv[k].is_nan() || sv[k] <= rank_tolerance * top;
+        if zero {
+            null_directions.push((0..n).map(|p| v[(p, k)]).collect());
+        }
         for p in 0..n {
             let w = v[(p, k)] * v[(p, k)];
             if zero {
@@ -170,5 +178,6 @@ pub fn statistics(j: &[Vec<f64>], n: usize, rank_tolerance: f64) -> Statistics {
             }
         }
     }
-    Statistics { singular_values: sv, standard_errors: se2.iter().map(|v| v.sqrt()).collect(), degenerate }
+    let standard_errors = se2.iter().map(|v| v.sqrt()).collect();
+    Statistics { singular_values: sv, standard_errors, degenerate, null_directions }
 }

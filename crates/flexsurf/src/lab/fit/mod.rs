@@ -100,6 +100,10 @@ pub struct FitReport {
     pub singular_values: Vec<f64>,
     /// The constants the targets do not determine.
     pub not_identifiable: Vec<&'static str>,
+    /// The combinations the targets do not determine at all: each a unit direction in the constants'
+    /// logarithms (`(key, weight)`), along which the targets do not change to first order (e.g. bending, shear
+    /// and weight scaled together leave bending lengths and drape unchanged).
+    pub null_directions: Vec<Vec<(&'static str, f64)>>,
     /// Levenberg–Marquardt iterations.
     pub iterations: usize,
     /// Model evaluations (each with its gradients).
@@ -207,7 +211,13 @@ fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
             normalised: *r,
         })
         .collect();
+    let null_directions = stats
+        .null_directions
+        .iter()
+        .map(|d| p.free.iter().zip(d).map(|(f, w)| (f.constant.key(), *w)).collect())
+        .collect();
     FitReport {
+        null_directions,
         not_identifiable: constants.iter().filter(|c| !c.identifiable).map(|c| c.name).collect(),
         constants,
         chi_squared: out.at.0.iter().map(|r| r * r).sum(),
