@@ -72,7 +72,8 @@ fn step(a: &Mat<f64>, g: &[f64], mu: f64, held: &[bool]) -> Option<Vec<f64>> {
 
 /// Minimises `½|r(θ)|²` over `lower ≤ θ ≤ upper` from `theta` (clamped into the box): Levenberg–Marquardt
 /// with Marquardt's diagonal scaling, parameters on a bound that the gradient pushes against held there, each
-/// trial point projected onto the bounds, accepted when it lowers the cost.
+/// trial point projected onto the bounds, accepted when it lowers the cost (a trial the model cannot evaluate
+/// counts as rejected).
 pub fn minimise<E>(
     theta: &[f64],
     (lower, upper): (&[f64], &[f64]),
@@ -84,6 +85,7 @@ pub fn minimise<E>(
     let mut theta = clamp(theta.to_vec());
     let mut at = eval(&theta)?;
     let (mut evaluations, mut iterations, mut mu, mut converged) = (1, 0, 1e-3, false);
+    let mut failures = 0;
     while iterations < opts.max_iterations {
         iterations += 1;
         let (a, g) = normal(&at, n);
@@ -103,8 +105,21 @@ pub fn minimise<E>(
             converged = true;
             break;
         }
-        let next = eval(&trial)?;
         evaluations += 1;
+        // A trial point the model cannot evaluate (a solve that fails far from the start) is a rejected step;
+        // three in a row end the fit with the error.
+        let next = match eval(&trial) {
+            Ok(next) => {
+                failures = 0;
+                next
+            }
+            Err(e) if failures >= 2 => return Err(e),
+            Err(_) => {
+                failures += 1;
+                mu = (mu * 10.0).min(1e12);
+                continue;
+            }
+        };
         if cost(&next.0) < cost(&at.0) {
             (theta, at) = (trial, next);
             mu = (mu / 3.0).max(1e-12);
