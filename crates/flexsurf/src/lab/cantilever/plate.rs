@@ -101,6 +101,14 @@ pub fn hang_pair_from(
 ) -> Result<(Hanging, Hanging), LabError> {
     let hw = strip.width / (Strip::ACROSS - 1) as f64;
     let across = |y: f64| ((y + 0.5 * strip.width) / hw).round() as usize;
+    if let Some((cols, l0)) = start {
+        if cols.len() < 2 || !(l0.is_finite() && l0 > 0.0) {
+            return Err(LabError::Input(format!(
+                "strip start: {} node columns at overhang {l0} m (need two or more at a positive overhang)",
+                cols.len()
+            )));
+        }
+    }
     let coarse = match start {
         Some((cols, l0)) => {
             let from = |sigma: f64, y: f64| {
