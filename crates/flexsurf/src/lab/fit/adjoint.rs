@@ -121,4 +121,24 @@ impl<'a> Equilibrium<'a> {
         }
         Ok(out)
     }
+
+    /// `dx/dc` for each constant of `constants` (the equilibrium's displacement per unit constant, zero at the
+    /// pinned nodes): one solve per constant, for quantities with many components (a drape's shape).
+    pub fn displacements(
+        &mut self,
+        constants: &[Constant],
+        calibration: Calibration,
+    ) -> Result<Vec<Vec<Vec3>>, LabError> {
+        let n = self.x.len();
+        let mut rhs = vec![vec![Vec3::ZERO; n]; constants.len()];
+        for (c, r) in constants.iter().zip(rhs.iter_mut()) {
+            let j = jacobian(&self.builder.fabric, *c, calibration)?;
+            for (k, &w) in j.iter().enumerate().filter(|(_, w)| **w != 0.0) {
+                for (r, g) in r.iter_mut().zip(self.coefficient_gradient(k)?) {
+                    *r -= g * w;
+                }
+            }
+        }
+        rhs.iter().map(|r| self.adjoint(r)).collect()
+    }
 }

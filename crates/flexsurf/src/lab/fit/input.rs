@@ -18,6 +18,11 @@
 //! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
 //! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%)
 //! sigma = 0.02                       # the value's standard uncertainty
+//!
+//! [[target]]
+//! quantity = "shape"     # a scanned drape: `x y z` (m) per line, in the drape meter's frame (disc centre at
+//! file = "scan.xyz"      # the origin, axis z, disc top at z = 0); symmetric Chamfer distance to the drape
+//! sigma = 0.002          # the scan's uncertainty per coordinate (m); no value (the distance's is 0)
 //! ```
 //!
 //! `units = "kes"`: constants and KES values in KES-F units (weight mg/cm², tensile gf/cm, shear gf/(cm·deg),
@@ -27,6 +32,7 @@ use super::targets::{Instrument, KesValue, Quantity, Target};
 use super::{Constant, FitProblem, Free};
 use crate::lab::cantilever::Direction;
 use crate::material::{units, Calibration};
+use crate::math::Vec3;
 use crate::scene::material::load_material_file;
 use crate::scene::SceneError;
 use serde::Deserialize;
@@ -71,8 +77,9 @@ struct FreeSpec {
 #[serde(deny_unknown_fields)]
 struct TargetSpec {
     quantity: String,
-    value: f64,
+    value: Option<f64>,
     sigma: f64,
+    file: Option<PathBuf>,
 }
 
 /// SI value of constant `c` given in `u`.
@@ -95,6 +102,9 @@ fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, Conversion)> {
     let id = |v: f64| v;
     if name == "cusick.dc" {
         return Some((Quantity::DrapeCoefficient, id));
+    }
+    if name == "shape" {
+        return Some((Quantity::Shape, id));
     }
     if let Some(d) = name.strip_prefix("bending_length.") {
         let d = match d {
@@ -127,6 +137,69 @@ fn instrument(spec: &FitSpec) -> Instrument {
     ins.specimen = spec.drape_specimen.unwrap_or(ins.specimen);
     ins.drape_grid = crate::lab::cusick::default_polar(ins.specimen, spec.drape_level.unwrap_or(1));
     ins
+}
+
+/// The targets of a fit file, and the scanned points of its shape target (if any).
+fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), SceneError> {
+    let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+    let (mut targets, mut scan) = (Vec::new(), Vec::new());
+    for (i, t) in spec.target.iter().enumerate() {
+        let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
+            return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
+        };
+        if !(t.sigma.is_finite() && t.sigma > 0.0) {
+            return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
+        }
+        if q == Quantity::Shape {
+            let Some(rel) = &t.file else {
+                return Err(bad(
+                    format!("target[{i}].file"),
+                    "a shape target names its scan (x y z per line, m)".into(),
+                ));
+            };
+            if t.value.is_some() {
+                return Err(bad(
+                    format!("target[{i}].value"),
+                    "a shape target has no value (its distance is 0)".into(),
+                ));
+            }
+            scan = read_points(&crate::scene::material::relative_to(file, rel))
+                .map_err(|m| bad(format!("target[{i}].file"), m))?;
+            targets.push(Target { quantity: q, value: 0.0, sigma: t.sigma });
+            continue;
+        }
+        if t.file.is_some() {
+            return Err(bad(format!("target[{i}].file"), "only a shape target names a file".into()));
+        }
+        let value = t.value.ok_or_else(|| bad(format!("target[{i}].value"), "missing".into()))?;
+        if !(value.is_finite() && value > 0.0) {
+            return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
+        }
+        targets.push(Target { quantity: q, value: conv(value), sigma: conv(t.sigma) });
+    }
+    Ok((targets, scan))
+}
+
+/// The points of a scan: `x y z` (m) per line; blank lines and lines starting with `#` are skipped.
+fn read_points(path: &Path) -> Result<Vec<Vec3>, String> {
+    let text =
+        crate::io::input::read_text(path).map_err(|e| format!("cannot read the scan {}: {e}", path.display()))?;
+    let mut points = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let v: Vec<f64> = line.split_whitespace().map(str::parse).collect::<Result<_, _>>().unwrap_or_default();
+        if v.len() != 3 || v.iter().any(|c| !c.is_finite()) {
+            return Err(format!("{}:{}: need three finite numbers `x y z`", path.display(), n + 1));
+        }
+        points.push(Vec3::new(v[0], v[1], v[2]));
+    }
+    if points.is_empty() {
+        return Err(format!("the scan {} has no points", path.display()));
+    }
+    Ok(points)
 }
 
 /// Reads a fit file.
@@ -184,19 +257,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         }
         free.push(Free { constant: c, lower, upper });
     }
-    let mut targets = Vec::new();
-    for (i, t) in spec.target.iter().enumerate() {
-        let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
-            return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
-        };
-        if !(t.value.is_finite() && t.value > 0.0) {
-            return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
-        }
-        if !(t.sigma.is_finite() && t.sigma > 0.0) {
-            return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
-        }
-        targets.push(Target { quantity: q, value: conv(t.value), sigma: conv(t.sigma) });
-    }
+    let (targets, scan) = targets_of(&spec, file)?;
     let problem = FitProblem {
         fabric,
         calibration: spec.calibration,
@@ -204,6 +265,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         targets,
         instrument: instrument(&spec),
         max_iterations: spec.max_iterations.unwrap_or(30),
+        scan,
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
     Ok(problem)

@@ -42,6 +42,9 @@ pub struct FitProblem {
     pub instrument: Instrument,
     /// Levenberg–Marquardt iterations at most.
     pub max_iterations: usize,
+    /// The scanned drape of a [`Quantity::Shape`] target (m, in the drape meter's frame; empty without one).
+    #[serde(skip)]
+    pub scan: Vec<crate::math::Vec3>,
 }
 
 /// A standard error above this (in the constant's logarithm: the data fix it to no better than a factor of
@@ -136,6 +139,10 @@ pub fn check(p: &FitProblem) -> Result<(), LabError> {
         }
         calib::jacobian(&p.fabric, f.constant, p.calibration)?;
     }
+    let shapes = p.targets.iter().filter(|t| t.quantity == Quantity::Shape).count();
+    if shapes > 1 || (shapes == 1 && p.scan.is_empty()) {
+        return bad("a shape target needs the scan's points, and a fit takes one shape".into());
+    }
     for t in &p.targets {
         if !(t.value.is_finite() && t.sigma.is_finite() && t.sigma > 0.0) {
             return bad(format!("target `{}`: its value must be finite and its sigma positive", t.quantity.name()));
@@ -165,12 +172,21 @@ pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
     let residuals = |theta: &[f64]| -> Result<lm::Evaluation, LabError> {
         let f = with_theta(&p.fabric, &p.free, theta);
         let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, &mut warm)?;
-        let r = values.iter().zip(&p.targets).map(|(v, t)| (v - t.value) / t.sigma).collect();
-        let j = rows
-            .iter()
-            .zip(&p.targets)
-            .map(|(row, t)| row.iter().zip(theta).map(|(d, th)| d * th.exp() / t.sigma).collect())
-            .collect();
+        let scale = |row: &[f64], sigma: f64| -> Vec<f64> {
+            row.iter().zip(theta).map(|(d, th)| d * th.exp() / sigma).collect()
+        };
+        let (mut r, mut j) = (Vec::new(), Vec::new());
+        for ((v, row), t) in values.iter().zip(&rows).zip(&p.targets) {
+            if t.quantity != Quantity::Shape {
+                r.push((v - t.value) / t.sigma);
+                j.push(scale(row, t.sigma));
+            }
+        }
+        if let Some(t) = p.targets.iter().find(|t| t.quantity == Quantity::Shape) {
+            let (sr, rows) = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, &mut warm, &p.scan)?;
+            r.extend(sr.iter().map(|v| v / t.sigma));
+            j.extend(rows.iter().map(|row| scale(row, t.sigma)));
+        }
         Ok((r, j))
     };
     let opts = lm::Options { max_iterations: p.max_iterations, step_tolerance: 1e-10 };
@@ -199,16 +215,25 @@ fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
             }
         })
         .collect();
+    // The scalar targets' residuals first, in order, then the shape's components.
+    let mut scalar = out.at.0.iter();
     let residuals: Vec<Residual> = p
         .targets
         .iter()
-        .zip(&out.at.0)
-        .map(|(t, r)| Residual {
-            target: t.quantity.name(),
-            measured: t.value,
-            model: t.value + r * t.sigma,
-            sigma: t.sigma,
-            normalised: *r,
+        .map(|t| {
+            let r = if t.quantity == Quantity::Shape {
+                let m = p.targets.iter().filter(|t| t.quantity != Quantity::Shape).count();
+                out.at.0[m..].iter().map(|r| r * r).sum::<f64>().sqrt()
+            } else {
+                scalar.next().copied().unwrap_or(f64::NAN)
+            };
+            Residual {
+                target: t.quantity.name(),
+                measured: t.value,
+                model: t.value + r * t.sigma,
+                sigma: t.sigma,
+                normalised: r,
+            }
         })
         .collect();
     let null_directions = stats

@@ -51,6 +51,10 @@ pub enum Quantity {
     Kes(KesValue),
     /// The Cusick drape coefficient (%) of the virtual drape meter, from its hem polygon ([`drape_coefficient`]).
     DrapeCoefficient,
+    /// The drape's shape against a scanned point cloud ([`FitProblem::scan`](super::FitProblem::scan)), by the
+    /// symmetric Chamfer distance ([`shape_residuals`]); the measured value is 0 and `sigma` the scan's
+    /// uncertainty per coordinate (m).
+    Shape,
 }
 
 impl Quantity {
@@ -60,6 +64,7 @@ impl Quantity {
             Quantity::BendingLength(d) => format!("bending_length.{}", direction_name(d)),
             Quantity::Kes(k) => format!("kes.{}", kes_name(k)),
             Quantity::DrapeCoefficient => "cusick.dc".into(),
+            Quantity::Shape => "shape".into(),
         }
     }
 }
@@ -281,24 +286,13 @@ pub fn drape_coefficient(
     ins: &Instrument,
     warm: &mut Warm,
 ) -> Result<(f64, Vec<f64>), LabError> {
-    let s = Stiffness::calibrate(f, calibration)?;
-    let builder = specimen_builder(f, s, ins.specimen, ins.drape_grid)?;
-    let model = builder.clone().build()?;
-    let continued = warm.drape.take().and_then(|mut x| equilibrate(&model, &mut x, DRAPE_TOLERANCE).ok().map(|_| x));
-    let x = match continued {
-        Some(x) => x,
-        None => {
-            let settle = Settle { equilibrium: Some(DRAPE_TOLERANCE), ..Settle::default() };
-            cusick_settled(f, calibration, ins.specimen, ins.drape_grid, 0, &settle)?.x
-        }
-    };
+    let (builder, model, x) = drape(f, calibration, ins, warm)?;
     let (dc, dx) = hem_drape_coefficient(&model, &x)?;
     let gradient = if free.is_empty() {
         Vec::new()
     } else {
         Equilibrium::new(&builder, &model, &x)?.sensitivities(&dx, free, calibration)?
     };
-    warm.drape = Some(x);
     Ok((dc, gradient))
 }
 
@@ -335,6 +329,8 @@ pub fn evaluate(
                 (lengths[i].1.value, lengths[i].1.gradient.clone())
             }
             Quantity::Kes(k) => kes_value(f, k, free),
+            // The shape's residuals are a vector (`shape_residuals`); its row here is its RMS distance alone.
+            Quantity::Shape => (f64::NAN, vec![0.0; free.len()]),
             Quantity::DrapeCoefficient => {
                 if drape.is_none() {
                     drape = Some(drape_coefficient(f, calibration, free, ins, warm)?);
@@ -346,4 +342,80 @@ pub fn evaluate(
         rows.push(row);
     }
     Ok((values, rows))
+}
+
+/// The drape of `f` on the drape meter of `ins`, continued from `warm` (see [`drape_coefficient`]): the builder,
+/// the model and the positions.
+fn drape(
+    f: &Fabric,
+    calibration: Calibration,
+    ins: &Instrument,
+    warm: &mut Warm,
+) -> Result<(crate::model::ModelBuilder, Model, Vec<Vec3>), LabError> {
+    let s = Stiffness::calibrate(f, calibration)?;
+    let builder = specimen_builder(f, s, ins.specimen, ins.drape_grid)?;
+    let model = builder.clone().build()?;
+    let continued = warm.drape.take().and_then(|mut x| equilibrate(&model, &mut x, DRAPE_TOLERANCE).ok().map(|_| x));
+    let x = match continued {
+        Some(x) => x,
+        None => {
+            let settle = Settle { equilibrium: Some(DRAPE_TOLERANCE), ..Settle::default() };
+            cusick_settled(f, calibration, ins.specimen, ins.drape_grid, 0, &settle)?.x
+        }
+    };
+    warm.drape = Some(x.clone());
+    Ok((builder, model, x))
+}
+
+/// The index of the point of `cloud` nearest `p` (`cloud` not empty).
+fn nearest(cloud: &[Vec3], p: Vec3) -> usize {
+    let mut best = (f64::INFINITY, 0);
+    for (i, q) in cloud.iter().enumerate() {
+        let d = (*q - p).length_squared();
+        if d < best.0 {
+            best = (d, i);
+        }
+    }
+    best.1
+}
+
+/// The symmetric Chamfer residuals of the drape of `f` against the scanned points `scan` (in the drape meter's
+/// frame: the disc's centre at the origin, its axis along z, its top at z = 0): for each scan point the
+/// coordinates of (its nearest free node − it) over `√N_scan`, and for each free node those of (it − its
+/// nearest scan point) over `√N_nodes`, so that their sum of squares is the symmetric Chamfer distance
+/// `mean_s min_k |s − x_k|² + mean_k min_s |x_k − s|²`; with (rows per residual) their derivatives in `free`
+/// for the nearest points held (the equilibrium's displacements [`Equilibrium::displacements`]).
+pub fn shape_residuals(
+    f: &Fabric,
+    calibration: Calibration,
+    free: &[Constant],
+    ins: &Instrument,
+    warm: &mut Warm,
+    scan: &[Vec3],
+) -> Result<(Vec<f64>, Vec<Vec<f64>>), LabError> {
+    if scan.is_empty() {
+        return Err(LabError::Input("shape: the scan has no points".into()));
+    }
+    let (builder, model, x) = drape(f, calibration, ins, warm)?;
+    let nodes: Vec<usize> = (0..x.len()).filter(|&k| !model.pinned()[k]).collect();
+    let pts: Vec<Vec3> = nodes.iter().map(|&k| x[k]).collect();
+    let dx = if free.is_empty() {
+        Vec::new()
+    } else {
+        Equilibrium::new(&builder, &model, &x)?.displacements(free, calibration)?
+    };
+    let (ws, wn) = (1.0 / (scan.len() as f64).sqrt(), 1.0 / (nodes.len() as f64).sqrt());
+    let pairs = scan
+        .iter()
+        .map(|s| (nodes[nearest(&pts, *s)], *s, ws))
+        .chain(nodes.iter().map(|&k| (k, scan[nearest(scan, x[k])], wn)));
+    let (mut r, mut rows) = (Vec::new(), Vec::new());
+    for (k, s, w) in pairs {
+        let d = (x[k] - s) * w;
+        for c in 0..3 {
+            r.push(d[c]);
+            rows.push(dx.iter().map(|u| u[k][c] * w).collect());
+        }
+    }
+    Ok((r, rows))
 }
