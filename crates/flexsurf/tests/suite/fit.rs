@@ -254,11 +254,25 @@ fn fit_file_errors_name_the_file_and_the_key() {
         (good.replace("woven-medium", "no-such-material"), "material"),
         (good.replace("value = 2.0", "value = \"two\""), "value"),
         (format!("{good}colour = 1\n"), "colour"),
+        (format!("{good}[[target]]\nquantity = \"shape\"\nsigma = 0.001\n"), "target[1].file"),
+        (format!("{good}[[target]]\nquantity = \"shape\"\nfile = \"none.xyz\"\nsigma = 0.001\n"), "target[1].file"),
     ] {
         let e = problem_from_toml(&text, &file).unwrap_err();
         let m = e.to_string();
         assert!(m.contains("fit.toml") && m.contains(key), "{m}");
     }
+    // A scan: `x y z` per line, comments and blank lines skipped; a bad line is named.
+    let dir = flexsurf::testing::scratch("fit", "scan");
+    let fit_file = dir.join("fit.toml");
+    let good = good.replace("../../materials", &flexsurf::testing::repo().join("materials").display().to_string());
+    let shape = format!("{good}[[target]]\nquantity = \"shape\"\nfile = \"scan.xyz\"\nsigma = 0.001\n");
+    std::fs::write(dir.join("scan.xyz"), "# a scan\n0.1 0 -0.02\n\n0 0.1 -0.03\n").unwrap();
+    let p = problem_from_toml(&shape, &fit_file).unwrap();
+    assert_eq!((p.scan.len(), p.targets[1].quantity), (2, Quantity::Shape));
+    std::fs::write(dir.join("scan.xyz"), "0.1 0 -0.02\n0 0.1\n").unwrap();
+    let m = problem_from_toml(&shape, &fit_file).unwrap_err().to_string();
+    assert!(m.contains("target[1].file") && m.contains("scan.xyz:2"), "{m}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The hem drape coefficient's adjoint sensitivities against central differences of static solves continued from
