@@ -56,8 +56,9 @@ enum Command {
     /// `cusick`: the drape meter (18 cm disc); drape coefficient, nodes, a top-view picture and the mesh.
     #[command(subcommand)]
     Test(test::TestCommand),
-    /// Fit material constants to measured targets (Peirce bending lengths, KES-F values) with adjoint gradients:
-    /// the fitted constants, their standard errors and which the targets do not determine (docs/materials.md).
+    /// Fit material constants to measured targets (Peirce bending lengths, KES-F values, Cusick DC, a scanned
+    /// drape) with adjoint gradients: the fitted constants, their standard errors and which the targets do not
+    /// determine (docs/materials.md, "Fitting").
     Fit(fit::FitArgs),
     /// Write OUT_DIR/view.html: an interactive viewer of a run folder (orbit, play/scrub over the frames,
     /// obstacles, colour by strain, contact pressure, height or warp/weft lines), self-contained for offline use.

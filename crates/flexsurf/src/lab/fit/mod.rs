@@ -1,5 +1,6 @@
 //! `flexsurf fit`: the material constants that explain measured targets (Peirce bending lengths from the virtual
-//! cantilever, KES-F characteristic values), with exact gradients by the adjoint of the static solve
+//! cantilever, KES-F characteristic values, the Cusick drape coefficient, a scanned drape's shape), with exact
+//! gradients by the adjoint of the static solve
 //! ([`adjoint`]), a bounded Levenberg–Marquardt fit in the logarithms of the constants ([`lm`]), the constants'
 //! standard errors from the Jacobian, and which of them the targets do not determine.
 

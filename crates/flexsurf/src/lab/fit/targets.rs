@@ -9,6 +9,10 @@
 //! - **KES-F characteristic values** (B warp/weft, G, tensile warp/weft/bias, W): what the Kawabata instruments
 //!   read, which the virtual KES round trip returns to 2e-4 (docs/materials.md): the constants themselves, and on
 //!   the bias the orthotropic `4 / (1/E1 + 1/E2 + 1/G − 2ν12/E1)`; closed forms, differentiated exactly.
+//! - **Cusick DC** from the drape's hem polygon ([`hem_drape_coefficient`]), by the adjoint of the drape's static
+//!   solve, the drape continued from the last evaluation's ([`Warm`]).
+//! - **Shape**: the symmetric Chamfer distance of the drape to a scanned point cloud ([`shape_residuals`]), by
+//!   the forward sensitivities of the drape (one solve per constant).
 
 use super::adjoint::Equilibrium;
 use super::calib::Constant;
