@@ -9,7 +9,8 @@ the Python side (``run``'s result, sweeps). See ``docs/python.md``.
   and spring targets between steps.
 - :func:`run` — run a scene as ``flexsurf run`` does; the summary as a dict and the frames as arrays (an output
   folder that cannot be used as it is raises :class:`FolderError`; ``overwrite=True`` replaces another run's).
-- :func:`kes`, :func:`cantilever`, :func:`cusick` — the virtual textile tests.
+- :func:`kes`, :func:`cantilever`, :func:`cusick` — the virtual textile tests; :func:`fit` — material constants
+  from measured bending lengths, KES values and a Cusick DC, with standard errors and identifiability.
 - :class:`Material` — a fabric from a file or from keyword arguments.
 - :func:`sweep` — many independent runs on a process pool or on Ray, into a pandas DataFrame.
 """
@@ -25,6 +26,7 @@ from ._flexsurf import (
     __version__,
     cantilever,
     cusick,
+    fit,
     kes,
     read_toml,
 )
@@ -43,6 +45,7 @@ __all__ = [
     "__version__",
     "cantilever",
     "cusick",
+    "fit",
     "kes",
     "read_toml",
     "run",

@@ -138,3 +138,5 @@ def cusick(
     index: int = 0,
     calibration: str = "kes",
 ) -> dict[str, Any]: ...
+def fit(problem: _Path | dict[str, Any], file: _Path | None = None) -> dict[str, Any]:
+    """Material constants that explain measured targets (``flexsurf fit``): ``{"problem": …, "report": …}``."""

@@ -37,3 +37,25 @@ def test_bad_test_arguments_raise():
         flexsurf.cantilever(width=float("nan"))
     with pytest.raises(TypeError):
         flexsurf.kes(material=3.5)
+
+
+def test_fit_from_a_dict(root):
+    problem = {
+        "material": str(root / "materials" / "woven-medium.toml"),
+        "units": "kes",
+        "columns": 18,
+        "free": {"bending_warp": {}, "density": {}},
+        "target": [
+            {"quantity": "bending_length.warp", "value": 1.6, "sigma": 0.02},
+            {"quantity": "kes.weight", "value": 25.3, "sigma": 0.3},
+        ],
+    }
+    out = flexsurf.fit(problem)
+    report = out["report"]
+    assert report["converged"] and report["not_identifiable"] == []
+    names = [c["name"] for c in report["constants"]]
+    assert names == ["bending_warp", "density"]
+    assert abs(report["residuals"][0]["normalised"]) < 1e-6
+    with pytest.raises(flexsurf.SceneError) as e:
+        flexsurf.fit({**problem, "free": {"poisson": {}}})
+    assert e.value.key == "free.poisson"

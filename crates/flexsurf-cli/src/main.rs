@@ -25,7 +25,7 @@ mod signals;
 mod stdout;
 
 use clap::{Parser, Subcommand};
-use commands::{bench, check, demo, run, schema, test, view};
+use commands::{bench, check, demo, fit, run, schema, test, view};
 use std::process::ExitCode;
 
 /// Simulator of thin flexible surfaces (the variational model of Wang, Wu, Sun & Yuen).
@@ -56,6 +56,10 @@ enum Command {
     /// `cusick`: the drape meter (18 cm disc); drape coefficient, nodes, a top-view picture and the mesh.
     #[command(subcommand)]
     Test(test::TestCommand),
+    /// Fit material constants to measured targets (Peirce bending lengths, KES-F values, Cusick DC, a scanned
+    /// drape) with adjoint gradients: the fitted constants, their standard errors and which the targets do not
+    /// determine (docs/materials.md, "Fitting").
+    Fit(fit::FitArgs),
     /// Write OUT_DIR/view.html: an interactive viewer of a run folder (orbit, play/scrub over the frames,
     /// obstacles, colour by strain, contact pressure, height or warp/weft lines), self-contained for offline use.
     View(view::ViewArgs),
@@ -70,6 +74,7 @@ fn main() -> ExitCode {
         Command::Schema(args) => schema::execute(args),
         Command::Bench(args) => bench::execute(args),
         Command::Test(which) => test::execute(which),
+        Command::Fit(args) => fit::execute(args),
         Command::View(args) => view::execute(args),
     };
     match result {

@@ -388,6 +388,33 @@ fn cusick<'py>(
     to_py(py, &drape.report)
 }
 
+/// `flexsurf fit` from Python: the material constants that explain measured targets. `problem` is the path of a
+/// fit file or a dict with its keys (`material`, `units`, `free`, `target`, …; docs/materials.md, "Fitting"),
+/// `file` the path a dict stands for (its material is found relative to it; default `<dict>` in the current
+/// directory). Returns a dict: `problem` (as read, SI) and `report` (`constants` with `value`,
+/// `standard_error`, `identifiable`; `residuals`; `not_identifiable`; `null_directions`; `iterations`, …).
+#[pyfunction]
+#[pyo3(signature = (problem, file = None))]
+fn fit<'py>(py: Python<'py>, problem: &Bound<'py, PyAny>, file: Option<PathBuf>) -> PyResult<Bound<'py, PyAny>> {
+    use flexsurf::lab::fit::input::{load_fit_file, problem_from_toml};
+    let p = if let Ok(d) = problem.cast::<PyDict>() {
+        let file = file.unwrap_or_else(|| PathBuf::from("<dict>"));
+        let table = dict_to_table(d, "")?;
+        let text = toml::to_string(&table).map_err(|e| SceneError::new_err(format!("{}: {e}", file.display())))?;
+        problem_from_toml(&text, &file).map_err(|e| scene_err(py, &e))?
+    } else {
+        let path: PathBuf = problem
+            .extract()
+            .map_err(|_| pyo3::exceptions::PyTypeError::new_err("problem: expected a fit file's path or a dict"))?;
+        load_fit_file(&path).map_err(|e| scene_err(py, &e))?
+    };
+    let report = py.detach(|| flexsurf::lab::fit::fit(&p)).map_err(sim_err)?;
+    let d = PyDict::new(py);
+    d.set_item("problem", to_py(py, &p)?)?;
+    d.set_item("report", to_py(py, &report)?)?;
+    Ok(d.into_any())
+}
+
 /// The extension module.
 #[pymodule]
 fn _flexsurf(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -404,6 +431,7 @@ fn _flexsurf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kes, m)?)?;
     m.add_function(wrap_pyfunction!(cantilever, m)?)?;
     m.add_function(wrap_pyfunction!(cusick, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -6,6 +6,7 @@
 pub mod bench;
 pub mod check;
 pub mod demo;
+pub mod fit;
 pub mod run;
 pub mod schema;
 mod shared;

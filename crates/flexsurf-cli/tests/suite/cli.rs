@@ -231,3 +231,39 @@ fn check_and_run_warn_about_a_unit_slip() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `flexsurf fit`: a small fit file (short strips) gives the constants, their standard errors and the residuals
+/// as JSON and in the report file; shear, free beside two bending lengths alone, is reported not identifiable;
+/// an error in the file is one line naming the file and the key.
+#[test]
+fn fit_command() {
+    let dir = std::env::temp_dir().join(format!("flexsurf-cli-fit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let material = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../materials/woven-medium.toml");
+    let text = format!(
+        "material = {:?}\nunits = \"kes\"\ncolumns = 18\n[free.bending_warp]\n[free.bending_weft]\n[free.shear]\n\
+         [[target]]\nquantity = \"bending_length.warp\"\nvalue = 1.6\nsigma = 0.02\n\
+         [[target]]\nquantity = \"bending_length.weft\"\nvalue = 1.4\nsigma = 0.02\n",
+        material.to_str().unwrap()
+    );
+    let file = dir.join("fit.toml");
+    std::fs::write(&file, &text).unwrap();
+    let report = dir.join("report.json");
+    let (code, stdout, stderr) =
+        flexsurf(&["fit", file.to_str().unwrap(), "--json", "--out", report.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(v, written);
+    let r = &v["report"];
+    assert_eq!(r["not_identifiable"], serde_json::json!(["shear"]), "{r}");
+    assert_eq!(r["constants"][0]["name"], "bending_warp");
+    assert!(r["constants"][0]["standard_error"].as_f64().unwrap() > 0.0, "{r}");
+    assert!(r["residuals"][0]["normalised"].as_f64().unwrap().abs() < 1e-6, "{r}");
+    std::fs::write(&file, text.replace("[free.shear]", "[free.shear]\nlower = -1.0")).unwrap();
+    let (code, _, stderr) = flexsurf(&["fit", file.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("fit.toml") && stderr.contains("free.shear") && !stderr.contains("panicked"), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -224,19 +224,9 @@ pub fn cusick_settled(
     index: usize,
     settle: &Settle,
 ) -> Result<Drape, LabError> {
-    let PolarGrid { radial, angular, grading } = grid;
-    if !(specimen.is_finite() && specimen > DISC) {
-        return Err(LabError::Input(format!("cusick: specimen {specimen} m must exceed the {DISC} m disc")));
-    }
-    if radial < 2 || angular < 8 || !(1.0..=100.0).contains(&grading) {
-        return Err(LabError::Input(format!(
-            "cusick: grid {radial} x {angular}, grading {grading}: at least 2 radial cells, 8 nodes around and \
-             a grading between 1 and 100"
-        )));
-    }
+    let ring = annulus(specimen, grid)?;
+    let PolarGrid { radial, angular, .. } = grid;
     let s = Stiffness::calibrate(fabric, calibration)?;
-    let (rd, rs) = (0.5 * DISC, 0.5 * specimen);
-    let ring = Annulus { rd, rs, radial, grading };
     let (model, start) = clamped_specimen(fabric, s, &ring, [radial + 2, angular], (index, settle.folds))?;
     let (mut x, steps) = relax(fabric, &model, start, settle)?;
     let relaxed = (residual(&model, &x), drape_coefficient(&model, &x, &ring));
@@ -249,6 +239,33 @@ pub fn cusick_settled(
     drape.report.relaxed_drape_coefficient = relaxed.1;
     drape.report.static_iterations = iterations;
     Ok(drape)
+}
+
+/// The annulus of a specimen of diameter `specimen` on `grid`, checked.
+fn annulus(specimen: f64, grid: PolarGrid) -> Result<Annulus, LabError> {
+    let PolarGrid { radial, angular, grading } = grid;
+    if !(specimen.is_finite() && specimen > DISC) {
+        return Err(LabError::Input(format!("cusick: specimen {specimen} m must exceed the {DISC} m disc")));
+    }
+    if radial < 2 || angular < 8 || !(1.0..=100.0).contains(&grading) {
+        return Err(LabError::Input(format!(
+            "cusick: grid {radial} x {angular}, grading {grading}: at least 2 radial cells, 8 nodes around and \
+             a grading between 1 and 100"
+        )));
+    }
+    Ok(Annulus { rd: 0.5 * DISC, rs: 0.5 * specimen, radial, grading })
+}
+
+/// The flat specimen's model builder (its inner two rings clamped) of diameter `specimen` on `grid`, as
+/// [`cusick_settled`] builds it: for the drape's sensitivities ([`crate::lab::fit`]).
+pub fn specimen_builder(
+    fabric: &Fabric,
+    s: Stiffness,
+    specimen: f64,
+    grid: PolarGrid,
+) -> Result<ModelBuilder, LabError> {
+    let ring = annulus(specimen, grid)?;
+    clamped_builder(fabric, s, &ring, [grid.radial + 2, grid.angular]).map(|(b, _)| b)
 }
 
 /// The specimen's annulus on the polar grid: disc radius `rd`, specimen radius `rs` (m), `radial` cells outside
@@ -296,6 +313,32 @@ impl Annulus {
     }
 }
 
+/// The flat specimen's builder on an `m × angular` polar grid, its inner two rings clamped, and the grid.
+fn clamped_builder(
+    fabric: &Fabric,
+    s: Stiffness,
+    ring: &Annulus,
+    [m, angular]: [usize; 2],
+) -> Result<(ModelBuilder, Grid), LabError> {
+    let hr = (ring.rs - ring.rd) / ring.radial as f64;
+    let grid = Grid::new(m, angular, hr, 2.0 * PI / angular as f64, [Topology::Free, Topology::Periodic])
+        .map_err(|e| LabError::Input(format!("cusick: {e}")))?;
+    let rest: Vec<Vec3> = (0..grid.len())
+        .map(|k| {
+            let (i, j) = grid.coords(k);
+            let t = j as f64 * grid.h2;
+            Vec3::new(ring.radius(i) * t.cos(), ring.radius(i) * t.sin(), 0.0)
+        })
+        .collect();
+    let opts = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
+    let mut builder =
+        ModelBuilder::new(grid, rest, *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81)).options(opts);
+    for k in 0..grid.len() {
+        builder.pinned[k] = grid.coords(k).0 <= 1;
+    }
+    Ok((builder, grid))
+}
+
 /// The flat specimen on an `m × angular` polar grid, its inner two rings clamped, and the start positions: a
 /// small droop with a many-mode wobble of the hem whose phases depend on `index`.
 fn clamped_specimen(
@@ -306,24 +349,10 @@ fn clamped_specimen(
     (index, folds): (usize, Option<usize>),
 ) -> Result<(Model, Vec<Vec3>), LabError> {
     let Annulus { rd, rs, .. } = *ring;
-    let hr = (rs - rd) / ring.radial as f64;
-    let grid = Grid::new(m, angular, hr, 2.0 * PI / angular as f64, [Topology::Free, Topology::Periodic])
-        .map_err(|e| LabError::Input(format!("cusick: {e}")))?;
+    let (builder, grid) = clamped_builder(fabric, s, ring, [m, angular])?;
+    let rest = builder.panels[0].rest.clone();
     let radius = |i: usize| ring.radius(i);
-    let rest: Vec<Vec3> = (0..grid.len())
-        .map(|k| {
-            let (i, j) = grid.coords(k);
-            let t = j as f64 * grid.h2;
-            Vec3::new(radius(i) * t.cos(), radius(i) * t.sin(), 0.0)
-        })
-        .collect();
-    let opts = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
-    let mut model =
-        ModelBuilder::new(grid, rest.clone(), *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81)).options(opts);
-    for k in 0..grid.len() {
-        model.pinned[k] = grid.coords(k).0 <= 1;
-    }
-    let model = model.build()?;
+    let model = builder.build()?;
     // A small droop with a many-mode wobble of the hem (deterministic phases).
     let start: Vec<Vec3> = rest
         .iter()
@@ -372,7 +401,7 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>, settle: &Settle) -> R
 /// (the clamp's reaction, hundreds of nodal weights), so each further solve tightens it by what the last one
 /// missed (at most four solves, quadratically convergent from the previous; a residual left above `tolerance` by
 /// round-off is reported, not an error). Returns the Newton iterations.
-fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
+pub(crate) fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
     let err = |source| LabError::Solve { test: "cusick", source };
     let mut solver = StaticSolver::new(model).map_err(err)?;
     let (mut tol, mut iterations) = (tolerance, 0);

@@ -3,6 +3,7 @@
 
 pub mod cantilever;
 pub mod cusick;
+pub mod fit;
 pub mod kes;
 mod kes_curves;
 

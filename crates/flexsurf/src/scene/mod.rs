@@ -41,6 +41,7 @@ mod values;
 
 pub use budget::Limits;
 pub use build::{Scene, SceneReport, SewingInfo};
+pub(crate) use error::parse_toml;
 pub use error::{SceneError, SceneWarning};
 pub use garment::{GarmentInfo, GarmentKind, GarmentSpec, WaistFit, Warp};
 pub use initial::{InitialCondition, InitialSpec};

@@ -8,6 +8,7 @@ mod converged_step;
 mod cusick_convergence;
 mod derivatives;
 mod dynamics;
+mod fit;
 mod fuzz;
 mod garments;
 mod hardening;

@@ -31,6 +31,7 @@ use super::LabError;
 use crate::lab::dense::Mat3;
 use crate::material::{Calibration, Fabric, Stiffness};
 use plate::{extrapolated, solve_pair};
+pub use plate::{hang_pair, hang_pair_from, Columns, Hanging, Specimen, COLUMNS};
 use serde::Serialize;
 
 /// Standard gravity of the test (m/s²).
@@ -54,7 +55,7 @@ pub enum Direction {
 /// Secant iteration on ln L for `f(L) = 0` (`f` = chord angle − 41.5°), from `(l0, f0)` and `1.05 l0`: at most
 /// `iterations` updates, stopping when `|f| < tol` or two values differ by less than `flat` (degrees). Returns
 /// the last L.
-fn secant_on_log<E>(
+pub(crate) fn secant_on_log<E>(
     (mut l0, mut f0): (f64, f64),
     iterations: usize,
     (tol, flat): (f64, f64),

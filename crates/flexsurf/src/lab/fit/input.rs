@@ -1,0 +1,272 @@
+//! The fit file (TOML): the material file to start from, the free constants with their bounds, and the targets
+//! with their measured values and uncertainties. Errors name the file, the dotted key and what is wrong.
+//!
+//! ```toml
+//! material = "../materials/woven-medium.toml"   # relative to this file
+//! units = "kes"          # of bounds, starts and targets: "si" (default) or "kes" (see below)
+//! max_iterations = 30    # Levenberg–Marquardt iterations (default 30)
+//! columns = 66           # node columns of the virtual cantilever's coarse strip (the fine one has 2·66 − 2)
+//! drape_specimen = 0.30  # the drape meter's specimen diameter (m; default 0.30)
+//! drape_level = 1        # its grid level, as `flexsurf test cusick --level` (0, 1, 2; default 1)
+//!
+//! [free.bending_warp]    # density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist
+//! lower = 0.01           # default: start / 100
+//! upper = 1.0            # default: start · 100
+//! start = 0.05           # default: the material's value
+//!
+//! [[target]]
+//! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
+//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%)
+//! sigma = 0.02                       # the value's standard uncertainty
+//!
+//! [[target]]
+//! quantity = "shape"     # a scanned drape: `x y z` (m) per line, in the drape meter's frame (disc centre at
+//! file = "scan.xyz"      # the origin, axis z, disc top at z = 0); symmetric Chamfer distance to the drape
+//! sigma = 0.002          # the scan's uncertainty per coordinate (m); no value (the distance's is 0)
+//! ```
+//!
+//! `units = "kes"`: constants and KES values in KES-F units (weight mg/cm², tensile gf/cm, shear gf/(cm·deg),
+//! bending and twist gf·cm²/cm), bending lengths in cm; `"si"`: kg/m², N/m, N/m per rad, N·m and m.
+
+use super::targets::{Instrument, KesValue, Quantity, Target};
+use super::{Constant, FitProblem, Free};
+use crate::lab::cantilever::Direction;
+use crate::material::{units, Calibration};
+use crate::math::Vec3;
+use crate::scene::material::load_material_file;
+use crate::scene::SceneError;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Units of a fit file's numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum FitUnits {
+    #[default]
+    Si,
+    Kes,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FitSpec {
+    material: PathBuf,
+    #[serde(default)]
+    calibration: Calibration,
+    #[serde(default)]
+    units: FitUnits,
+    max_iterations: Option<usize>,
+    columns: Option<usize>,
+    drape_specimen: Option<f64>,
+    drape_level: Option<usize>,
+    free: BTreeMap<String, FreeSpec>,
+    #[serde(default)]
+    target: Vec<TargetSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FreeSpec {
+    start: Option<f64>,
+    lower: Option<f64>,
+    upper: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetSpec {
+    quantity: String,
+    value: Option<f64>,
+    sigma: f64,
+    file: Option<PathBuf>,
+}
+
+/// SI value of constant `c` given in `u`.
+fn constant_si(c: Constant, u: FitUnits, v: f64) -> f64 {
+    match (u, c) {
+        (FitUnits::Si, _) => v,
+        (FitUnits::Kes, Constant::Density) => units::density_from_kes(v),
+        (FitUnits::Kes, Constant::TensileWarp | Constant::TensileWeft) => units::tension_from_kes(v),
+        (FitUnits::Kes, Constant::Shear) => units::shear_from_kes(v),
+        (FitUnits::Kes, Constant::BendingWarp | Constant::BendingWeft | Constant::Twist) => units::bending_from_kes(v),
+    }
+}
+
+/// A conversion to SI.
+type Conversion = fn(f64) -> f64;
+
+/// The quantity named `name`, and the SI value of a number of it given in `u`.
+fn quantity(name: &str, u: FitUnits) -> Option<(Quantity, Conversion)> {
+    let kes = u == FitUnits::Kes;
+    let id = |v: f64| v;
+    if name == "cusick.dc" {
+        return Some((Quantity::DrapeCoefficient, id));
+    }
+    if name == "shape" {
+        return Some((Quantity::Shape, id));
+    }
+    if let Some(d) = name.strip_prefix("bending_length.") {
+        let d = match d {
+            "warp" => Direction::Warp,
+            "weft" => Direction::Weft,
+            "bias" => Direction::Bias,
+            _ => return None,
+        };
+        return Some((Quantity::BendingLength(d), if kes { |v| v * 1e-2 } else { id }));
+    }
+    let (k, conv): (KesValue, fn(f64) -> f64) = match name.strip_prefix("kes.")? {
+        "bending_warp" => (KesValue::BendingWarp, units::bending_from_kes),
+        "bending_weft" => (KesValue::BendingWeft, units::bending_from_kes),
+        "shear" => (KesValue::Shear, units::shear_from_kes),
+        "tensile_warp" => (KesValue::TensileWarp, units::tension_from_kes),
+        "tensile_weft" => (KesValue::TensileWeft, units::tension_from_kes),
+        "tensile_bias" => (KesValue::TensileBias, units::tension_from_kes),
+        "weight" => (KesValue::Weight, units::density_from_kes),
+        _ => return None,
+    };
+    Some((Quantity::Kes(k), if kes { conv } else { id }))
+}
+
+/// The instruments a fit file asks for (checked by [`problem_from_toml`]).
+fn instrument(spec: &FitSpec) -> Instrument {
+    let mut ins = Instrument::default();
+    if let Some(c) = spec.columns {
+        ins.columns = (c, (2 * c).saturating_sub(2));
+    }
+    ins.specimen = spec.drape_specimen.unwrap_or(ins.specimen);
+    ins.drape_grid = crate::lab::cusick::default_polar(ins.specimen, spec.drape_level.unwrap_or(1));
+    ins
+}
+
+/// The targets of a fit file, and the scanned points of its shape target (if any).
+fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), SceneError> {
+    let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+    let (mut targets, mut scan) = (Vec::new(), Vec::new());
+    for (i, t) in spec.target.iter().enumerate() {
+        let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
+            return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
+        };
+        if !(t.sigma.is_finite() && t.sigma > 0.0) {
+            return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
+        }
+        if q == Quantity::Shape {
+            let Some(rel) = &t.file else {
+                return Err(bad(
+                    format!("target[{i}].file"),
+                    "a shape target names its scan (x y z per line, m)".into(),
+                ));
+            };
+            if t.value.is_some() {
+                return Err(bad(
+                    format!("target[{i}].value"),
+                    "a shape target has no value (its distance is 0)".into(),
+                ));
+            }
+            scan = read_points(&crate::scene::material::relative_to(file, rel))
+                .map_err(|m| bad(format!("target[{i}].file"), m))?;
+            targets.push(Target { quantity: q, value: 0.0, sigma: t.sigma });
+            continue;
+        }
+        if t.file.is_some() {
+            return Err(bad(format!("target[{i}].file"), "only a shape target names a file".into()));
+        }
+        let value = t.value.ok_or_else(|| bad(format!("target[{i}].value"), "missing".into()))?;
+        if !(value.is_finite() && value > 0.0) {
+            return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
+        }
+        targets.push(Target { quantity: q, value: conv(value), sigma: conv(t.sigma) });
+    }
+    Ok((targets, scan))
+}
+
+/// The points of a scan: `x y z` (m) per line; blank lines and lines starting with `#` are skipped.
+fn read_points(path: &Path) -> Result<Vec<Vec3>, String> {
+    let text =
+        crate::io::input::read_text(path).map_err(|e| format!("cannot read the scan {}: {e}", path.display()))?;
+    let mut points = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let v: Vec<f64> = line.split_whitespace().map(str::parse).collect::<Result<_, _>>().unwrap_or_default();
+        if v.len() != 3 || v.iter().any(|c| !c.is_finite()) {
+            return Err(format!("{}:{}: need three finite numbers `x y z`", path.display(), n + 1));
+        }
+        points.push(Vec3::new(v[0], v[1], v[2]));
+    }
+    if points.is_empty() {
+        return Err(format!("the scan {} has no points", path.display()));
+    }
+    Ok(points)
+}
+
+/// Reads a fit file.
+pub fn load_fit_file(path: &Path) -> Result<FitProblem, SceneError> {
+    let text = crate::io::input::read_text(path).map_err(|source| SceneError::io(path, source))?;
+    problem_from_toml(&text, path)
+}
+
+/// Reads a fit file's text; `file` names it in errors and the material file is found relative to it.
+pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneError> {
+    let spec: FitSpec = crate::scene::parse_toml(text, file)?;
+    let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+    if spec.columns.is_some_and(|c| !(4..=100_000).contains(&c)) {
+        return Err(bad("columns".into(), "must be 4 to 100000 node columns".into()));
+    }
+    if spec.drape_specimen.is_some_and(|d| !(d.is_finite() && d > crate::lab::cusick::DISC && d <= 2.0)) {
+        return Err(bad("drape_specimen".into(), "must be a diameter (m) above the 0.18 m disc, at most 2 m".into()));
+    }
+    if spec.drape_level.is_some_and(|l| l > 2) {
+        return Err(bad("drape_level".into(), "must be 0, 1 or 2".into()));
+    }
+    let material_path = crate::scene::material::relative_to(file, &spec.material);
+    let m = load_material_file(&material_path).map_err(|e| match e {
+        SceneError::Io { source, .. } => {
+            bad("material".into(), format!("cannot read material file {}: {source}", material_path.display()))
+        }
+        other => SceneError::referenced(file, "material".into(), other),
+    })?;
+    if !m.laws.is_empty() {
+        return Err(bad("material".into(), "the material has nonlinear laws; a fit takes a linear material".into()));
+    }
+    let mut fabric = m.fabric;
+    let mut free = Vec::new();
+    for (key, f) in &spec.free {
+        let c = Constant::from_key(key).ok_or_else(|| {
+            bad(format!("free.{key}"), "not a constant a fit can free (density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist)".into())
+        })?;
+        let si = |v: f64| constant_si(c, spec.units, v);
+        if let Some(s) = f.start {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(bad(format!("free.{key}.start"), "must be a positive number".into()));
+            }
+            c.set(&mut fabric, si(s));
+        }
+        let Some(start) = c.get(&fabric) else {
+            return Err(bad(format!("free.{key}"), "the material leaves twist to Huber's rule; give `start`".into()));
+        };
+        let lower = f.lower.map_or(start / 100.0, si);
+        let upper = f.upper.map_or(start * 100.0, si);
+        if !(lower.is_finite() && upper.is_finite() && lower > 0.0 && lower <= upper) {
+            return Err(bad(format!("free.{key}"), "bounds must be finite with 0 < lower ≤ upper".into()));
+        }
+        if !(lower..=upper).contains(&start) {
+            return Err(bad(format!("free.{key}.start"), "the start lies outside the bounds".into()));
+        }
+        free.push(Free { constant: c, lower, upper });
+    }
+    let (targets, scan) = targets_of(&spec, file)?;
+    let problem = FitProblem {
+        fabric,
+        calibration: spec.calibration,
+        free,
+        targets,
+        instrument: instrument(&spec),
+        max_iterations: spec.max_iterations.unwrap_or(30),
+        scan,
+    };
+    super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
+    Ok(problem)
+}
