@@ -146,9 +146,8 @@ pub(crate) struct LineSmoother {
     masked: Vec<bool>,
 }
 
-/// Couplings farther apart than this many nodes along a grid line split it (a line closed on itself through a
-/// seam); a line of points of several block nodes each is given a proportionally larger bound.
-pub(crate) const FAR: usize = 4;
+/// Couplings farther apart than this along a line split it (a line closed on itself through a seam).
+const FAR: usize = 4;
 
 /// Each node's segment and position in it (`u32::MAX`: none).
 fn positions(n: usize, lines: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
@@ -187,20 +186,20 @@ fn couplings(pattern: &BlockPattern, lines: &[Vec<u32>]) -> (Vec<usize>, Vec<(u3
     (reach, edges)
 }
 
-/// The lines with every one whose couplings reach farther than `far` along it split in halves (a grid's
+/// The lines with every one whose couplings reach farther than [`FAR`] along it split in halves (a grid's
 /// stencils reach two nodes; a line that closes on itself through a seam couples its two ends), until none
 /// does.
-fn split_far(pattern: &BlockPattern, mut lines: Vec<Vec<u32>>, far: usize) -> Vec<Vec<u32>> {
+fn split_far(pattern: &BlockPattern, mut lines: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
     loop {
         let (reach, _) = couplings(pattern, &lines);
-        if reach.iter().zip(&lines).all(|(&r, l)| r <= far || l.len() < 4) {
+        if reach.iter().zip(&lines).all(|(&r, l)| r <= FAR || l.len() < 4) {
             return lines;
         }
         lines = lines
             .into_iter()
             .zip(reach)
             .flat_map(|(l, r)| {
-                if r <= far || l.len() < 4 {
+                if r <= FAR || l.len() < 4 {
                     vec![l]
                 } else {
                     let half = l.len() / 2;
@@ -212,8 +211,8 @@ fn split_far(pattern: &BlockPattern, mut lines: Vec<Vec<u32>>, far: usize) -> Ve
 }
 
 impl Family {
-    fn new(pattern: &BlockPattern, lines: Vec<Vec<u32>>, far: usize) -> Self {
-        let lines = split_far(pattern, lines, far);
+    fn new(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Self {
+        let lines = split_far(pattern, lines);
         // The widest coupling along a segment, and which segments couple, from the pattern.
         let (reaches, mut edges) = couplings(pattern, &lines);
         let reach = reaches.into_iter().max().unwrap_or(0);
@@ -278,11 +277,10 @@ pub(crate) fn grid_lines(m: usize, n: usize, d: usize, topology: Topology) -> Ve
 
 impl LineSmoother {
     /// The smoother of a level with `pattern` relaxing `lines` (the `u1` lines and the `u2` lines of its
-    /// panels, each node on one line of each; a line whose couplings reach farther than `far` positions along
-    /// it is split); `masked` nodes are never changed.
-    pub(crate) fn new(pattern: &BlockPattern, lines: [Vec<Vec<u32>>; 2], masked: &[bool], far: usize) -> Self {
+    /// panels, each node on one line of each); `masked` nodes are never changed.
+    pub(crate) fn new(pattern: &BlockPattern, lines: [Vec<Vec<u32>>; 2], masked: &[bool]) -> Self {
         let [first, second] = lines;
-        let families = [Family::new(pattern, first, far), Family::new(pattern, second, far)];
+        let families = [Family::new(pattern, first), Family::new(pattern, second)];
         Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec() }
     }
 
@@ -311,11 +309,6 @@ impl LineSmoother {
     /// least [`LineSmoother::scratch_len`] scalars.
     pub(crate) fn pre(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         x.iter_mut().for_each(|v| *v = Vec3::ZERO);
-        self.forward(b, x, scratch);
-    }
-
-    /// One forward sweep from `x`: the `u1` lines, then the `u2` lines, colour by colour.
-    pub(crate) fn forward(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         for family in &self.families {
             for c in family.colors.iter() {
                 self.relax(family, c.clone(), b, x, scratch);
