@@ -176,7 +176,7 @@ pub trait BlockSolver: Send {
 
     /// The nodes' current positions, for a solver whose preconditioner follows the shape ([`multigrid`]'s
     /// coarse space carries the rigid-body modes at these positions; without a call, those of the panels' rest
-    /// shapes). The default ignores them.
+    /// shapes; positions of another length than the pattern's nodes are ignored). The default ignores them.
     fn set_positions(&mut self, _x: &[Vec3]) {}
 
     /// Non-zeros of the factor (0, the default, for a solver without one).

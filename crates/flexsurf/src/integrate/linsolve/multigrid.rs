@@ -12,8 +12,8 @@
 //!   Cartesian increments moves it off a rigid rotation of its parents (by `θ × (x − x̄)`): each block of `P` adds
 //!   the rotation fitted to the parents' increments (least squares) times the node's offset from their
 //!   centroid, which carries every rigid motion exactly (the twist about the line of two parents excepted) with
-//!   the same sparsity ([`Level::rotations`]). The positions are the panels' rest shapes, or those the stepper
-//!   gives ([`BlockSolver::set_positions`]).
+//!   the same sparsity (`Level::rotations`). The positions are the panels' rest shapes, or those given by
+//!   [`BlockSolver::set_positions`].
 //! - **Coarse operators** are Galerkin's `A_c = Pᵀ A P` of the 3×3-block matrix, computed from a recipe built
 //!   once (for each coarse block, the fine blocks and the blocks of `P` that multiply them, in a fixed order)
 //!   and refilled in place for each solve; whatever couples nodes (the grid's stencils, seams, springs) is
