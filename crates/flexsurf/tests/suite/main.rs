@@ -5,6 +5,7 @@
 
 mod contact_records;
 mod converged_step;
+mod curved_multigrid;
 mod cusick_convergence;
 mod derivatives;
 mod dynamics;

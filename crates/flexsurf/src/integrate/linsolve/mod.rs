@@ -174,6 +174,11 @@ pub trait BlockSolver: Send {
         reuse: Reuse,
     ) -> Result<SolveStats, LinearError>;
 
+    /// The nodes' current positions, for a solver whose preconditioner follows the shape ([`multigrid`]'s
+    /// coarse space carries the rigid-body modes at these positions; without a call, those of the panels' rest
+    /// shapes; positions of another length than the pattern's nodes are ignored). The default ignores them.
+    fn set_positions(&mut self, _x: &[Vec3]) {}
+
     /// Non-zeros of the factor (0, the default, for a solver without one).
     fn factor_nnz(&self) -> usize {
         0
