@@ -402,6 +402,8 @@ impl Stepper {
         } else {
             self.delta.iter_mut().for_each(|d| *d = Vec3::ZERO);
         }
+        // Multigrid's coarse space carries the rigid-body modes of the shape the step is at.
+        self.solver.set_positions(&self.y);
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
         for round in 0..=self.params.active_set_rounds {
             let stats = self

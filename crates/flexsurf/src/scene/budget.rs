@@ -184,8 +184,9 @@ const MATRIX_BLOCKS_PER_NODE: u64 = 50;
 const BLOCK_BYTES: u64 = 72;
 /// Bytes per node of the multigrid solver: the smoother's copy of the matrix by rows (25 blocks of `f32`), the
 /// line factors, the coarse levels and their Galerkin recipes, the vectors of conjugate gradients and the
-/// V-cycle (measured: `flexsurf bench --workload touching --solver multigrid`, peak memory, docs/performance.md).
-const MULTIGRID_BYTES_PER_NODE: u64 = 3000;
+/// V-cycle (measured: `flexsurf bench --workload touching --solver multigrid`, peak memory, docs/performance.md;
+/// the prolongation's 3×3 blocks, which carry rotations on curved sheets, added about 460 bytes a node at 641²).
+const MULTIGRID_BYTES_PER_NODE: u64 = 3500;
 
 /// The memory estimate of a run of `nodes = m · n` nodes with `spec`'s outputs (saturating arithmetic).
 pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate {
