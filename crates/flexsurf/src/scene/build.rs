@@ -15,7 +15,7 @@ use super::values::{Body, Checked, Parts, SpringSet};
 use super::SceneError;
 use crate::garment::sewing::{sew, SewError, SewReport};
 use crate::integrate::{linsolve::SolverKind, Method, StepParams};
-use crate::material::Calibration;
+use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Spring};
 use crate::state::State;
@@ -231,17 +231,8 @@ impl SceneSpec {
                 (model, initial, None)
             }
             Body::Pattern { pattern: loaded, initial } => {
-                let mut panels = loaded.built.panels.iter();
-                let Some(first) = panels.next() else { return Err(v.bad("pattern", "no panel".into())) };
-                let mut model =
-                    ModelBuilder::new(first.grid, first.flat.clone(), fabric, stiffness, self.model.kind, gravity)
-                        .options(first.options);
-                for p in panels {
-                    model = model.panel(p.grid, p.flat.clone(), p.options);
-                }
-                for (spec, material) in model.panels.iter_mut().zip(&loaded.materials) {
-                    spec.material = *material;
-                }
+                let model = pattern_model(&loaded, fabric, stiffness, self.model.kind, gravity)
+                    .ok_or_else(|| v.bad("pattern", "no panel".into()))?;
                 pattern = Some(loaded);
                 (model, initial, None)
             }
@@ -285,6 +276,28 @@ impl SceneSpec {
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }
+}
+
+/// The open (unsewn) model of a pattern's panels, each with its grid, flat rest shape, warp and own fabric if it
+/// has one; `None` without panels.
+fn pattern_model(
+    loaded: &LoadedPattern,
+    fabric: Fabric,
+    stiffness: Stiffness,
+    kind: ModelKind,
+    gravity: Vec3,
+) -> Option<ModelBuilder> {
+    let mut panels = loaded.built.panels.iter();
+    let first = panels.next()?;
+    let mut model =
+        ModelBuilder::new(first.grid, first.flat.clone(), fabric, stiffness, kind, gravity).options(first.options);
+    for p in panels {
+        model = model.panel(p.grid, p.flat.clone(), p.options);
+    }
+    for (spec, material) in model.panels.iter_mut().zip(&loaded.materials) {
+        spec.material = *material;
+    }
+    Some(model)
 }
 
 /// Pins the nodes of `pins` and adds the springs of `springs` (an `"initial"` target at `initial`) to `model`.
