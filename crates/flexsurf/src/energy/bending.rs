@@ -10,7 +10,7 @@
 use super::curvature::NormalCurvature;
 use super::frame::{Frame, Warp};
 use super::parallel::{assemble, Item, Local, Pool};
-use super::{local_blocks, local_pairs, Operator, Sink};
+use super::{Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::{outer, Mat3, Vec3};
@@ -431,14 +431,12 @@ impl Point {
 impl Bending {
     /// The node pairs whose Hessian block this term touches.
     pub fn pairs(&self) -> Vec<(usize, usize)> {
-        self.points.iter().flat_map(|p| local_pairs(p.support.nodes()).collect::<Vec<_>>()).collect()
+        super::parallel::pairs(&self.points)
     }
 
     /// Precomputes block ids for a pattern that contains [`Self::pairs`].
     pub fn bind(&mut self, pattern: &BlockPattern) {
-        for p in &mut self.points {
-            p.blocks = local_blocks(pattern, p.support.nodes());
-        }
+        super::parallel::bind(&mut self.points, pattern);
     }
 
     /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy. Large grids are
@@ -456,5 +454,8 @@ impl Item for Point {
     }
     fn blocks(&self) -> &[u32] {
         &self.blocks
+    }
+    fn set_blocks(&mut self, blocks: Vec<u32>) {
+        self.blocks = blocks;
     }
 }

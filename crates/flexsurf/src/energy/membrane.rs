@@ -8,7 +8,7 @@
 
 use super::frame::{Frame, Warp};
 use super::parallel::{assemble, Item, Local, Pool};
-use super::{local_blocks, local_pairs, Operator, Sink};
+use super::{Operator, Sink};
 use crate::grid::Grid;
 use crate::material::Stiffness;
 use crate::math::{diag, outer, Mat3, Vec3};
@@ -121,14 +121,12 @@ impl Membrane {
 
     /// The node pairs whose Hessian block this term touches.
     pub fn pairs(&self) -> Vec<(usize, usize)> {
-        self.cells.iter().flat_map(|c| local_pairs(&c.nodes).collect::<Vec<_>>()).collect()
+        super::parallel::pairs(&self.cells)
     }
 
     /// Precomputes block ids for a pattern that contains [`Self::pairs`].
     pub fn bind(&mut self, pattern: &BlockPattern) {
-        for c in &mut self.cells {
-            c.blocks = local_blocks(pattern, &c.nodes);
-        }
+        super::parallel::bind(&mut self.cells, pattern);
     }
 
     /// Adds gradient and operator into `sink` (not its running `energy`); returns the energy. Large grids are
@@ -144,6 +142,9 @@ impl Item for Cell {
     }
     fn blocks(&self) -> &[u32] {
         &self.blocks
+    }
+    fn set_blocks(&mut self, blocks: Vec<u32>) {
+        self.blocks = blocks;
     }
 }
 

@@ -21,7 +21,7 @@ use super::bending::{cell_frame, cell_normal_stencils, node_frame, CellFrame, Po
 use super::frame::{Frame, Warp};
 use super::membrane::positive_part;
 use super::parallel::{assemble, Item, Local, Pool};
-use super::{local_blocks, local_pairs, Operator, Sink};
+use super::{Operator, Sink};
 use crate::grid::Grid;
 use crate::material::law::{Curve, Laws};
 use crate::math::{diag, outer, Mat3, Vec3};
@@ -213,14 +213,12 @@ impl NonlinearMembrane {
 
     /// The node pairs whose Hessian block this term touches.
     pub fn pairs(&self) -> Vec<(usize, usize)> {
-        self.cells.iter().flat_map(|c| local_pairs(&c.nodes).collect::<Vec<_>>()).collect()
+        super::parallel::pairs(&self.cells)
     }
 
     /// Precomputes block ids for a pattern that contains [`Self::pairs`].
     pub fn bind(&mut self, pattern: &BlockPattern) {
-        for c in &mut self.cells {
-            c.blocks = local_blocks(pattern, &c.nodes);
-        }
+        super::parallel::bind(&mut self.cells, pattern);
     }
 
     /// Adds gradient and operator into `sink`; returns the excess energy.
@@ -235,6 +233,9 @@ impl Item for Cell {
     }
     fn blocks(&self) -> &[u32] {
         &self.blocks
+    }
+    fn set_blocks(&mut self, blocks: Vec<u32>) {
+        self.blocks = blocks;
     }
 }
 
@@ -344,6 +345,9 @@ impl Item for (Point, Vec<Use<MEASURES>>) {
     fn blocks(&self) -> &[u32] {
         &self.0.blocks
     }
+    fn set_blocks(&mut self, blocks: Vec<u32>) {
+        self.0.blocks = blocks;
+    }
 }
 
 impl NonlinearBending {
@@ -437,14 +441,12 @@ impl NonlinearBending {
 
     /// The node pairs whose Hessian block this term touches.
     pub fn pairs(&self) -> Vec<(usize, usize)> {
-        self.points.iter().flat_map(|p| local_pairs(p.0.support.nodes()).collect::<Vec<_>>()).collect()
+        super::parallel::pairs(&self.points)
     }
 
     /// Precomputes block ids for a pattern that contains [`Self::pairs`].
     pub fn bind(&mut self, pattern: &BlockPattern) {
-        for (p, _) in &mut self.points {
-            p.blocks = local_blocks(pattern, p.support.nodes());
-        }
+        super::parallel::bind(&mut self.points, pattern);
     }
 
     /// Adds gradient and operator into `sink`; returns the excess energy.

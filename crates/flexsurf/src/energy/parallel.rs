@@ -37,6 +37,22 @@ pub(crate) trait Item: Sync {
     fn nodes(&self) -> &[usize];
     /// The block ids of the local pairs.
     fn blocks(&self) -> &[u32];
+    /// Sets them ([`bind`]).
+    fn set_blocks(&mut self, blocks: Vec<u32>);
+}
+
+/// The node pairs whose Hessian blocks `items` touch (every local pair of every support): a kernel's
+/// [`crate::potential::Term::pairs`].
+pub(crate) fn pairs<T: Item>(items: &[T]) -> Vec<(usize, usize)> {
+    items.iter().flat_map(|i| super::local_pairs(i.nodes()).collect::<Vec<_>>()).collect()
+}
+
+/// Precomputes the block ids of every item's local pairs in a pattern that contains [`pairs`].
+pub(crate) fn bind<T: Item>(items: &mut [T], pattern: &crate::sparse::BlockPattern) {
+    for i in items {
+        let blocks = super::local_blocks(pattern, i.nodes());
+        i.set_blocks(blocks);
+    }
 }
 
 /// What one item's kernel is asked for: its gradient contributions (one per support node, `grad[k]` for
