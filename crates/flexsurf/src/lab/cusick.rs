@@ -5,7 +5,8 @@
 //!
 //! The specimen is an annulus on a polar grid (u1 radial, free; u2 around, periodic), warp along x (a fixed
 //! direction of the flat pattern, so the strains are measured in the fabric's axes at every point). Its inner two
-//! rings (radius `R_disc − h` and `R_disc`) are clamped. The drape is found by damped implicit dynamics from the
+//! rings (radius `R_disc − h/2` and `R_disc + h/2`) are clamped, so the clamped segment between them is level at
+//! the disc's edge itself. The drape is found by damped implicit dynamics from the
 //! flat state with a small many-mode perturbation of the hem (so that the fold count is chosen by the fabric, not
 //! by the perturbation), run until no node moves faster than 0.1 mm/s; the remaining equilibrium residual is
 //! reported. The shadow is the xy footprint of the Coons
@@ -83,8 +84,9 @@ pub fn default_grid(specimen: f64, level: usize) -> (usize, usize) {
     (radial, [48, 72, 96][level.min(2)])
 }
 
-/// The order assumed by [`richardson`] when three levels do not show one: the clamp (its inner ring at
-/// `R_disc − h`) is first order in the spacing `h`.
+/// The order assumed by [`richardson`] when three levels do not show one: the drape's, measured between 3.75 and
+/// 1.67 mm radial cells, is about first (docs/materials.md), though the clamp alone converges at nearly second
+/// order (`cusick_clamp_deflects_as_the_annular_plate`).
 pub const ASSUMED_ORDER: f64 = 1.0;
 
 /// The Richardson estimate of the grid-converged value from `(spacing, value)` pairs, coarsest first (the grids
@@ -288,28 +290,26 @@ impl Annulus {
         }
     }
 
-    /// The first radial cell, at the disc's edge (m).
+    /// The first radial cell, at the disc's edge (m): the free span `rs − rd − h₀/2` (the clamp's edge ring sits
+    /// half a cell outside the disc) holds `radial` cells growing geometrically by [`Annulus::ratio`].
     fn first(&self) -> f64 {
         let (q, n, w) = (self.ratio(), self.radial as f64, self.rs - self.rd);
-        if (q - 1.0).abs() < 1e-12 {
-            w / n
-        } else {
-            w * (q - 1.0) / (q.powf(n) - 1.0)
-        }
+        let cells = if (q - 1.0).abs() < 1e-12 { n } else { (q.powf(n) - 1.0) / (q - 1.0) };
+        w / (cells + 0.5)
     }
 
-    /// Radius of ring `i` (m): 0 inside the disc (clamped), 1 the disc's edge (clamped), `radial + 1` the hem.
+    /// Radius of ring `i` (m): 0 and 1 clamped, half a first cell inside and outside the disc's edge, so that
+    /// the clamped segment between them is level at the edge itself (pinning two rings makes the slope vanish
+    /// midway between them: a clamp at `rd − h₀` and `rd` would clamp at `rd − h₀/2`, an error of first order in
+    /// the spacing); `radial + 1` the hem.
     fn radius(&self, i: usize) -> f64 {
         let (h0, q) = (self.first(), self.ratio());
         if i == 0 {
-            return self.rd - h0;
+            return self.rd - 0.5 * h0;
         }
         let k = (i - 1) as f64;
-        if (q - 1.0).abs() < 1e-12 {
-            self.rd + k * h0
-        } else {
-            self.rd + h0 * (q.powf(k) - 1.0) / (q - 1.0)
-        }
+        let grown = if (q - 1.0).abs() < 1e-12 { k } else { (q.powf(k) - 1.0) / (q - 1.0) };
+        self.rd + h0 * (0.5 + grown)
     }
 }
 
@@ -401,7 +401,7 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>, settle: &Settle) -> R
 /// (the clamp's reaction, hundreds of nodal weights), so each further solve tightens it by what the last one
 /// missed (at most four solves, quadratically convergent from the previous; a residual left above `tolerance` by
 /// round-off is reported, not an error). Returns the Newton iterations.
-pub(crate) fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
+fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
     let err = |source| LabError::Solve { test: "cusick", source };
     let mut solver = StaticSolver::new(model).map_err(err)?;
     let (mut tol, mut iterations) = (tolerance, 0);
@@ -432,7 +432,7 @@ fn residual(model: &Model, x: &[Vec3]) -> f64 {
 fn shadow_area(model: &Model, x: &[Vec3], ring: &Annulus) -> f64 {
     let (rd, hr) = (ring.rd, ring.first());
     let mesh = CoonsSurface::new(&model.panels[0].grid, x).tessellate(4);
-    let hole = PI * (rd - hr) * (rd - hr);
+    let hole = PI * (rd - 0.5 * hr) * (rd - 0.5 * hr);
     (projected_area_xy(&mesh, 1024) + hole).max(PI * rd * rd)
 }
 

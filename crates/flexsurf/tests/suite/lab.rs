@@ -97,8 +97,8 @@ fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
     assert!((warp - bias).abs() < 1e-6, "isotropic bending: warp {warp}°, bias {bias}°");
 }
 
-/// Cusick drape (issue 3): bounds, grid convergence between the two finest default grids, and the trends a
-/// drape meter shows: the drape coefficient rises with bending stiffness and with shear stiffness and falls with
+/// Cusick drape (issue 3): bounds and the trends a drape meter shows (grid convergence is
+/// `cusick_convergence.rs`'s): the drape coefficient rises with bending stiffness and with shear stiffness and falls with
 /// specimen size. A drape has several equilibria (specimens started from different small wobbles of the hem
 /// differ by a few points, s.d. 3–5 points for this fabric), so the weak shear trend is judged, as on a drape
 /// meter, on the mean of three specimens; the strong bending and size trends on one.
@@ -120,14 +120,12 @@ fn cusick_drape_coefficient_behaves() {
     let dc = |f: &Fabric, d: f64, level: usize| run(f, d, level, 0);
     let base = dc(&soft, 0.30, 1);
     assert!(base.nodes >= 4 && base.nodes <= 12, "a soft fabric forms folds: {base:?}");
-    let fine = dc(&soft, 0.30, 2);
-    assert!((fine.drape_coefficient - base.drape_coefficient).abs() < 2.0, "not grid-converged: {base:?} {fine:?}");
     let stiffer = Fabric { bending_warp: 4.0 * soft.bending_warp, bending_weft: 4.0 * soft.bending_weft, ..soft };
     assert!(dc(&stiffer, 0.30, 1).drape_coefficient > base.drape_coefficient + 10.0);
     let (small, large) = (dc(&soft, 0.24, 1), dc(&soft, 0.36, 1));
     assert!(small.drape_coefficient > base.drape_coefficient + 10.0);
     assert!(base.drape_coefficient > large.drape_coefficient + 5.0);
-    // Shear: mean DC of three specimens at G/16, G and 4G (measured 38.4 %, 39.7 %, 41.6 %).
+    // Shear: mean DC of three specimens at G/16, G and 4G (measured 38.9 %, 42.3 %, 42.8 %).
     let mean = |g: f64| {
         let f = Fabric { shear: g * soft.shear, ..soft };
         (0..3)
