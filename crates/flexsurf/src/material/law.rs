@@ -47,6 +47,10 @@ pub enum CurveError {
     /// A point at zero strain with a non-zero resultant.
     #[error("does not pass through the origin: point {0} has zero strain and a non-zero resultant")]
     NotThroughOrigin(usize, f64),
+    /// Knots with their slopes given ([`Curve::hermite`]) that leave out the origin or give a slope that is
+    /// not a positive finite number.
+    #[error("needs the origin among its knots and positive finite slopes (knot {0})")]
+    BadHermite(usize),
     /// The monotone cubic's stiffness reaches zero inside a segment.
     #[error("as a monotone cubic has zero stiffness inside the segment from point {0}; use linear interpolation")]
     CubicFlat(usize),
@@ -74,6 +78,51 @@ impl Curve {
     /// The law through `points` (strain, resultant), given for positive strains (extended oddly) or for both
     /// signs; the origin is added when absent.
     pub fn new(points: &[(f64, f64)], kind: Interpolation) -> Result<Self, CurveError> {
+        Self::check(points)?;
+        let mut knots: Vec<(f64, f64)> = points.to_vec();
+        if !knots.iter().any(|p| p.0 == 0.0) {
+            let at = knots.partition_point(|p| p.0 < 0.0);
+            // The origin between a negative and a positive point must keep the resultant increasing.
+            if (at > 0 && knots[at - 1].1 >= 0.0) || (at < knots.len() && knots[at].1 <= 0.0) {
+                return Err(CurveError::NonPositiveStiffness(at.saturating_sub(1), at));
+            }
+            knots.insert(at, (0.0, 0.0));
+        }
+        if knots[0].0 >= 0.0 {
+            let mirrored: Vec<(f64, f64)> = knots[1..].iter().rev().map(|&(x, y)| (-x, -y)).collect();
+            knots = mirrored.into_iter().chain(knots).collect();
+        }
+        let (x, y): (Vec<f64>, Vec<f64>) = knots.into_iter().unzip();
+        Self::from_knots(x, y, kind, points.to_vec())
+    }
+
+    /// The cubic Hermite law through `knots` `(x, N, N')`, the slopes given (a law known with its stiffness:
+    /// ARCSim's tables, `crate::scene::arcsim`). The knots are used as given (both signs, the origin among them);
+    /// the resultant must increase strictly, also inside every segment.
+    pub fn hermite(knots: &[(f64, f64, f64)]) -> Result<Self, CurveError> {
+        let points: Vec<(f64, f64)> = knots.iter().map(|k| (k.0, k.1)).collect();
+        Self::check(&points)?;
+        for (i, k) in knots.iter().enumerate() {
+            if !(k.2.is_finite() && k.2 > 0.0) {
+                return Err(CurveError::BadHermite(i));
+            }
+        }
+        if !knots.iter().any(|k| k.0 == 0.0) {
+            return Err(CurveError::BadHermite(0));
+        }
+        let x = knots.iter().map(|k| k.0).collect();
+        let y = knots.iter().map(|k| k.1).collect();
+        let d = knots.iter().map(|k| k.2).collect();
+        Self::finish(x, y, d, Interpolation::MonotoneCubic, points)
+    }
+
+    /// The straight line `N = k x` (the linear law, as a curve).
+    pub fn linear(k: f64) -> Result<Self, CurveError> {
+        Self::new(&[(0.0, 0.0), (1.0, k)], Interpolation::Linear)
+    }
+
+    /// At least two finite points, strain and resultant increasing strictly, zero resultant at zero strain.
+    fn check(points: &[(f64, f64)]) -> Result<(), CurveError> {
         if points.len() < 2 {
             return Err(CurveError::TooFewPoints(points.len()));
         }
@@ -95,26 +144,7 @@ impl Curve {
                 return Err(CurveError::NotThroughOrigin(i, points[i].1));
             }
         }
-        let mut knots: Vec<(f64, f64)> = points.to_vec();
-        if !knots.iter().any(|p| p.0 == 0.0) {
-            let at = knots.partition_point(|p| p.0 < 0.0);
-            // The origin between a negative and a positive point must keep the resultant increasing.
-            if (at > 0 && knots[at - 1].1 >= 0.0) || (at < knots.len() && knots[at].1 <= 0.0) {
-                return Err(CurveError::NonPositiveStiffness(at.saturating_sub(1), at));
-            }
-            knots.insert(at, (0.0, 0.0));
-        }
-        if knots[0].0 >= 0.0 {
-            let mirrored: Vec<(f64, f64)> = knots[1..].iter().rev().map(|&(x, y)| (-x, -y)).collect();
-            knots = mirrored.into_iter().chain(knots).collect();
-        }
-        let (x, y): (Vec<f64>, Vec<f64>) = knots.into_iter().unzip();
-        Self::from_knots(x, y, kind, points.to_vec())
-    }
-
-    /// The straight line `N = k x` (the linear law, as a curve).
-    pub fn linear(k: f64) -> Result<Self, CurveError> {
-        Self::new(&[(0.0, 0.0), (1.0, k)], Interpolation::Linear)
+        Ok(())
     }
 
     fn from_knots(x: Vec<f64>, y: Vec<f64>, kind: Interpolation, points: Vec<(f64, f64)>) -> Result<Self, CurveError> {
@@ -133,6 +163,18 @@ impl Curve {
                 }
             };
         }
+        Self::finish(x, y, d, kind, points)
+    }
+
+    /// The curve of knots `x`, `y` and slopes `d`: its energies at the knots and its smallest slope.
+    fn finish(
+        x: Vec<f64>,
+        y: Vec<f64>,
+        d: Vec<f64>,
+        kind: Interpolation,
+        points: Vec<(f64, f64)>,
+    ) -> Result<Self, CurveError> {
+        let n = x.len();
         let mut c = Self { x, y, d, e: vec![0.0; n], kind, k: f64::INFINITY, points };
         for i in 0..n - 1 {
             let h = c.x[i + 1] - c.x[i];
