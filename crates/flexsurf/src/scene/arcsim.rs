@@ -36,6 +36,9 @@ pub struct ArcsimMaterial {
     pub laws: Laws,
 }
 
+/// Knots `(x, N, N')` of a law.
+type Knots = Vec<(f64, f64, f64)>;
+
 /// The principal stretch at which ARCSim's strain samples are taken: `λ₁ = 1 + 1/6`.
 pub const SAMPLE_STRETCH: f64 = 1.0 + 1.0 / 6.0;
 /// The curvature spacing of ARCSim's bending samples (1/m).
@@ -84,25 +87,36 @@ pub fn arcsim_from_json(text: &str, file: &Path) -> Result<ArcsimMaterial, Scene
         }
     }
     let s = &stretching;
-    let laws: [(&str, &str, Vec<(f64, f64, f64)>); 5] = [
-        ("stretching[1][0]", "warp tension (rows 0 and 1, column 0)", tensile_points(s[0][0], s[1][0])),
-        ("stretching[5][2]", "weft tension (rows 0 and 5, column 2)", tensile_points(s[0][2], s[5][2])),
-        ("stretching[3][3]", "shear (rows 0 and 3, column 3)", shear_points(s[0][3], s[3][3])),
-        ("bending[2]", "warp bending (the 90° edge row)", bending_points(&bending[2])),
-        ("bending[0]", "weft bending (the 0° edge row)", bending_points(&bending[0])),
+    let laws: [(&str, &str, Knots); 5] = [
+        (
+            "stretching[1][0]",
+            "warp tension (rows 0 and 1, column 0) it gives at Green strain",
+            tensile_points(s[0][0], s[1][0]),
+        ),
+        (
+            "stretching[5][2]",
+            "weft tension (rows 0 and 5, column 2) it gives at Green strain",
+            tensile_points(s[0][2], s[5][2]),
+        ),
+        ("stretching[3][3]", "shear (rows 0 and 3, column 3) it gives at shear strain", shear_points(s[0][3], s[3][3])),
+        ("bending[2]", "warp bending moment (the 90° edge row) at curvature (1/m)", bending_points(&bending[2])),
+        ("bending[0]", "weft bending moment (the 0° edge row) at curvature (1/m)", bending_points(&bending[0])),
     ];
     let mut curves = Vec::with_capacity(5);
     for (key, what, points) in laws {
+        let falls = |i: usize, j: usize| {
+            let (a, b) = (points[i].0.abs(), points[j].0.abs());
+            let m = format!(
+                "the {what} falls between {:.4} and {:.4} (flexsurf needs a resultant that increases)",
+                a.min(b),
+                a.max(b)
+            );
+            bad(key, m)
+        };
         let c = Curve::hermite(&points).map_err(|e| match e {
-            CurveError::NonPositiveStiffness(i, j) => bad(
-                key,
-                format!(
-                    "the {what} it gives falls between strain {:.4} and {:.4} (flexsurf needs a resultant that \
-                     increases with the strain)",
-                    points[i].0, points[j].0
-                ),
-            ),
-            other => bad(key, format!("the {what} it gives {other}")),
+            CurveError::NonPositiveStiffness(i, j) => falls(i, j),
+            CurveError::CubicFlat(i) => falls(i, i + 1),
+            other => bad(key, format!("the law it gives {other}")),
         })?;
         curves.push(Some(c));
     }
@@ -132,7 +146,7 @@ fn stiffness(a: f64, b: f64, s: f64) -> (f64, f64) {
 
 /// Knots `(x, N, N')` of the law `f` (`x → (N, N' from the left, N' from the right)`) at `xs`, the slope at a
 /// kink the mean of its two sides; with `odd`, mirrored to negative `x` (the origin is added).
-fn knots(f: impl Fn(f64) -> (f64, f64, f64), xs: &[f64], odd: bool) -> Vec<(f64, f64, f64)> {
+fn knots(f: impl Fn(f64) -> (f64, f64, f64), xs: &[f64], odd: bool) -> Knots {
     let mut k: Vec<(f64, f64, f64)> = xs
         .iter()
         .map(|&x| {
@@ -169,7 +183,7 @@ fn abscissae(kinks: &[f64]) -> Vec<f64> {
 /// Tension along one axis, Green strain `E` → `S = k(s) E` with `s = 6(√(1 + 2E) − 1)` clamped to `[0, 1]`
 /// (the table's sample `s = 1` at `E = 13/72` is a knot), with its exact stiffness; in compression `s = 0`: the
 /// zero-strain stiffness `2a`.
-pub fn tensile_points(a: f64, b: f64) -> Vec<(f64, f64, f64)> {
+pub fn tensile_points(a: f64, b: f64) -> Knots {
     let top = 0.5 * (SAMPLE_STRETCH * SAMPLE_STRETCH - 1.0);
     let law = |e: f64| {
         let s = (6.0 * ((1.0 + 2.0 * e).sqrt() - 1.0)).clamp(0.0, 1.0);
@@ -192,7 +206,7 @@ pub fn tensile_points(a: f64, b: f64) -> Vec<(f64, f64, f64)> {
 
 /// Pure shear `γ = 2E12` → `∂ψ/∂γ = k3(s) γ / 4` with `λ₁ = √(1 + γ)`, `s = 6(λ₁ − 1)` (the sample `s = 1` at
 /// `γ = 13/36` is a knot); odd (ARCSim reads `|E12|`).
-pub fn shear_points(a: f64, b: f64) -> Vec<(f64, f64, f64)> {
+pub fn shear_points(a: f64, b: f64) -> Knots {
     let top = SAMPLE_STRETCH * SAMPLE_STRETCH - 1.0;
     let law = |g: f64| {
         let s = (6.0 * ((1.0 + g).sqrt() - 1.0)).clamp(0.0, 1.0);
@@ -212,7 +226,7 @@ pub fn shear_points(a: f64, b: f64) -> Vec<(f64, f64, f64)> {
 
 /// Bending, curvature `κ` → `M = k(κ) κ` with `k` linear between the samples at `5j` 1/m and held beyond
 /// (ARCSim clamps negative `k` to zero), with its exact stiffness; the samples are knots; odd.
-pub fn bending_points(row: &[f64]) -> Vec<(f64, f64, f64)> {
+pub fn bending_points(row: &[f64]) -> Knots {
     let n = row.len();
     let slope = |j: usize| if j + 1 < n { (row[j + 1] - row[j]) / BENDING_SPACING } else { 0.0 };
     let law = |kappa: f64| {

@@ -371,8 +371,8 @@ fn arcsim_file_gives_the_tables_laws() {
     assert!(rel(warp.resultant(-0.15), -200.0 * 0.15) < 1e-9, "compression: the zero-strain stiffness");
     assert!(rel(warp.resultant(0.4), 600.0 * 0.4) < 1e-9, "beyond the table: the last sample's stiffness");
     // Between samples: ARCSim's k(s) linear in s = 6(√(1 + 2E) − 1).
-    for e in [0.004, 0.013, 0.05, 0.11, 0.17] {
-        let s = 6.0 * ((1.0 + 2.0 * e as f64).sqrt() - 1.0);
+    for e in [0.004f64, 0.013, 0.05, 0.11, 0.17] {
+        let s = 6.0 * ((1.0 + 2.0 * e).sqrt() - 1.0);
         let arcsim = 2.0 * ((1.0 - s) * 100.0 + s * 300.0) * e;
         assert!(rel(warp.resultant(e), arcsim) < 1e-3, "warp at {e}: {} vs {arcsim}", warp.resultant(e));
     }
