@@ -483,3 +483,33 @@ fn arcsim_laws_pass_the_checker() {
         check(&alone(g.len(), Box::new(b)), &x, None, None, Operator::Exact).assert_below("arcsim bending", TOL);
     }
 }
+
+/// A KES shear cycle to ±8° with 2HG = 1 gf/cm on the nonlinear example: the loop is 2HG wide at ±4° (within
+/// 2 %) and the hysteretic force's loop area in `(γ, N)` is 2HG times the shear range (2 sin 8°), within 3 %.
+#[test]
+fn shear_hysteresis_loop_has_width_2hg() {
+    let path = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let m = flexsurf::scene::material::load_material_file(&path).unwrap();
+    let hg2 = 0.980665; // 2HG in N/m (1 gf/cm, as the file gives it)
+    assert!((m.laws.hysteresis[2] / hg2 - 1.0).abs() < 1e-12, "the file's 2HG");
+    let (phi_max, steps) = (8f64.to_radians(), 4);
+    let cycle = flexsurf::lab::kes::shear_loop(&m.fabric, &m.laws, 0.5 * hg2, phi_max, steps).unwrap();
+    let at = |from: usize, p: f64| cycle[from..].iter().find(|q| (q.0 - p).abs() < 1e-12).unwrap().1;
+    let half = 0.5 * phi_max;
+    for p in [half, -half] {
+        let (down, up) = (at(steps - 1, p), at(3 * steps - 1, p));
+        assert!(
+            ((up - down) / hg2 - 1.0).abs() < 0.02,
+            "loop width at {:.1}°: {} against 2HG {hg2}",
+            p.to_degrees(),
+            up - down
+        );
+    }
+    let law = m.laws.shear.as_ref().unwrap();
+    let area: f64 = cycle[steps - 1..]
+        .windows(2)
+        .map(|w| (w[1].1 - law.resultant(w[1].0.sin())) * (w[1].0.sin() - w[0].0.sin()))
+        .sum();
+    let expected = hg2 * 2.0 * phi_max.sin();
+    assert!((area / expected - 1.0).abs() < 0.03, "loop area {area} against {expected}");
+}
