@@ -259,6 +259,10 @@ impl Curve {
 
     /// `(ψ(x), N(x), N'(x))`.
     pub fn eval(&self, v: f64) -> (f64, f64, f64) {
+        if v.is_nan() {
+            // A diverged solve's strain: NaN out, never an out-of-range knot index.
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
         let n = self.x.len();
         if v <= self.x[0] || v >= self.x[n - 1] {
             let (i, slope) = if v <= self.x[0] { (0, self.d[0]) } else { (n - 1, self.d[n - 1]) };

@@ -163,9 +163,9 @@ fn knots(f: impl Fn(f64) -> (f64, f64, f64), xs: &[f64], odd: bool) -> Knots {
 }
 
 /// The knots of a law with a kink at each of `kinks`: `SUBDIVISIONS` per interval from 0 to the last kink, each
-/// kink flanked by two knots `1/64` of an interval away (so the averaged slope smooths it only there), and two
-/// beyond the last kink, where the law is straight.
-fn abscissae(kinks: &[f64]) -> Vec<f64> {
+/// kink flanked by two knots `1/64` of an interval away (so the averaged slope smooths it only there), and
+/// `beyond` times the last kink, where the law is straight.
+fn abscissae(kinks: &[f64], beyond: &[f64]) -> Vec<f64> {
     let mut xs = Vec::new();
     let mut lo = 0.0;
     for &top in kinks {
@@ -176,7 +176,7 @@ fn abscissae(kinks: &[f64]) -> Vec<f64> {
         xs.extend([top - h / 64.0, top, top + h / 64.0]);
         lo = top;
     }
-    xs.extend([2.0 * lo, 3.0 * lo]);
+    xs.extend(beyond.iter().map(|m| m * lo));
     xs
 }
 
@@ -195,7 +195,7 @@ pub fn tensile_points(a: f64, b: f64) -> Knots {
     };
     let mut xs = vec![-top, 0.0];
     // Knots uniform in `s` (ARCSim's variable), then the kink at `s = 1`.
-    let mut pos = abscissae(&[top]);
+    let mut pos = abscissae(&[top], &[2.0, 3.0]);
     for (i, x) in pos.iter_mut().take(SUBDIVISIONS - 1).enumerate() {
         let lambda = 1.0 + (i + 1) as f64 / SUBDIVISIONS as f64 / 6.0;
         *x = 0.5 * (lambda * lambda - 1.0);
@@ -216,7 +216,8 @@ pub fn shear_points(a: f64, b: f64) -> Knots {
         let right = if g >= top { 0.25 * k } else { inside };
         (0.25 * k * g, left, right)
     };
-    let mut xs = abscissae(&[top]);
+    // One knot beyond: a trellis shear `γ = sin φ` stays below 1.
+    let mut xs = abscissae(&[top], &[2.0]);
     for (i, x) in xs.iter_mut().take(SUBDIVISIONS - 1).enumerate() {
         let lambda = 1.0 + (i + 1) as f64 / SUBDIVISIONS as f64 / 6.0;
         *x = lambda * lambda - 1.0;
@@ -246,7 +247,7 @@ pub fn bending_points(row: &[f64]) -> Knots {
         (k * kappa, left, right)
     };
     let kinks: Vec<f64> = (1..n).map(|j| BENDING_SPACING * j as f64).collect();
-    knots(law, &abscissae(&kinks), true)
+    knots(law, &abscissae(&kinks, &[2.0, 3.0]), true)
 }
 
 /// The number at `key`.
