@@ -445,6 +445,20 @@ mod tests {
         }
     }
 
+    /// A Hermite law reproduces a cubic from its values and slopes; bad knots are refused; NaN stays NaN.
+    #[test]
+    fn hermite_law_through_values_and_slopes() {
+        let f = |x: f64| (x + x * x * x, 1.0 + 3.0 * x * x);
+        let knots: Vec<(f64, f64, f64)> = [-1.0, 0.0, 0.5, 2.0].iter().map(|&x| (x, f(x).0, f(x).1)).collect();
+        let c = Curve::hermite(&knots).unwrap();
+        for v in [-0.7, 0.2, 1.3] {
+            assert!((c.resultant(v) - f(v).0).abs() < 1e-12 && (c.eval(v).2 - f(v).1).abs() < 1e-12);
+        }
+        assert!(c.eval(f64::NAN).0.is_nan());
+        let bad = [(-1.0, -1.0, 1.0), (1.0, 1.0, 0.0)];
+        assert_eq!(Curve::hermite(&bad).unwrap_err(), CurveError::BadHermite(1));
+    }
+
     #[test]
     fn bad_curves_say_what_is_wrong() {
         let e = |p: &[(f64, f64)]| Curve::new(p, Interpolation::Linear).unwrap_err();
