@@ -513,3 +513,78 @@ fn shear_hysteresis_loop_has_width_2hg() {
     let expected = hg2 * 2.0 * phi_max.sin();
     assert!((area / expected - 1.0).abs() < 0.03, "loop area {area} against {expected}");
 }
+
+/// The hysteresis terms of a dynamic run (2HB, 2HG lagged at the step's start, docs/model.md §4.6) through the
+/// shared checker, with a step's motion whose start differs from the evaluation point; nothing in a static solve.
+#[test]
+fn hysteresis_in_a_step_passes_the_checker() {
+    use flexsurf::potential::elastic::{BendingHysteresis, ShearHysteresis};
+    use flexsurf::potential::Motion;
+    let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    let start = perturbed(&rest, 0.02, 31);
+    let y = perturbed(&rest, 0.02, 32);
+    let zero = vec![Vec3::ZERO; rest.len()];
+    let ones = vec![1e-3; rest.len()];
+    let motion = Motion {
+        x: &start,
+        x_prev: &start,
+        v: &zero,
+        v_prev: &zero,
+        target: &start,
+        damp_center: &start,
+        inertia: 1e4,
+        damp: 0.0,
+        dt: 0.01,
+        mass: &ones,
+        damping: &ones,
+        predict: false,
+    };
+    let b = NonlinearBending::hysteresis(&g, &rest, [2e-4, 1e-4], 1.0, Warp::Angle(0.3), &rest).unwrap();
+    let m = NonlinearMembrane::shear_hysteresis(&g, &rest, 0.5, 1.0, Warp::Angle(0.3), &rest).unwrap();
+    let pb = alone(g.len(), Box::new(BendingHysteresis(b)));
+    let pm = alone(g.len(), Box::new(ShearHysteresis(m)));
+    check(&pb, &y, Some(motion), None, Operator::Exact).assert_below("bending hysteresis in a step", TOL);
+    check(&pm, &y, Some(motion), None, Operator::Exact).assert_below("shear hysteresis in a step", TOL);
+}
+
+/// A run of a hysteretic fabric (the nonlinear example with its 2HB and 2HG): the terms act (the run differs from
+/// the same fabric without `[hysteresis]`), and stopped at a step and resumed it gives byte-identical outputs: the
+/// lagged state is the step's start, which the checkpoint holds.
+#[test]
+fn hysteresis_run_resumes_byte_identically() {
+    use flexsurf::runner::{run_scene_with, RunOptions};
+    use flexsurf::scene::SceneSpec;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let d = flexsurf::testing::scratch("nonlinear", "hysteresis-resume");
+    let material = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let text = |extra: &str| {
+        format!(
+            "name = \"hysteresis\"\ncalibration = \"kes\"\ngravity = [0.0, 0.0, -9.81]\n[sheet]\nsize = [0.1, 0.1]\n\
+             nodes = [7, 7]\ncenter = [0.0, 0.0, 0.2]\n[material]\nfile = {:?}\n{extra}\n[time]\ndt = 0.01\n\
+             steps = 16\noutput_every = 4\n[[pin]]\nnodes = [[0, 0], [0, 6]]\n[output]\nimage_size = [96, 72]\n",
+            material.to_str().unwrap()
+        )
+    };
+    let scene = |name: &str, extra: &str| {
+        let path = d.join(name);
+        std::fs::write(&path, text(extra)).unwrap();
+        SceneSpec::load(&path).unwrap().build(&path).unwrap()
+    };
+    let s = scene("h.toml", "");
+    let reference = d.join("reference");
+    let o = run_scene_with(&s, &reference, &RunOptions::default(), |_| {}).unwrap();
+    let none = scene("n.toml", "[material.hysteresis]\nbending_warp = 0.0\nbending_weft = 0.0\nshear = 0.0\n");
+    let o2 = run_scene_with(&none, &d.join("none"), &RunOptions::default(), |_| {}).unwrap();
+    let (a, b) = (o.summary.final_state.bending_energy, o2.summary.final_state.bending_energy);
+    assert!(a != b, "the hysteresis acts: bending energy {a} with, {b} without");
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let flag = std::sync::Arc::clone(&stop);
+    let dir = d.join("stopped");
+    let options = RunOptions { stop: Some(stop), ..Default::default() };
+    run_scene_with(&s, &dir, &options, |st| flag.store(st.step >= 7, Ordering::SeqCst)).unwrap();
+    let o = run_scene_with(&s, &dir, &RunOptions { resume: true, ..Default::default() }, |_| {}).unwrap();
+    assert_eq!(o.summary.provenance.resumed_from_step, Some(7));
+    flexsurf::testing::assert_same_outputs(&reference, &dir, "stopped at step 7");
+    std::fs::remove_dir_all(&d).ok();
+}
