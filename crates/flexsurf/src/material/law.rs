@@ -354,7 +354,7 @@ pub struct Laws {
     /// Bending along the weft.
     pub bending_weft: Option<Curve>,
     /// Hysteresis loop widths `[2HB warp, 2HB weft]` (moment per width, N) and `2HG` (N/m), 0 for none: used by
-    /// the virtual KES test's loops (docs/model.md §4.6), not yet by scenes.
+    /// the virtual KES test's loops and by dynamic runs (docs/model.md §4.6).
     pub hysteresis: [f64; 3],
 }
 

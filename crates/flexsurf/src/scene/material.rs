@@ -93,7 +93,7 @@ pub struct MaterialSpec {
     pub twist: Option<f64>,
     /// Measured nonlinear laws (`[curves.tensile_warp]` …), each replacing the constant of the same name.
     pub curves: Option<CurvesSpec>,
-    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops.
+    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops and dynamic runs.
     pub hysteresis: Option<HysteresisSpec>,
 }
 
