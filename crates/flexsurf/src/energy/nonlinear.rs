@@ -149,13 +149,21 @@ impl NonlinearMembrane {
     ) -> Option<Self> {
         let set = LawSet::Hysteresis { h: vec![0.0, 0.0, half_width], eps };
         let mut term = Self::build(grid, rest, set, warp)?;
-        for c in &mut term.cells {
+        term.set_reference(reference, eps);
+        Some(term)
+    }
+
+    /// A hysteresis's lagged state: the shear of `reference` (positions indexed as the term's nodes) and the
+    /// smoothing length `eps`. No effect on elastic laws.
+    pub fn set_reference(&mut self, reference: &[Vec3], eps: f64) {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return };
+        *e = eps;
+        for c in &mut self.cells {
             let s = c.strains(reference);
             for u in &mut c.uses {
                 u.m0 = (0..NS).map(|a| u.g[a] * s[a]).sum();
             }
         }
-        Some(term)
     }
 
     fn build(grid: &Grid, rest: &[Vec3], set: LawSet, warp: Warp) -> Option<Self> {
@@ -379,13 +387,21 @@ impl NonlinearBending {
     ) -> Option<Self> {
         let set = LawSet::Hysteresis { h: half_width.to_vec(), eps };
         let mut term = Self::build(grid, rest, set, warp, |_| true, |_, _| true)?;
-        for (p, uses) in &mut term.points {
+        term.set_reference(reference, eps);
+        Some(term)
+    }
+
+    /// A hysteresis's lagged state: the curvatures of `reference` (positions indexed as the term's nodes) and
+    /// the smoothing length `eps`. No effect on elastic laws.
+    pub fn set_reference(&mut self, reference: &[Vec3], eps: f64) {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return };
+        *e = eps;
+        for (p, uses) in &mut self.points {
             let kappa = p.kernels(reference).4;
             for u in uses {
                 u.m0 = (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum();
             }
         }
-        Some(term)
     }
 
     fn build(

@@ -23,7 +23,7 @@ use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
 use serde::Serialize;
 use std::sync::Arc;
 
-pub use super::kes_curves::{bending_loop, kes_curves, linear_laws, CurvePoint, CurveReport, CurveTest};
+pub use super::kes_curves::{bending_loop, kes_curves, linear_laws, shear_loop, CurvePoint, CurveReport, CurveTest};
 
 /// The five constants the round trip compares.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -20,7 +20,7 @@
 
 use super::kes::{solve, tension_strain};
 use super::LabError;
-use crate::energy::nonlinear::NonlinearBending;
+use crate::energy::nonlinear::{NonlinearBending, NonlinearMembrane};
 use crate::grid::Grid;
 use crate::material::law::{Curve, Laws};
 use crate::material::{Calibration, Fabric, Stiffness};
@@ -104,10 +104,10 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
         // A sheared square wrinkles once its compressive principal stress (the shear resultant) exceeds about
         // 9.34 π² D/b² (a clamped square plate); the side b keeps that 4 times above the largest resultant.
         let n_max = c.points().iter().fold(0.0, |a: f64, p| a.max(p.1.abs()));
-        let side = (std::f64::consts::PI * (9.34 * s.d11.min(s.d22) / (4.0 * n_max)).sqrt()).min(0.05);
+        let side = square_side(&s, n_max);
         for (g, n) in positive(c) {
             let phi = g.asin();
-            let measured = shear_resultant(fabric, &s, &shared, (phi, side), &mut x)?;
+            let measured = shear_resultant(fabric, &s, &shared, (phi, side), None, &mut x)?;
             points.push(point(phi, n, phi, measured, measured / n - 1.0));
         }
         tests.push(CurveTest { law: "shear", points, law_samples: samples(c, |g, n| (g.asin(), n)) });
@@ -123,6 +123,41 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
         tests.push(CurveTest { law, points, law_samples: samples(c, |k, m| (k, m)) });
     }
     Ok(CurveReport { tests })
+}
+
+/// The side of the sheared square: a clamped square plate wrinkles once its compressive principal stress (the
+/// shear resultant) exceeds about 9.34 π² D/b²; the side b keeps that 4 times above `n_max`, at most 5 cm.
+fn square_side(s: &Stiffness, n_max: f64) -> f64 {
+    (std::f64::consts::PI * (9.34 * s.d11.min(s.d22) / (4.0 * n_max)).sqrt()).min(0.05)
+}
+
+/// A KES shear cycle with the shear hysteresis `2HG` (`half_width` = HG, N/m): the square of the curve test
+/// sheared to angles `0 → φmax → −φmax → φmax` in `steps` increments per quarter (the first from the unsheared
+/// square, without hysteresis), each a static solve lagged at the previous one. Returns `(φ, N)` (shear angle in
+/// rad, shear force per length in N/m) along the cycle from `φmax/steps`; the closed loop starts at index
+/// `steps − 1`. The resultant is the hysteresis's `±HG` on top of the elastic law once the square slides.
+pub fn shear_loop(
+    fabric: &Fabric,
+    laws: &Laws,
+    half_width: f64,
+    phi_max: f64,
+    steps: usize,
+) -> Result<Vec<(f64, f64)>, LabError> {
+    let mut applied = *fabric;
+    laws.apply(&mut applied)?;
+    let s = Stiffness::calibrate(&applied, Calibration::Kes)?;
+    let shared = Arc::new(laws.clone());
+    let elastic = |g: f64| laws.shear.as_ref().map_or(applied.shear * g, |c| c.resultant(g));
+    let side = square_side(&s, elastic(phi_max.sin()).abs() + half_width);
+    let q = steps.max(1) as f64;
+    let path = (1..=steps)
+        .map(|i| i as f64 / q)
+        .chain((1..=2 * steps).map(|i| 1.0 - i as f64 / q))
+        .chain((1..=2 * steps).map(|i| -1.0 + i as f64 / q))
+        .map(|t| t * phi_max);
+    let mut x = None;
+    let eps = 1e-3 * phi_max.sin();
+    path.map(|p| Ok((p, shear_resultant(&applied, &s, &shared, (p, side), Some((half_width, eps)), &mut x)?))).collect()
 }
 
 /// 100 samples of the law `c` from 0 to its last point, mapped to the measured variables by `to`.
@@ -142,6 +177,7 @@ fn shear_resultant(
     s: &Stiffness,
     laws: &Arc<Laws>,
     (phi, side): (f64, f64),
+    hysteresis: Option<(f64, f64)>,
     x: &mut Option<Vec<Vec3>>,
 ) -> Result<f64, LabError> {
     let m = 11;
@@ -155,6 +191,12 @@ fn shear_resultant(
     };
     for k in 0..grid.len() {
         model.pinned[k] = boundary(k);
+    }
+    if let (Some((hg, eps)), Some(reference)) = (hysteresis, x.as_ref()) {
+        let warp = crate::energy::frame::Warp::default();
+        if let Some(term) = NonlinearMembrane::shear_hysteresis(&grid, &rest, hg, eps, warp, reference) {
+            model.extra_terms.push(Box::new(term));
+        }
     }
     let model = model.build()?;
     // Warp (u1) turned by +φ/2 and weft (u2) by −φ/2 about the centre: lengths kept, angle 90° − φ.

@@ -47,6 +47,10 @@ pub enum CurveError {
     /// A point at zero strain with a non-zero resultant.
     #[error("does not pass through the origin: point {0} has zero strain and a non-zero resultant")]
     NotThroughOrigin(usize, f64),
+    /// Knots with their slopes given ([`Curve::hermite`]) that leave out the origin or give a slope that is
+    /// not a positive finite number.
+    #[error("needs the origin among its knots and positive finite slopes (knot {0})")]
+    BadHermite(usize),
     /// The monotone cubic's stiffness reaches zero inside a segment.
     #[error("as a monotone cubic has zero stiffness inside the segment from point {0}; use linear interpolation")]
     CubicFlat(usize),
@@ -74,6 +78,51 @@ impl Curve {
     /// The law through `points` (strain, resultant), given for positive strains (extended oddly) or for both
     /// signs; the origin is added when absent.
     pub fn new(points: &[(f64, f64)], kind: Interpolation) -> Result<Self, CurveError> {
+        Self::check(points)?;
+        let mut knots: Vec<(f64, f64)> = points.to_vec();
+        if !knots.iter().any(|p| p.0 == 0.0) {
+            let at = knots.partition_point(|p| p.0 < 0.0);
+            // The origin between a negative and a positive point must keep the resultant increasing.
+            if (at > 0 && knots[at - 1].1 >= 0.0) || (at < knots.len() && knots[at].1 <= 0.0) {
+                return Err(CurveError::NonPositiveStiffness(at.saturating_sub(1), at));
+            }
+            knots.insert(at, (0.0, 0.0));
+        }
+        if knots[0].0 >= 0.0 {
+            let mirrored: Vec<(f64, f64)> = knots[1..].iter().rev().map(|&(x, y)| (-x, -y)).collect();
+            knots = mirrored.into_iter().chain(knots).collect();
+        }
+        let (x, y): (Vec<f64>, Vec<f64>) = knots.into_iter().unzip();
+        Self::from_knots(x, y, kind, points.to_vec())
+    }
+
+    /// The cubic Hermite law through `knots` `(x, N, N')`, the slopes given (a law known with its stiffness:
+    /// ARCSim's tables, `crate::scene::arcsim`). The knots are used as given (both signs, the origin among them);
+    /// the resultant must increase strictly, also inside every segment.
+    pub fn hermite(knots: &[(f64, f64, f64)]) -> Result<Self, CurveError> {
+        let points: Vec<(f64, f64)> = knots.iter().map(|k| (k.0, k.1)).collect();
+        Self::check(&points)?;
+        for (i, k) in knots.iter().enumerate() {
+            if !(k.2.is_finite() && k.2 > 0.0) {
+                return Err(CurveError::BadHermite(i));
+            }
+        }
+        if !knots.iter().any(|k| k.0 == 0.0) {
+            return Err(CurveError::BadHermite(0));
+        }
+        let x = knots.iter().map(|k| k.0).collect();
+        let y = knots.iter().map(|k| k.1).collect();
+        let d = knots.iter().map(|k| k.2).collect();
+        Self::finish(x, y, d, Interpolation::MonotoneCubic, points)
+    }
+
+    /// The straight line `N = k x` (the linear law, as a curve).
+    pub fn linear(k: f64) -> Result<Self, CurveError> {
+        Self::new(&[(0.0, 0.0), (1.0, k)], Interpolation::Linear)
+    }
+
+    /// At least two finite points, strain and resultant increasing strictly, zero resultant at zero strain.
+    fn check(points: &[(f64, f64)]) -> Result<(), CurveError> {
         if points.len() < 2 {
             return Err(CurveError::TooFewPoints(points.len()));
         }
@@ -95,26 +144,7 @@ impl Curve {
                 return Err(CurveError::NotThroughOrigin(i, points[i].1));
             }
         }
-        let mut knots: Vec<(f64, f64)> = points.to_vec();
-        if !knots.iter().any(|p| p.0 == 0.0) {
-            let at = knots.partition_point(|p| p.0 < 0.0);
-            // The origin between a negative and a positive point must keep the resultant increasing.
-            if (at > 0 && knots[at - 1].1 >= 0.0) || (at < knots.len() && knots[at].1 <= 0.0) {
-                return Err(CurveError::NonPositiveStiffness(at.saturating_sub(1), at));
-            }
-            knots.insert(at, (0.0, 0.0));
-        }
-        if knots[0].0 >= 0.0 {
-            let mirrored: Vec<(f64, f64)> = knots[1..].iter().rev().map(|&(x, y)| (-x, -y)).collect();
-            knots = mirrored.into_iter().chain(knots).collect();
-        }
-        let (x, y): (Vec<f64>, Vec<f64>) = knots.into_iter().unzip();
-        Self::from_knots(x, y, kind, points.to_vec())
-    }
-
-    /// The straight line `N = k x` (the linear law, as a curve).
-    pub fn linear(k: f64) -> Result<Self, CurveError> {
-        Self::new(&[(0.0, 0.0), (1.0, k)], Interpolation::Linear)
+        Ok(())
     }
 
     fn from_knots(x: Vec<f64>, y: Vec<f64>, kind: Interpolation, points: Vec<(f64, f64)>) -> Result<Self, CurveError> {
@@ -133,6 +163,18 @@ impl Curve {
                 }
             };
         }
+        Self::finish(x, y, d, kind, points)
+    }
+
+    /// The curve of knots `x`, `y` and slopes `d`: its energies at the knots and its smallest slope.
+    fn finish(
+        x: Vec<f64>,
+        y: Vec<f64>,
+        d: Vec<f64>,
+        kind: Interpolation,
+        points: Vec<(f64, f64)>,
+    ) -> Result<Self, CurveError> {
+        let n = x.len();
         let mut c = Self { x, y, d, e: vec![0.0; n], kind, k: f64::INFINITY, points };
         for i in 0..n - 1 {
             let h = c.x[i + 1] - c.x[i];
@@ -217,6 +259,10 @@ impl Curve {
 
     /// `(ψ(x), N(x), N'(x))`.
     pub fn eval(&self, v: f64) -> (f64, f64, f64) {
+        if v.is_nan() {
+            // A diverged solve's strain: NaN out, never an out-of-range knot index.
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
         let n = self.x.len();
         if v <= self.x[0] || v >= self.x[n - 1] {
             let (i, slope) = if v <= self.x[0] { (0, self.d[0]) } else { (n - 1, self.d[n - 1]) };
@@ -308,7 +354,7 @@ pub struct Laws {
     /// Bending along the weft.
     pub bending_weft: Option<Curve>,
     /// Hysteresis loop widths `[2HB warp, 2HB weft]` (moment per width, N) and `2HG` (N/m), 0 for none: used by
-    /// the virtual KES test's loops (docs/model.md §4.6), not yet by scenes.
+    /// the virtual KES test's loops and by dynamic runs (docs/model.md §4.6).
     pub hysteresis: [f64; 3],
 }
 
@@ -397,6 +443,20 @@ mod tests {
             }
             assert!((c.strain(10.0) - 0.05).abs() < 1e-14);
         }
+    }
+
+    /// A Hermite law reproduces a cubic from its values and slopes; bad knots are refused; NaN stays NaN.
+    #[test]
+    fn hermite_law_through_values_and_slopes() {
+        let f = |x: f64| (x + x * x * x, 1.0 + 3.0 * x * x);
+        let knots: Vec<(f64, f64, f64)> = [-1.0, 0.0, 0.5, 2.0].iter().map(|&x| (x, f(x).0, f(x).1)).collect();
+        let c = Curve::hermite(&knots).unwrap();
+        for v in [-0.7, 0.2, 1.3] {
+            assert!((c.resultant(v) - f(v).0).abs() < 1e-12 && (c.eval(v).2 - f(v).1).abs() < 1e-12);
+        }
+        assert!(c.eval(f64::NAN).0.is_nan());
+        let bad = [(-1.0, -1.0, 1.0), (1.0, 1.0, 0.0)];
+        assert_eq!(Curve::hermite(&bad).unwrap_err(), CurveError::BadHermite(1));
     }
 
     #[test]

@@ -120,8 +120,102 @@ pub fn nonlinear_terms(
         b.map_nodes(nodes);
         terms.push(Box::new(b));
     }
+    terms.extend(hysteresis_terms(grid, rest, laws, options, nodes));
     terms
 }
+
+/// The KES hysteresis terms of `laws` (2HB warp and weft, 2HG) for dynamic runs: the dissipation of
+/// docs/model.md §4.6 lagged at each step's start ([`BendingHysteresis`], [`ShearHysteresis`]); none without
+/// loop widths.
+fn hysteresis_terms(
+    grid: &Grid,
+    rest: &[Vec3],
+    laws: &Laws,
+    options: &ElasticOptions,
+    nodes: &[usize],
+) -> Vec<Box<dyn Term>> {
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    let h = laws.hysteresis;
+    if h[2] > 0.0 {
+        if let Some(mut t) = NonlinearMembrane::shear_hysteresis(grid, rest, 0.5 * h[2], 1.0, options.warp(), rest) {
+            t.map_nodes(nodes);
+            terms.push(Box::new(ShearHysteresis(t)));
+        }
+    }
+    if h[0] > 0.0 || h[1] > 0.0 {
+        let half = [0.5 * h[0], 0.5 * h[1]];
+        if let Some(mut t) = NonlinearBending::hysteresis(grid, rest, half, 1.0, options.warp(), rest) {
+            t.map_nodes(nodes);
+            terms.push(Box::new(BendingHysteresis(t)));
+        }
+    }
+    terms
+}
+
+/// The smoothing of the bending hysteresis in a run: `ε = rate · Δt` of curvature (1/m per second).
+pub const BENDING_HYSTERESIS_SMOOTHING: f64 = 1.0;
+/// The smoothing of the shear hysteresis in a run: `ε = rate · Δt` of shear (per second).
+pub const SHEAR_HYSTERESIS_SMOOTHING: f64 = 1e-2;
+
+/// `impl Term` for a hysteresis kernel with inherent `pairs`, `bind`, `evaluate` and `set_reference(x, eps)`:
+/// in a dynamic step the dissipation `H f₀(|m − m_ref|)` with `m_ref` the measure at the step's start (the
+/// step's motion `x`, friction's anchor) and `ε = rate · Δt`; nothing in a static solve. The term with its
+/// references set is cached in the scratch and rebuilt when the step's start changes: it holds no state across
+/// steps that the positions do not, so a checkpoint resumes it bit for bit.
+macro_rules! hysteresis_term {
+    ($(#[$doc:meta])* $name:ident, $kernel:ty, $label:literal, $part:expr, $rate:expr) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone)]
+        pub struct $name(pub $kernel);
+
+        impl Term for $name {
+            fn info(&self) -> TermInfo {
+                TermInfo::new($label, Stage::Field, $part)
+            }
+            fn pairs(&self) -> Vec<(usize, usize)> {
+                self.0.pairs()
+            }
+            fn bind(&mut self, pattern: &BlockPattern) {
+                self.0.bind(pattern)
+            }
+            fn evaluate(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
+                let Some(m) = &cx.motion else { return 0.0 };
+                let eps = $rate * m.dt;
+                let cache = scratch.get_or(|| (Vec::<Vec3>::new(), f64::NAN, self.0.clone()));
+                if cache.0.as_slice() != m.x || cache.1 != eps {
+                    cache.2 = self.0.clone();
+                    cache.2.set_reference(m.x, eps);
+                    cache.0 = m.x.to_vec();
+                    cache.1 = eps;
+                }
+                let e = cache.2.evaluate(x, sink);
+                sink.energy += e;
+                e
+            }
+            fn save(&self, _scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
+                // A cache of the step's start and Δt, rebuilt from them on resume: nothing to carry.
+                Ok(None)
+            }
+        }
+    };
+}
+
+hysteresis_term!(
+    /// The bending hysteresis 2HB in a dynamic run (see `hysteresis_term!`).
+    BendingHysteresis,
+    NonlinearBending,
+    "bending hysteresis",
+    Part::Bending,
+    BENDING_HYSTERESIS_SMOOTHING
+);
+hysteresis_term!(
+    /// The shear hysteresis 2HG in a dynamic run (see `hysteresis_term!`).
+    ShearHysteresis,
+    NonlinearMembrane,
+    "shear hysteresis",
+    Part::Membrane,
+    SHEAR_HYSTERESIS_SMOOTHING
+);
 
 /// The bending term of `kind` on these quadrature points.
 pub fn bending_term(bending: Bending, kind: ModelKind) -> Box<dyn Term> {

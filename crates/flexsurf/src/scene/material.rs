@@ -61,6 +61,9 @@ pub struct MaterialSpec {
     pub preset: Option<Preset>,
     /// A material file to start from, relative to the file that names it.
     pub file: Option<PathBuf>,
+    /// An ARCSim measured material (JSON: `density`, `stretching`, `bending`) to start from, relative to the file
+    /// that names it: its density and its five laws ([`super::arcsim`]).
+    pub arcsim: Option<PathBuf>,
     /// A name for summaries.
     pub name: Option<String>,
     /// Where the numbers come from (free text).
@@ -90,7 +93,7 @@ pub struct MaterialSpec {
     pub twist: Option<f64>,
     /// Measured nonlinear laws (`[curves.tensile_warp]` …), each replacing the constant of the same name.
     pub curves: Option<CurvesSpec>,
-    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops.
+    /// KES hysteresis loop widths (`[hysteresis]`), for the virtual KES test's loops and dynamic runs.
     pub hysteresis: Option<HysteresisSpec>,
 }
 
@@ -381,11 +384,17 @@ impl MaterialSpec {
 
     /// The fabric this table extends (a preset's or a material file's), the file, and its name.
     fn base(&self, v: &Validator<'_>) -> Result<Base, SceneError> {
+        let given =
+            [("preset", self.preset.is_some()), ("file", self.file.is_some()), ("arcsim", self.arcsim.is_some())];
+        if given.iter().filter(|g| g.1).count() > 1 {
+            let key = given.iter().rev().find(|g| g.1).map_or("file", |g| g.0);
+            return Err(v.bad(key, "give only one of `preset`, `file` and `arcsim`".into()));
+        }
+        if let Some(rel) = &self.arcsim {
+            return Self::arcsim_base(v, rel);
+        }
         Ok(match (&self.preset, &self.file) {
-            (Some(_), Some(_)) => {
-                return Err(v.bad("file", "give either `preset` or `file`, not both".into()));
-            }
-            (Some(p), None) => (Some(p.fabric()), None, Some(p.name().to_string()), Laws::default()),
+            (Some(p), _) => (Some(p.fabric()), None, Some(p.name().to_string()), Laws::default()),
             (None, Some(rel)) => {
                 let path = relative_to(v.file(), rel);
                 let m = load_material_file(&path).map_err(|e| match e {
@@ -402,6 +411,28 @@ impl MaterialSpec {
             (None, None) => (None, None, None, Laws::default()),
         })
     }
+
+    /// The base of `arcsim = "rel"`: the file's density and laws; the constants the laws replace are set by
+    /// [`Laws::apply`], the others (damping, Poisson's ratios, twist) are the defaults of an inline table.
+    fn arcsim_base(v: &Validator<'_>, rel: &Path) -> Result<Base, SceneError> {
+        let path = relative_to(v.file(), rel);
+        let m = super::arcsim::load_arcsim(&path).map_err(|e| match e {
+            SceneError::Io { source, .. } => {
+                v.bad("arcsim", format!("cannot read ARCSim material file {}: {source}", path.display()))
+            }
+            other => SceneError::referenced(v.file(), v.key("arcsim"), other),
+        })?;
+        let fabric = Fabric {
+            density: m.density,
+            damping: 0.0,
+            poisson: 0.0,
+            bending_poisson: 0.0,
+            twist: None,
+            ..Fabric::paper_cotton()
+        };
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        Ok((Some(fabric), None, name, m.laws))
+    }
 }
 
 /// Reads and resolves a material file (`materials/*.toml`). Its messages and warnings never quote its values.
@@ -410,7 +441,7 @@ pub fn load_material_file(path: &Path) -> Result<ResolvedMaterial, SceneError> {
     let spec: MaterialSpec = parse_toml_foreign(&text, path)?;
     if spec.preset.is_some() || spec.file.is_some() {
         let k = if spec.preset.is_some() { "preset" } else { "file" };
-        let message = "a material file gives constants; it cannot extend another".into();
+        let message = "a material file gives constants (or names an ARCSim file); it cannot extend another".into();
         return Err(Validator::foreign(path, &Warnings::default()).bad(k, message));
     }
     let mut m = spec.resolve(path, "")?;

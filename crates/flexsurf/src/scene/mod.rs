@@ -23,8 +23,11 @@
 //! - `validate.rs`: the one value checker the other files share, so a check reads the same wherever it is made.
 //! - `error.rs`: [`SceneError`], [`SceneWarning`] and the TOML reader that locates parse errors.
 //! - [`spans`]: the dotted key at a byte offset of TOML text, from the parser's spans, for those errors.
+//! - [`arcsim`]: ARCSim's measured-material JSON files (`arcsim = "file.json"` in `[material]` or a material
+//!   file) read into the per-direction laws.
 //! - [`budget`]: the size and memory estimate checked before anything large is allocated.
 
+pub mod arcsim;
 pub mod budget;
 mod build;
 mod error;

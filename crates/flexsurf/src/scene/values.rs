@@ -152,13 +152,8 @@ impl SceneSpec {
         let material = self.material.resolve_with(&v.within("material"))?;
         let stiffness = Stiffness::calibrate(&material.fabric, self.calibration)
             .map_err(|e| v.bad("calibration", format!("{e} (with `calibration = \"{:?}\"`)", self.calibration)))?;
-        let laws = (!material.laws.is_empty()).then(|| std::sync::Arc::new(material.laws.clone()));
-        if material.laws.hysteretic() {
-            v.warn(
-                "material",
-                "its `[hysteresis]` loop widths are used by `flexsurf test kes` only, not by runs".into(),
-            );
-        }
+        let used = !material.laws.is_empty() || material.laws.hysteretic();
+        let laws = used.then(|| std::sync::Arc::new(material.laws.clone()));
         if laws.is_some() && self.calibration != crate::material::Calibration::Kes {
             return Err(v.bad("calibration", "a material with curves needs `calibration = \"kes\"`".into()));
         }

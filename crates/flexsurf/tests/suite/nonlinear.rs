@@ -344,3 +344,247 @@ fn bending_hysteresis_loop_has_width_2hb() {
     let area: f64 = cycle[steps - 1..].windows(2).map(|w| (w[1].1 - law.resultant(w[1].0)) * (w[1].0 - w[0].0)).sum();
     assert!((area / (hb2 * 2.0 * kmax) - 1.0).abs() < 0.03, "loop area {area} against {}", hb2 * 2.0 * kmax);
 }
+
+/// The made-up ARCSim material of the tests' data (its own numbers; ARCSim's format).
+fn arcsim_data() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/arcsim-made-up.json")
+}
+
+/// An ARCSim measured-material file becomes five laws in SI (docs/materials.md, "ARCSim material files"): the
+/// resultant ARCSim's force gives at the table's own samples (principal stretch 1 + 1/6, curvature 5j 1/m) within
+/// 1e-9, the zero-strain stiffness in compression, the last sample's beyond the table, and between the samples
+/// ARCSim's interpolation to 1e-3.
+#[test]
+fn arcsim_file_gives_the_tables_laws() {
+    let m = flexsurf::scene::arcsim::load_arcsim(&arcsim_data()).unwrap();
+    assert_eq!(m.density, 0.15);
+    let l = &m.laws;
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    // Tension: Green strain at λ = 7/6 is 13/72; ARCSim's S = 2 k E (k doubled in dde.cpp).
+    let e1 = 13.0 / 72.0;
+    let (warp, weft, shear) =
+        (l.tensile_warp.as_ref().unwrap(), l.tensile_weft.as_ref().unwrap(), l.shear.as_ref().unwrap());
+    assert!(rel(warp.resultant(e1), 2.0 * 300.0 * e1) < 1e-9, "warp at the sample: {}", warp.resultant(e1));
+    assert!(rel(weft.resultant(e1), 2.0 * 200.0 * e1) < 1e-9);
+    // As a nominal tension at the sample's engineering strain 1/6: T = (1 + ε) S.
+    assert!(rel((7.0 / 6.0) * warp.resultant(e1), 7.0 / 6.0 * 600.0 * e1) < 1e-9);
+    assert!(rel(warp.resultant(-0.15), -200.0 * 0.15) < 1e-9, "compression: the zero-strain stiffness");
+    assert!(rel(warp.resultant(0.4), 600.0 * 0.4) < 1e-9, "beyond the table: the last sample's stiffness");
+    // Between samples: ARCSim's k(s) linear in s = 6(√(1 + 2E) − 1).
+    for e in [0.004f64, 0.013, 0.05, 0.11, 0.17] {
+        let s = 6.0 * ((1.0 + 2.0 * e).sqrt() - 1.0);
+        let arcsim = 2.0 * ((1.0 - s) * 100.0 + s * 300.0) * e;
+        assert!(rel(warp.resultant(e), arcsim) < 1e-3, "warp at {e}: {} vs {arcsim}", warp.resultant(e));
+    }
+    // A sweep over the table's range and beyond: the largest departure from ARCSim's force is 6.2e-4 (next to the kink at s = 1).
+    let worst = (1..400).map(|i| 1e-3 * i as f64).fold(0.0f64, |w, e| {
+        let s = (6.0 * ((1.0 + 2.0 * e).sqrt() - 1.0)).min(1.0);
+        w.max(rel(warp.resultant(e), 2.0 * ((1.0 - s) * 100.0 + s * 300.0) * e))
+    });
+    assert!(worst < 1e-3, "warp tension departs from ARCSim's by {worst:e}");
+    // Shear: λ₁ = √(1 + γ) = 7/6 at γ = 13/36; ∂ψ/∂γ = k3 γ/4 with k3 = 2·40 (the 45° row).
+    let g1 = 13.0 / 36.0;
+    assert!(rel(shear.resultant(g1), 0.25 * 80.0 * g1) < 1e-9 && rel(shear.resultant(-g1), -20.0 * g1) < 1e-9);
+    // Bending: M = k(κ) κ; warp from the 90° edge row, weft from the 0° edge row.
+    let (bw, bf) = (l.bending_warp.as_ref().unwrap(), l.bending_weft.as_ref().unwrap());
+    for (j, (kw, kf)) in [20e-6, 18e-6, 20e-6, 24e-6, 30e-6].iter().zip([10e-6, 12e-6, 14e-6, 16e-6, 18e-6]).enumerate()
+    {
+        let kappa = 5.0 * j as f64;
+        if j > 0 {
+            assert!(rel(bw.resultant(kappa), kw * kappa) < 1e-9, "warp bending at {kappa}");
+            assert!(rel(bf.resultant(-kappa), -kf * kappa) < 1e-9, "weft bending at −{kappa}");
+        }
+    }
+    assert!(rel(bw.resultant(33.0), 30e-6 * 33.0) < 1e-9 && rel(bw.initial_slope(), 20e-6) < 1e-3);
+    for kappa in [1.0, 2.6, 7.5, 13.3, 18.0] {
+        let k = if kappa < 5.0 {
+            20e-6 - 0.4e-6 * kappa
+        } else if kappa < 10.0 {
+            18e-6 + 0.4e-6 * (kappa - 5.0)
+        } else if kappa < 15.0 {
+            20e-6 + 0.8e-6 * (kappa - 10.0)
+        } else {
+            24e-6 + 1.2e-6 * (kappa - 15.0)
+        };
+        assert!(
+            rel(bw.resultant(kappa), k * kappa) < 1e-3,
+            "warp bending at {kappa}: {} vs {}",
+            bw.resultant(kappa),
+            k * kappa
+        );
+    }
+    // Through a material file and a scene's table: the density and the laws' smallest slopes as constants.
+    let r = material_from_toml("arcsim = \"arcsim-made-up.json\"\ndamping = 0.01\n", &arcsim_data()).unwrap();
+    assert_eq!((r.fabric.density, r.fabric.damping, r.name.as_str()), (0.15, 0.01, "arcsim-made-up"));
+    assert_eq!(r.laws, m.laws);
+    assert!(rel(r.fabric.tensile_warp, 200.0) < 1e-9 && r.fabric.shear == shear.min_slope());
+    // A constant given beside `arcsim` replaces that direction's law.
+    let r = material_from_toml("arcsim = \"arcsim-made-up.json\"\nshear = 3.0\n", &arcsim_data()).unwrap();
+    assert!(r.laws.shear.is_none() && r.fabric.shear == 3.0 && r.laws.tensile_warp.is_some());
+}
+
+/// ARCSim files that cannot be used: each error names the file and the key (`stretching[2]`, `bending[1][3]`)
+/// and what is wrong; a scene's table names its own key (`arcsim`) around it.
+#[test]
+fn arcsim_errors_name_file_and_key() {
+    use flexsurf::scene::arcsim::arcsim_from_json;
+    let f = Path::new("m.json");
+    let ok_s = "[[100,10,50,20],[300,10,80,25],[250,10,90,30],[200,10,100,40],[150,10,150,30],[120,10,200,25]]";
+    let ok_b = "[[1e-5,1.2e-5,1.4e-5,1.6e-5,1.8e-5],[1e-5,1e-5,1e-5,1e-5,1e-5],[2e-5,2e-5,2e-5,2e-5,2e-5]]";
+    let text = |d: &str, s: &str, b: &str| format!("{{\"density\": {d}, \"stretching\": {s}, \"bending\": {b}}}");
+    let err = |t: String| arcsim_from_json(&t, f).unwrap_err().to_string();
+    assert!(arcsim_from_json(&text("0.1", ok_s, ok_b), f).is_ok());
+    let cases = [
+        (text("-1", ok_s, ok_b), "`density`", "accepted range"),
+        ("{\"density\": 0.1, \"bending\": []}".to_string(), "`stretching`", "missing: must be 6 rows of 4 numbers"),
+        (text("0.1", "[[1,2,3,4]]", ok_b), "`stretching`", "must be 6 rows"),
+        (text("0.1", ok_s, &ok_b.replacen("1.4e-5", "\"x\"", 1)), "`bending[0][2]`", "finite number"),
+        (
+            text("0.1", ok_s, &ok_b.replacen(",1e-5,1e-5,1e-5,1e-5]", ",1e-5,1e-5,1e-5]", 1)),
+            "`bending[1]`",
+            "5 numbers",
+        ),
+        (text("0.1", &ok_s.replacen("[100,", "[-100,", 1), ok_b), "`stretching[0][0]`", "must be positive"),
+        (text("0.1", ok_s, &ok_b.replacen("1.6e-5,1.8e-5", "1.6e-5,0.2e-5", 1)), "`bending[0]`", "falls between"),
+        ("{\"density\": 0.1,, }".to_string(), "m.json:1:", "not an ARCSim material"),
+    ];
+    for (t, key, what) in cases {
+        let e = err(t);
+        assert!(e.contains("m.json") && e.contains(key) && e.contains(what), "{e}");
+    }
+    // Comments as ARCSim's reader allows them.
+    assert!(arcsim_from_json(&format!("// c\n/* d */{}", text("0.1", ok_s, ok_b)), f).is_ok());
+    // Through a table: the referencing key, then the ARCSim file and its key.
+    let dir = std::env::temp_dir().join(format!("flexsurf-arcsim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("bad.json"), text("0.1", &ok_s.replacen("[100,", "[-100,", 1), ok_b)).unwrap();
+    let scene = dir.join("s.toml");
+    let e = material_from_toml("arcsim = \"bad.json\"\n", &scene).unwrap_err().to_string();
+    assert!(e.contains("`arcsim`") && e.contains("bad.json") && e.contains("`stretching[0][0]`"), "{e}");
+    let e = material_from_toml("arcsim = \"none.json\"\n", &scene).unwrap_err().to_string();
+    assert!(e.contains("`arcsim`") && e.contains("none.json") && e.contains("cannot read"), "{e}");
+    let e = material_from_toml("preset = \"paper-cotton\"\narcsim = \"bad.json\"\n", &scene).unwrap_err().to_string();
+    assert!(e.contains("give only one of"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The laws of an ARCSim file (cubic Hermite with ARCSim's own stiffness at the knots) through the shared
+/// finite-difference checker, strained past the table's kinks.
+#[test]
+fn arcsim_laws_pass_the_checker() {
+    let l = flexsurf::scene::arcsim::load_arcsim(&arcsim_data()).unwrap().laws;
+    let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    for (amp, seed) in [(0.01, 21), (0.05, 22)] {
+        let x = perturbed(&rest, amp, seed);
+        let m = NonlinearMembrane::new(&g, &rest, &l, Warp::Angle(0.3)).unwrap();
+        let b = NonlinearBending::new(&g, &rest, &l, Warp::Angle(0.3), |_| true, |_, _| true).unwrap();
+        check(&alone(g.len(), Box::new(m)), &x, None, None, Operator::Exact).assert_below("arcsim membrane", TOL);
+        check(&alone(g.len(), Box::new(b)), &x, None, None, Operator::Exact).assert_below("arcsim bending", TOL);
+    }
+}
+
+/// A KES shear cycle to ±8° with 2HG = 1 gf/cm on the nonlinear example: the loop is 2HG wide at ±4° (within
+/// 2 %) and the hysteretic force's loop area in `(γ, N)` is 2HG times the shear range (2 sin 8°), within 3 %.
+#[test]
+fn shear_hysteresis_loop_has_width_2hg() {
+    let path = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let m = flexsurf::scene::material::load_material_file(&path).unwrap();
+    let hg2 = 0.980665; // 2HG in N/m (1 gf/cm, as the file gives it)
+    assert!((m.laws.hysteresis[2] / hg2 - 1.0).abs() < 1e-12, "the file's 2HG");
+    let (phi_max, steps) = (8f64.to_radians(), 4);
+    let cycle = flexsurf::lab::kes::shear_loop(&m.fabric, &m.laws, 0.5 * hg2, phi_max, steps).unwrap();
+    let at = |from: usize, p: f64| cycle[from..].iter().find(|q| (q.0 - p).abs() < 1e-12).unwrap().1;
+    let half = 0.5 * phi_max;
+    for p in [half, -half] {
+        let (down, up) = (at(steps - 1, p), at(3 * steps - 1, p));
+        assert!(
+            ((up - down) / hg2 - 1.0).abs() < 0.02,
+            "loop width at {:.1}°: {} against 2HG {hg2}",
+            p.to_degrees(),
+            up - down
+        );
+    }
+    let law = m.laws.shear.as_ref().unwrap();
+    let area: f64 = cycle[steps - 1..]
+        .windows(2)
+        .map(|w| (w[1].1 - law.resultant(w[1].0.sin())) * (w[1].0.sin() - w[0].0.sin()))
+        .sum();
+    let expected = hg2 * 2.0 * phi_max.sin();
+    assert!((area / expected - 1.0).abs() < 0.03, "loop area {area} against {expected}");
+}
+
+/// The hysteresis terms of a dynamic run (2HB, 2HG lagged at the step's start, docs/model.md §4.6) through the
+/// shared checker, with a step's motion whose start differs from the evaluation point; nothing in a static solve.
+#[test]
+fn hysteresis_in_a_step_passes_the_checker() {
+    use flexsurf::potential::elastic::{BendingHysteresis, ShearHysteresis};
+    use flexsurf::potential::Motion;
+    let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    let start = perturbed(&rest, 0.02, 31);
+    let y = perturbed(&rest, 0.02, 32);
+    let zero = vec![Vec3::ZERO; rest.len()];
+    let ones = vec![1e-3; rest.len()];
+    let motion = Motion {
+        x: &start,
+        x_prev: &start,
+        v: &zero,
+        v_prev: &zero,
+        target: &start,
+        damp_center: &start,
+        inertia: 1e4,
+        damp: 0.0,
+        dt: 0.01,
+        mass: &ones,
+        damping: &ones,
+        predict: false,
+    };
+    let b = NonlinearBending::hysteresis(&g, &rest, [2e-4, 1e-4], 1.0, Warp::Angle(0.3), &rest).unwrap();
+    let m = NonlinearMembrane::shear_hysteresis(&g, &rest, 0.5, 1.0, Warp::Angle(0.3), &rest).unwrap();
+    let pb = alone(g.len(), Box::new(BendingHysteresis(b)));
+    let pm = alone(g.len(), Box::new(ShearHysteresis(m)));
+    check(&pb, &y, Some(motion), None, Operator::Exact).assert_below("bending hysteresis in a step", TOL);
+    check(&pm, &y, Some(motion), None, Operator::Exact).assert_below("shear hysteresis in a step", TOL);
+}
+
+/// A run of a hysteretic fabric (the nonlinear example with its 2HB and 2HG): the terms act (the run differs from
+/// the same fabric without `[hysteresis]`), and stopped at a step and resumed it gives byte-identical outputs: the
+/// lagged state is the step's start, which the checkpoint holds.
+#[test]
+fn hysteresis_run_resumes_byte_identically() {
+    use flexsurf::runner::{run_scene_with, RunOptions};
+    use flexsurf::scene::SceneSpec;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let d = flexsurf::testing::scratch("nonlinear", "hysteresis-resume");
+    let material = flexsurf::testing::repo().join("materials/woven-nonlinear-kes.toml");
+    let text = |extra: &str| {
+        format!(
+            "name = \"hysteresis\"\ncalibration = \"kes\"\ngravity = [0.0, 0.0, -9.81]\n[sheet]\nsize = [0.1, 0.1]\n\
+             nodes = [7, 7]\ncenter = [0.0, 0.0, 0.2]\n[material]\nfile = {:?}\n{extra}\n[time]\ndt = 0.01\n\
+             steps = 16\noutput_every = 4\n[[pin]]\nnodes = [[0, 0], [0, 6]]\n[output]\nimage_size = [96, 72]\n",
+            material.to_str().unwrap()
+        )
+    };
+    let scene = |name: &str, extra: &str| {
+        let path = d.join(name);
+        std::fs::write(&path, text(extra)).unwrap();
+        SceneSpec::load(&path).unwrap().build(&path).unwrap()
+    };
+    let s = scene("h.toml", "");
+    let reference = d.join("reference");
+    let o = run_scene_with(&s, &reference, &RunOptions::default(), |_| {}).unwrap();
+    let none = scene("n.toml", "[material.hysteresis]\nbending_warp = 0.0\nbending_weft = 0.0\nshear = 0.0\n");
+    let o2 = run_scene_with(&none, &d.join("none"), &RunOptions::default(), |_| {}).unwrap();
+    let (a, b) = (o.summary.final_state.bending_energy, o2.summary.final_state.bending_energy);
+    assert!(a != b, "the hysteresis acts: bending energy {a} with, {b} without");
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let flag = std::sync::Arc::clone(&stop);
+    let dir = d.join("stopped");
+    let options = RunOptions { stop: Some(stop), ..Default::default() };
+    run_scene_with(&s, &dir, &options, |st| flag.store(st.step >= 7, Ordering::SeqCst)).unwrap();
+    let o = run_scene_with(&s, &dir, &RunOptions { resume: true, ..Default::default() }, |_| {}).unwrap();
+    assert_eq!(o.summary.provenance.resumed_from_step, Some(7));
+    flexsurf::testing::assert_same_outputs(&reference, &dir, "stopped at step 7");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -56,6 +56,9 @@ pub fn execute(args: &KesArgs) -> Result<()> {
     if let Some(l) = curve_laws.as_ref().filter(|l| l.hysteresis[0] > 0.0 || l.hysteresis[1] > 0.0) {
         files.extend(write_loops(&fabric, l, &name, out)?);
     }
+    if let Some(l) = curve_laws.as_ref().filter(|l| l.hysteresis[2] > 0.0) {
+        files.extend(write_shear_loop(&fabric, l, &name, out)?);
+    }
     if args.fabric.json {
         let mut v = serde_json::json!({ "test": "kes", "material": name, "calibration": calibration,
             "wall_seconds": seconds, "files": files });
@@ -231,6 +234,43 @@ fn write_loops(fabric: &Fabric, laws: &Laws, name: &str, out: &Path) -> Result<V
     let chart = out.join("kes_bending_loop.png");
     let title = format!("KES bending cycle of {name}: input law and hysteresis loop");
     line_chart(&chart, (760, 440), &title, "curvature (1/cm)", "moment per width (gf cm/cm)", &series)
+        .with_context(|| format!("writing {}", chart.display()))?;
+    Ok(vec![path, chart])
+}
+
+/// The KES shear cycle (to ±8°) with the hysteresis 2HG: `kes_shear_loop.csv` (shear angle rad, shear force
+/// per length N/m) and `kes_shear_loop.png` against the input law.
+fn write_shear_loop(fabric: &Fabric, laws: &Laws, name: &str, out: &Path) -> Result<Vec<PathBuf>> {
+    use flexsurf::runner::plots::{line_chart, Series};
+    let (phi_max, steps) = (8f64.to_radians(), 10);
+    let hg2 = laws.hysteresis[2];
+    let cycle = flexsurf::lab::kes::shear_loop(fabric, laws, 0.5 * hg2, phi_max, steps)
+        .with_context(|| format!("KES shear loop of {name}"))?;
+    let mut csv = String::from("law,angle,force\n");
+    for (p, n) in &cycle {
+        let _ = writeln!(csv, "shear,{p:e},{n:e}");
+    }
+    // gf/cm is 0.980665 N/m.
+    let gf_cm = 0.980665;
+    let input = (-50..=50)
+        .map(|i| phi_max * i as f64 / 50.0)
+        .map(|p| (p.to_degrees(), laws.shear.as_ref().map_or(fabric.shear * p.sin(), |c| c.resultant(p.sin())) / gf_cm))
+        .collect();
+    let series = vec![
+        Series { name: "shear input".into(), color: [31, 119, 180], points: input, dots: false },
+        Series {
+            name: format!("shear virtual KES, 2HG {:.4}", hg2 / gf_cm),
+            color: [15, 59, 90],
+            points: cycle.iter().map(|&(p, n)| (p.to_degrees(), n / gf_cm)).collect(),
+            dots: true,
+        },
+    ];
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let path = out.join("kes_shear_loop.csv");
+    flexsurf::io::atomic::write_atomic(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    let chart = out.join("kes_shear_loop.png");
+    let title = format!("KES shear cycle of {name}: input law and hysteresis loop");
+    line_chart(&chart, (760, 440), &title, "shear angle (deg)", "shear force per length (gf/cm)", &series)
         .with_context(|| format!("writing {}", chart.display()))?;
     Ok(vec![path, chart])
 }
