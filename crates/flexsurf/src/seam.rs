@@ -1,4 +1,6 @@
-//! Seams: boundary edges of panels (of two panels, or two edges of one) joined node to node.
+//! Seams: boundary edges of panels (of two panels, or two edges of one) joined node to node; a side may be a
+//! part of its edge ([`SeamSide::span`]: a sewing pattern's seam between marks), the rest of the edge staying
+//! free.
 //!
 //! A seam makes the nodes of its two edges one: the model numbers the joined nodes once ([`weld`]), so every
 //! term that acts on a panel's nodes (membrane, masses, contact, pins, springs) acts on the joined node, and the

@@ -317,7 +317,13 @@ pub fn generate_upper() -> NurbsBody {
         Surface::loft(&ARM, 8, -3.0 * FRAC_PI_4).placed(&Frame::arm(side)).split(&[0.0, 4.0, 8.0], &[0.0, 3.0, 6.0])
     };
     let mut patches = Vec::with_capacity(42);
-    let parts = [("torso", torso), ("right leg", right_leg), ("left leg", left_leg), ("right arm", arm(1.0)), ("left arm", arm(-1.0))];
+    let parts = [
+        ("torso", torso),
+        ("right leg", right_leg),
+        ("left leg", left_leg),
+        ("right arm", arm(1.0)),
+        ("left arm", arm(-1.0)),
+    ];
     for (name, list) in parts {
         patches.extend(list.into_iter().map(|p| (name.to_string(), p)));
     }

@@ -406,7 +406,8 @@ fn obstacle(v: &Validator<'_>, i: usize, o: &ObstacleSpec) -> Result<Obstacle, S
             (Some(_), Some(_)) | (None, None) => {
                 return Err(v.bad(
                     &key("nurbs"),
-                    "give exactly one of `file` (a body file) and `builtin` (\"mannequin\" or \"mannequin_upper\")".into(),
+                    "give exactly one of `file` (a body file) and `builtin` (\"mannequin\" or \"mannequin_upper\")"
+                        .into(),
                 ));
             }
             (None, Some(BuiltinBody::Mannequin)) => Obstacle::Nurbs(Arc::new(mannequin::generate())),
