@@ -9,8 +9,10 @@
 //!
 //! The flat positions are the rest shape (the panel's metric, zero rest curvature) and the grain gives the
 //! warp direction in it (`ElasticOptions::warp_direction`), so the model's energy is that of the cut shape.
-//! A seam names its two edges by their corners, `from` → `to`: the `t`-th node from `from` on one side is sewn
-//! to the `t`-th node from `from` on the other. Seen from the right side, one edge must run with its outline
+//! A seam names its two sides by two named points of one edge each, `from` → `to`: corners, or marks (named
+//! outline vertices that are not corners); the `t`-th node from `from` on one side is sewn to the `t`-th node
+//! from `from` on the other. The points where seams start or end cut the edges into segments; the grid has a
+//! node at each and spreads an edge's nodes by arc length per segment, with counts from [`solve_counts`]. Seen from the right side, one edge must run with its outline
 //! and the other against it (otherwise the right side of one panel would be sewn to the wrong side of the
 //! other); their lengths must agree within the pattern's tolerance.
 //!
@@ -354,9 +356,8 @@ impl Outline {
             if self.corners.contains(name) || self.marks[..k].iter().any(|m| &m.0 == name) {
                 return Err(bad(format!("the name `{name}` is given twice (a mark's name must be its own)")));
             }
-            let before = self.marks[..k].iter().rfind(|m| m.1 == *c).map_or(0.0, |m| m.2);
             let (other, gap) = match self.marks[..k].iter().rfind(|m| m.1 == *c) {
-                Some(m) => (m.0.clone(), arc - before),
+                Some(m) => (m.0.clone(), arc - m.2),
                 None => (self.corners[*c].clone(), *arc),
             };
             let to_end = self.sides[*c].length() - arc;
