@@ -369,10 +369,11 @@ impl ModelBuilder {
     fn elastic_terms(&self, panels: &[Panel]) -> Vec<Box<dyn Term>> {
         let mut terms = Vec::new();
         for (p, (spec, panel)) in self.panels.iter().zip(panels).enumerate() {
-            let seamed = SeamedEdges::of(p, &self.seams);
+            let seamed = SeamedEdges::of(p, &spec.grid, &self.seams);
             let (grid, rest, options) = (&spec.grid, &spec.rest, &spec.options);
             let stiffness = spec.material.as_ref().map_or(&self.stiffness, |m| &m.stiffness);
-            terms.extend(elastic::panel_terms(grid, rest, stiffness, self.kind, options, &panel.nodes, seamed));
+            let own = seamed.clone();
+            terms.extend(elastic::panel_terms(grid, rest, stiffness, self.kind, options, &panel.nodes, own));
             if let Some(laws) = &self.laws {
                 terms.extend(elastic::nonlinear_terms(grid, rest, laws, options, &panel.nodes, seamed));
             }

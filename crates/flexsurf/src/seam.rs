@@ -1,4 +1,6 @@
-//! Seams: boundary edges of panels (of two panels, or two edges of one) joined node to node.
+//! Seams: boundary edges of panels (of two panels, or two edges of one) joined node to node; a side may be a
+//! part of its edge ([`SeamSide::span`]: a sewing pattern's seam between marks), the rest of the edge staying
+//! free.
 //!
 //! A seam makes the nodes of its two edges one: the model numbers the joined nodes once ([`weld`]), so every
 //! term that acts on a panel's nodes (membrane, masses, contact, pins, springs) acts on the joined node, and the
@@ -81,12 +83,33 @@ pub struct SeamSide {
     /// The edge runs the other way along the seam (its last node is joined to the other side's first).
     #[serde(default)]
     pub reversed: bool,
+    /// The part of the edge that is sewn: its nodes `span[0] ..= span[1]` in the edge's own order; `None`: the
+    /// whole edge.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub span: Option<[usize; 2]>,
 }
 
 impl SeamSide {
+    /// The whole `edge` of `panel`.
+    pub fn whole(panel: usize, edge: Edge, reversed: bool) -> Self {
+        Self { panel, edge, reversed, span: None }
+    }
+
+    /// The sewn nodes' first and last positions along the edge (its own order).
+    pub fn range(&self, grid: &Grid) -> [usize; 2] {
+        self.span.unwrap_or([0, self.edge.count(grid).saturating_sub(1)])
+    }
+
+    /// Number of sewn nodes.
+    pub fn len(&self, grid: &Grid) -> usize {
+        let [lo, hi] = self.range(grid);
+        hi + 1 - lo.min(hi + 1)
+    }
+
     /// Local node of this side at position `t` of `len` along the seam, `depth` rows inside.
-    fn node(&self, grid: &Grid, t: usize, len: usize, depth: usize) -> usize {
-        self.edge.node(grid, if self.reversed { len - 1 - t } else { t }, depth)
+    pub fn node(&self, grid: &Grid, t: usize, len: usize, depth: usize) -> usize {
+        let [lo, _] = self.range(grid);
+        self.edge.node(grid, lo + if self.reversed { len - 1 - t } else { t }, depth)
     }
 }
 
@@ -99,29 +122,39 @@ pub struct Seam {
     pub b: SeamSide,
 }
 
-/// Which boundary edges of one panel are seamed: `[direction][0 = start, 1 = end]`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct SeamedEdges(pub [[bool; 2]; 2]);
+/// Which parts of the boundary edges of one panel are seamed: `[direction][0 = start, 1 = end]`, each a list of
+/// sewn node ranges `[first, last]` along the edge (a whole edge: `[0, count − 1]`).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SeamedEdges(pub [[Vec<[usize; 2]>; 2]; 2]);
 
 impl SeamedEdges {
-    /// The seamed edges of panel `p`.
-    pub fn of(p: usize, seams: &[Seam]) -> Self {
+    /// The seamed edges of panel `p` (whose grid is `grid`).
+    pub fn of(p: usize, grid: &Grid, seams: &[Seam]) -> Self {
         let mut e = Self::default();
         for side in seams.iter().flat_map(|s| [s.a, s.b]).filter(|s| s.panel == p) {
-            e.0[side.edge.across()][usize::from(side.edge.at_end())] = true;
+            e.0[side.edge.across()][usize::from(side.edge.at_end())].push(side.range(grid));
         }
         e
     }
 
-    /// True when node `k` of `grid` lies on a seamed edge.
-    pub fn holds_node(&self, grid: &Grid, k: usize) -> bool {
-        let (i, j) = grid.coords(k);
-        [(0, i), (1, j)].iter().any(|&(d, c)| (self.0[d][0] && c == 0) || (self.0[d][1] && c + 1 == grid.count(d)))
+    /// The ranges along the edge across direction `d` at row `c` (none unless `c` is a boundary row).
+    fn at_row<'a>(&'a self, grid: &'a Grid, d: usize, c: usize) -> impl Iterator<Item = &'a [usize; 2]> + 'a {
+        let start = self.0[d][0].iter().filter(move |_| c == 0);
+        start.chain(self.0[d][1].iter().filter(move |_| c + 1 == grid.count(d)))
     }
 
-    /// True when cell `(i, j)` of `grid` has a corner on a seamed edge.
+    /// True when node `k` of `grid` lies on a seamed part of an edge.
+    pub fn holds_node(&self, grid: &Grid, k: usize) -> bool {
+        let (i, j) = grid.coords(k);
+        [(0, i, j), (1, j, i)].iter().any(|&(d, c, t)| self.at_row(grid, d, c).any(|&[lo, hi]| (lo..=hi).contains(&t)))
+    }
+
+    /// True when cell `(i, j)` of `grid` has two corners on one seamed part of an edge (for a whole edge: a
+    /// corner on it).
     pub fn holds_cell(&self, grid: &Grid, i: usize, j: usize) -> bool {
-        [(0, i), (1, j)].iter().any(|&(d, c)| (self.0[d][0] && c == 0) || (self.0[d][1] && c + 2 == grid.count(d)))
+        [(0, i, j), (1, j, i)].iter().any(|&(d, c, t)| {
+            [c, c + 1].into_iter().any(|r| self.at_row(grid, d, r).any(|&[lo, hi]| lo <= t && t < hi))
+        })
     }
 }
 
@@ -173,7 +206,15 @@ pub fn weld(grids: &[Grid], seams: &[Seam]) -> Result<Welds, SeamError> {
         check_side(s, &seam.a, grids)?;
         check_side(s, &seam.b, grids)?;
         let (ga, gb) = (&grids[seam.a.panel], &grids[seam.b.panel]);
-        let (la, lb) = (seam.a.edge.count(ga), seam.b.edge.count(gb));
+        for side in [&seam.a, &seam.b] {
+            let [lo, hi] = side.range(&grids[side.panel]);
+            if lo >= hi || hi >= side.edge.count(&grids[side.panel]) {
+                let message =
+                    format!("its span {lo} ..= {hi} of panel {} {:?} is not within the edge", side.panel, side.edge);
+                return Err(SeamError { seam: s, message });
+            }
+        }
+        let (la, lb) = (seam.a.len(ga), seam.b.len(gb));
         if la != lb {
             let message = format!(
                 "its edges have {la} and {lb} nodes (panel {} {:?}, panel {} {:?}); a seam joins equal counts",
@@ -181,7 +222,7 @@ pub fn weld(grids: &[Grid], seams: &[Seam]) -> Result<Welds, SeamError> {
             );
             return Err(SeamError { seam: s, message });
         }
-        if seam.a.panel == seam.b.panel && seam.a.edge == seam.b.edge {
+        if seam.a.panel == seam.b.panel && seam.a.edge == seam.b.edge && seam.a.span == seam.b.span {
             return Err(SeamError { seam: s, message: "it joins an edge to itself".into() });
         }
         for t in 0..la {
@@ -230,7 +271,7 @@ pub struct PanelView<'a> {
 fn strip(seam: &Seam, panels: &[PanelView<'_>]) -> (Grid, Vec<Vec3>, Vec<usize>) {
     let (pa, pb) = (&panels[seam.a.panel], &panels[seam.b.panel]);
     let d = seam.a.edge.across();
-    let len = seam.a.edge.count(pa.grid);
+    let len = seam.a.len(pa.grid);
     let h = [pa.grid.spacing(0), pa.grid.spacing(1)];
     let (m, n) = if d == 0 { (5, len) } else { (len, 5) };
     let grid = Grid::new(m, n, h[0], h[1], [Topology::Free; 2]).expect("a strip of valid spacings");

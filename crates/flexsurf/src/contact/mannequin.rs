@@ -66,6 +66,78 @@ const LEG: [Ring; 7] = [
     ring(0.89, 0.08, 0.06, 0.06, 0.06),
 ];
 
+/// The upper-body mannequin's torso rings, bottom to top: the lower body's up to the waist and below it
+/// (0.70–1.11 m), then on through the chest (girth ≈ 0.9 m), the shoulders and the neck to a closed top at
+/// 1.56 m.
+const UPPER_TORSO: [Ring; 15] = [
+    ring(0.70, 0.0, 0.11, 0.0, 0.0),
+    ring(0.70, 0.0, 0.15, 0.085, 0.095),
+    ring(0.77, 0.0, 0.18, 0.095, 0.14),
+    ring(0.87, 0.0, 0.185, 0.10, 0.15),
+    ring(0.96, 0.0, 0.16, 0.095, 0.115),
+    ring(1.04, 0.0, 0.124, 0.089, 0.089),
+    ring(1.11, 0.0, 0.135, 0.095, 0.095),
+    ring(1.20, 0.0, 0.16, 0.11, 0.105),
+    ring(1.28, 0.0, 0.17, 0.12, 0.11),
+    ring(1.36, 0.0, 0.18, 0.105, 0.095),
+    ring(1.42, 0.0, 0.15, 0.08, 0.075),
+    ring(1.46, 0.0, 0.07, 0.055, 0.055),
+    ring(1.52, 0.0, 0.055, 0.05, 0.05),
+    ring(1.56, 0.0, 0.055, 0.05, 0.05),
+    ring(1.56, 0.0, 0.04, 0.0, 0.0),
+];
+
+/// Arm control rings in the arm's own frame (`z` along the arm from the closed wrist end, `x` across it in the
+/// arm's vertical plane, `y` to the back), wrist to shoulder: the last two lie inside the torso.
+const ARM: [Ring; 9] = [
+    ring(0.0, 0.0, 0.02, 0.0, 0.0),
+    ring(0.0, 0.0, 0.028, 0.026, 0.026),
+    ring(0.06, 0.0, 0.03, 0.028, 0.028),
+    ring(0.20, 0.0, 0.04, 0.037, 0.037),
+    ring(0.30, 0.0, 0.038, 0.036, 0.036),
+    ring(0.42, 0.0, 0.045, 0.045, 0.045),
+    ring(0.52, 0.0, 0.05, 0.05, 0.05),
+    ring(0.60, 0.0, 0.045, 0.045, 0.045),
+    ring(0.66, 0.0, 0.035, 0.04, 0.04),
+];
+
+/// The right shoulder joint: where the arm's axis is `ARM_LENGTH` from the wrist end (m).
+pub const SHOULDER: [f64; 3] = [0.15, 0.0, 1.34];
+/// Arm length along its axis, from the shoulder joint to the wrist end (m).
+pub const ARM_LENGTH: f64 = 0.55;
+/// The arms' angle below the horizontal (degrees): an A-pose.
+pub const ARM_DROP_DEG: f64 = 45.0;
+
+/// A right-handed orthonormal frame: a point `(x, y, z)` of it is `origin + x e₁ + y e₂ + z e₃`.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    origin: Vec3,
+    axes: [Vec3; 3],
+}
+
+impl Frame {
+    fn map(&self, p: Vec3) -> Vec3 {
+        self.origin + p.x * self.axes[0] + p.y * self.axes[1] + p.z * self.axes[2]
+    }
+
+    /// The frame of an arm (`side` +1: right, `x > 0`; −1: left): `e₃` from the wrist up the arm to the
+    /// shoulder, `e₂ = +y`, the origin at the wrist end.
+    fn arm(side: f64) -> Self {
+        let (s, c) = ARM_DROP_DEG.to_radians().sin_cos();
+        let e3 = Vec3::new(-side * c, 0.0, s);
+        let e2 = Vec3::Y;
+        let shoulder = Vec3::new(side * SHOULDER[0], SHOULDER[1], SHOULDER[2]);
+        Self { origin: shoulder - ARM_LENGTH * e3, axes: [e2.cross(e3), e2, e3] }
+    }
+}
+
+/// A point of an arm's axis `along` metres up from its wrist end (`side` +1: the right arm, `x > 0`; −1: the
+/// left), and the axis' direction from the shoulder down to the wrist.
+pub fn arm_axis(side: f64, along: f64) -> (Vec3, Vec3) {
+    let frame = Frame::arm(side);
+    (frame.map(Vec3::new(0.0, 0.0, along)), -frame.axes[2])
+}
+
 /// A B-spline surface under construction: control net `pts[i][j]` (`i` along `u`), knots, degree 3.
 #[derive(Debug, Clone)]
 struct Surface {
@@ -152,6 +224,16 @@ impl Surface {
         Self { ku, kv, pts }
     }
 
+    /// The surface moved into `frame` (an affine map moves a B-spline's control points).
+    fn placed(mut self, frame: &Frame) -> Self {
+        for row in &mut self.pts {
+            for p in row.iter_mut() {
+                *p = frame.map(*p);
+            }
+        }
+        self
+    }
+
     /// Inserts `t` to full multiplicity along `u`.
     fn refine_u(&mut self, t: f64) {
         let nv = self.pts[0].len();
@@ -217,6 +299,35 @@ pub fn generate() -> NurbsBody {
     patches.extend(right.into_iter().map(|p| ("right leg".to_string(), p)));
     patches.extend(left.into_iter().map(|p| ("left leg".to_string(), p)));
     NurbsBody::from_nonempty("mannequin", patches)
+}
+
+/// The upper-body mannequin (`mannequin_upper`, `docs/mannequin.md`): the lower body's legs, a torso continued
+/// through the chest and shoulders to the neck, and two arms in an A-pose ([`ARM_DROP_DEG`] below the
+/// horizontal), each arm lofted like a leg in its own tilted frame. Patches 0–27 torso (7 bands × 4 around),
+/// 28–33 the legs (as in [`generate`]), 34–37 the right arm, 38–41 the left arm.
+pub fn generate_upper() -> NurbsBody {
+    use std::f64::consts::FRAC_PI_4;
+    let bands = [0.0, 1.0, 3.0, 5.0, 7.0, 9.0, 11.0, 12.0];
+    let torso = Surface::loft(&UPPER_TORSO, 8, -3.0 * FRAC_PI_4).split(&[0.0, 2.0, 4.0, 6.0, 8.0], &bands);
+    let leg_phase = -std::f64::consts::FRAC_PI_2;
+    let right_leg = Surface::loft(&LEG, 9, leg_phase).split(&[0.0, 3.0, 6.0, 9.0], &[0.0, 4.0]);
+    let left_rings = LEG.map(|r| Ring { cx: -r.cx, ..r });
+    let left_leg = Surface::loft(&left_rings, 9, leg_phase).split(&[0.0, 3.0, 6.0, 9.0], &[0.0, 4.0]);
+    let arm = |side: f64| {
+        Surface::loft(&ARM, 8, -3.0 * FRAC_PI_4).placed(&Frame::arm(side)).split(&[0.0, 4.0, 8.0], &[0.0, 3.0, 6.0])
+    };
+    let mut patches = Vec::with_capacity(42);
+    let parts = [
+        ("torso", torso),
+        ("right leg", right_leg),
+        ("left leg", left_leg),
+        ("right arm", arm(1.0)),
+        ("left arm", arm(-1.0)),
+    ];
+    for (name, list) in parts {
+        patches.extend(list.into_iter().map(|p| (name.to_string(), p)));
+    }
+    NurbsBody::from_nonempty("mannequin_upper", patches)
 }
 
 /// Girth (m) of a part's horizontal cross-section at height `z`, and the height of the section found: the length of the iso-`v` curve through all patches of the part's band at that

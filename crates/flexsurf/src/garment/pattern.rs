@@ -9,8 +9,10 @@
 //!
 //! The flat positions are the rest shape (the panel's metric, zero rest curvature) and the grain gives the
 //! warp direction in it (`ElasticOptions::warp_direction`), so the model's energy is that of the cut shape.
-//! A seam names its two edges by their corners, `from` → `to`: the `t`-th node from `from` on one side is sewn
-//! to the `t`-th node from `from` on the other. Seen from the right side, one edge must run with its outline
+//! A seam names its two sides by two named points of one edge each, `from` → `to`: corners, or marks (named
+//! outline vertices that are not corners); the `t`-th node from `from` on one side is sewn to the `t`-th node
+//! from `from` on the other. The points where seams start or end cut the edges into segments; the grid has a
+//! node at each and spreads an edge's nodes by arc length per segment, with counts from [`solve_counts`]. Seen from the right side, one edge must run with its outline
 //! and the other against it (otherwise the right side of one panel would be sewn to the wrong side of the
 //! other); their lengths must agree within the pattern's tolerance.
 //!
@@ -38,6 +40,8 @@ pub struct Vertex {
     pub at: [f64; 2],
     /// The corner's name, for the four corners.
     pub corner: Option<String>,
+    /// A mark's name: a named point of an edge that is not a corner, where a seam may start or end.
+    pub mark: Option<String>,
     /// Control points of the cubic Bézier arriving at this vertex from the previous one (the first vertex's:
     /// from the last); `None`: a straight piece.
     pub curve: Option<[[f64; 2]; 2]>,
@@ -66,6 +70,23 @@ pub enum Placement {
         /// The pattern point placed at `angle`, `height` (m).
         center: [f64; 2],
     },
+    /// Wrapped onto a cylinder of `radius` whose axis runs through `origin` along `direction` (tilted: a
+    /// sleeve around an arm): with `e₃` the axis direction, `e₂` the unit part of `+y` across it and `e₁ =
+    /// e₂ × e₃`, the pattern point `center` goes to `origin + radius (cos angle e₁ + sin angle e₂)`; pattern
+    /// `x` runs around counter-clockwise seen from the axis' tip, pattern `y` along the axis, the right side
+    /// facing out. For `direction = +z` this is [`Placement::Cylinder`] about `origin`.
+    Tilted {
+        /// A point of the axis (m).
+        origin: Vec3,
+        /// The axis direction (unit).
+        direction: Vec3,
+        /// Radius (m).
+        radius: f64,
+        /// Angle of `center` (radians) from `e₁`.
+        angle: f64,
+        /// The pattern point placed at `angle` at `origin`'s place along the axis (m).
+        center: [f64; 2],
+    },
 }
 
 impl Placement {
@@ -77,8 +98,22 @@ impl Placement {
                 let theta = angle + (p[0] - center[0]) / radius;
                 Vec3::new(axis[0] + radius * theta.cos(), axis[1] + radius * theta.sin(), height + p[1] - center[1])
             }
+            Placement::Tilted { origin, direction, radius, angle, center } => {
+                let [e1, e2, e3] = tilted_frame(direction);
+                let theta = angle + (p[0] - center[0]) / radius;
+                origin + radius * (theta.cos() * e1 + theta.sin() * e2) + (p[1] - center[1]) * e3
+            }
         }
     }
+}
+
+/// The frame `[e₁, e₂, e₃]` of a tilted cylinder about `direction`: `e₃` along it, `e₂` the unit part of `+y`
+/// across it (`+z`'s when the axis is along `y`), `e₁ = e₂ × e₃`.
+fn tilted_frame(direction: Vec3) -> [Vec3; 3] {
+    let e3 = direction.normalize_or(Vec3::Z);
+    let across = |v: Vec3| (v - e3 * e3.dot(v)).normalize_or_zero();
+    let e2 = if across(Vec3::Y) == Vec3::ZERO { across(Vec3::Z) } else { across(Vec3::Y) };
+    [e2.cross(e3), e2, e3]
 }
 
 /// One panel of a pattern.
@@ -94,14 +129,15 @@ pub struct PanelPattern {
     pub placement: Placement,
 }
 
-/// An edge of a panel named by its end corners, in the sense the seam runs.
+/// A part of a panel's edge named by its end points (corners or marks of one edge), in the sense the seam
+/// runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EdgeRef {
     /// The panel's name.
     pub panel: String,
-    /// The corner the seam starts at.
+    /// The corner or mark the seam starts at.
     pub from: String,
-    /// The corner it ends at (next to `from` along the outline, either way).
+    /// The corner or mark it ends at (on the same edge as `from`, either way along it).
     pub to: String,
 }
 
@@ -217,6 +253,11 @@ impl Side {
         self.table.last().map_or(0.0, |e| e.2)
     }
 
+    /// Arc length from the side's start to the end of its `k`-th piece (m).
+    fn length_to(&self, k: usize) -> f64 {
+        self.table.iter().rfind(|e| e.0 == k).map_or(0.0, |e| e.2)
+    }
+
     /// The point a fraction `s` of the arc length along (from the side's start; `reversed`: from its end).
     pub fn point(&self, s: f64, reversed: bool) -> [f64; 2] {
         let s = if reversed { 1.0 - s } else { s };
@@ -235,13 +276,16 @@ impl Side {
     }
 }
 
-/// A panel's outline checked: its four sides from corner to corner in outline order and the corners' names.
+/// A panel's outline checked: its four sides from corner to corner in outline order, the corners' names and
+/// the marks on its sides.
 #[derive(Debug, Clone)]
 pub struct Outline {
     /// Sides `c0→c1`, `c1→c2`, `c2→c3`, `c3→c0`.
     pub sides: [Side; 4],
     /// The corners' names in outline order, from the grid's origin.
     pub corners: [String; 4],
+    /// The marks: name, side and arc length from the side's start (m), in outline order.
+    pub marks: Vec<(String, usize, f64)>,
 }
 
 impl Outline {
@@ -261,12 +305,17 @@ impl Outline {
         }
         let corners: Vec<usize> = (0..v.len()).filter(|&k| v[k].corner.is_some()).collect();
         let names: Vec<&str> = corners.iter().filter_map(|&k| v[k].corner.as_deref()).collect();
+        let corners_at = corners.clone();
         if corners.len() != 4 {
             let listed = if names.is_empty() { "none".to_string() } else { names.join(", ") };
             return Err(bad(format!("{} corners ({listed}); a panel needs exactly four", corners.len())));
         }
         if let Some(d) = names.iter().enumerate().find(|(i, n)| names[..*i].contains(n)) {
             return Err(bad(format!("the corner name `{}` is given twice", d.1)));
+        }
+        if let Some(x) = v.iter().find(|x| x.corner.is_some() && x.mark.is_some()) {
+            let (c, m) = (x.corner.as_deref().unwrap_or(""), x.mark.as_deref().unwrap_or(""));
+            return Err(bad(format!("the vertex of corner `{c}` also names the mark `{m}`; a mark is not a corner")));
         }
         let piece = |k: usize| {
             let (p, q) = (v[(k + v.len() - 1) % v.len()].at, v[k].at);
@@ -285,9 +334,52 @@ impl Outline {
             return Err(bad(format!("the edge {} → {} has zero length", names[c], names[(c + 1) % 4])));
         }
         let corners = [0, 1, 2, 3].map(|c| names[c].to_string());
-        let outline = Self { sides, corners };
+        let mut marks = Vec::new();
+        for (c, side) in sides.iter().enumerate() {
+            let start = corners_at[c];
+            let count = (corners_at[(c + 1) % 4] + v.len() - start - 1) % v.len() + 1;
+            for s in 1..count {
+                if let Some(name) = &v[(start + s) % v.len()].mark {
+                    marks.push((name.clone(), c, side.length_to(s - 1)));
+                }
+            }
+        }
+        let outline = Self { sides, corners, marks };
+        outline.check_marks(&bad)?;
         outline.check_simple(&bad)?;
         Ok(outline)
+    }
+
+    /// Marks have names of their own and lie strictly between the corners and other marks of their side.
+    fn check_marks(&self, bad: &dyn Fn(String) -> PatternError) -> Result<(), PatternError> {
+        for (k, (name, c, arc)) in self.marks.iter().enumerate() {
+            if self.corners.contains(name) || self.marks[..k].iter().any(|m| &m.0 == name) {
+                return Err(bad(format!("the name `{name}` is given twice (a mark's name must be its own)")));
+            }
+            let (other, gap) = match self.marks[..k].iter().rfind(|m| m.1 == *c) {
+                Some(m) => (m.0.clone(), arc - m.2),
+                None => (self.corners[*c].clone(), *arc),
+            };
+            let to_end = self.sides[*c].length() - arc;
+            if gap <= 0.0 || to_end <= 0.0 {
+                let near = if gap <= 0.0 { other } else { self.corners[(c + 1) % 4].clone() };
+                return Err(bad(format!(
+                    "the mark `{name}` on the edge {} is at the same place as `{near}`",
+                    self.side_name(*c)
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Where a corner or mark lies: every `(side, arc length from the side's start)` (a corner: at the start of
+    /// its side and at the end of the previous one).
+    fn places(&self, name: &str) -> Vec<(usize, f64)> {
+        if let Some(c) = self.corners.iter().position(|x| x == name) {
+            let prev = (c + 3) % 4;
+            return vec![(c, 0.0), (prev, self.sides[prev].length())];
+        }
+        self.marks.iter().filter(|m| m.0 == name).map(|m| (m.1, m.2)).collect()
     }
 
     /// The name of side `c` (`a → b`, in outline order).
@@ -358,11 +450,19 @@ fn segments_meet(p: ([f64; 2], [f64; 2]), q: ([f64; 2], [f64; 2])) -> bool {
 /// The transfinite (Coons) map of the unit square onto the outline's four sides: `(s, t)` with `s` along
 /// `c0 → c1` (and `c3 → c2`), `t` along `c0 → c3` (and `c1 → c2`), each side by arc length.
 pub fn coons(outline: &Outline, s: f64, t: f64) -> [f64; 2] {
+    let whole = |c: usize| vec![(0, 0.0), (1, outline.sides[c].length())];
+    coons_in(outline, &[whole(0), whole(1), whole(2), whole(3)], s, t)
+}
+
+/// [`coons`] with each side's nodes placed by arc length per segment: side `c`'s `breaks` are `(node index
+/// from the side's start, arc length there)` from `(0, 0)` to `(cells, length)`, so the grid has a node at
+/// every break and its nodes are evenly spread by arc length between two breaks.
+pub fn coons_in(outline: &Outline, breaks: &[Vec<(usize, f64)>; 4], s: f64, t: f64) -> [f64; 2] {
     let [s0, s1, s2, s3] = &outline.sides;
-    let bottom = s0.point(s, false);
-    let right = s1.point(t, false);
-    let top = s2.point(s, true);
-    let left = s3.point(t, true);
+    let bottom = side_point(s0, &breaks[0], s, false);
+    let right = side_point(s1, &breaks[1], t, false);
+    let top = side_point(s2, &breaks[2], s, true);
+    let left = side_point(s3, &breaks[3], t, true);
     let corner = [s0.point(0.0, false), s1.point(0.0, false), s2.point(0.0, false), s3.point(0.0, false)];
     let f = |d: usize| {
         (1.0 - t) * bottom[d] + t * top[d] + (1.0 - s) * left[d] + s * right[d]
@@ -372,6 +472,74 @@ pub fn coons(outline: &Outline, s: f64, t: f64) -> [f64; 2] {
                 + (1.0 - s) * t * corner[3][d])
     };
     [f(0), f(1)]
+}
+
+/// The point of `side` at the fraction `s` of its nodes (from its end when `reversed`), by arc length within
+/// the segment between two `breaks` (a side of one segment: plain arc length).
+fn side_point(side: &Side, breaks: &[(usize, f64)], s: f64, reversed: bool) -> [f64; 2] {
+    if breaks.len() <= 2 {
+        return side.point(s, reversed);
+    }
+    let cells = breaks[breaks.len() - 1].0 as f64;
+    let x = if reversed { 1.0 - s } else { s } * cells;
+    let k = breaks.partition_point(|b| (b.0 as f64) < x).clamp(1, breaks.len() - 1);
+    let ((na, la), (nb, lb)) = (breaks[k - 1], breaks[k]);
+    let arc = la + (lb - la) * (x - na as f64) / (nb - na).max(1) as f64;
+    side.point(arc / side.length(), false)
+}
+
+/// Most rounds of [`solve_counts`].
+pub fn max_count_rounds(segments: usize) -> usize {
+    4 * segments + 16
+}
+
+/// The cell counts of the segments of a pattern's edges: each segment `k` asks `⌈lengths[k] / edge_length⌉`
+/// (at least one); the two segments of each `equal` pair take one count; the two lists of each `opposite`
+/// entry (a panel's opposite sides) have equal totals, at least 2 (three nodes). Counts only increase: a seam
+/// takes the larger of its two; a side shorter in total than its opposite gets one more cell at a time on its
+/// coarsest segment (longest per cell). `Err(k)`: no fixed point after [`max_count_rounds`] rounds, `k` the
+/// segment that changed last.
+pub fn solve_counts(
+    lengths: &[f64],
+    edge_length: f64,
+    equal: &[[usize; 2]],
+    opposite: &[[Vec<usize>; 2]],
+) -> Result<Vec<usize>, usize> {
+    // A length that is a whole number of edges up to rounding takes that number.
+    let mut count: Vec<usize> =
+        lengths.iter().map(|l| (l / edge_length - 1e-9).ceil().max(1.0).min(MAX_NODES as f64) as usize).collect();
+    let mut last = 0;
+    for _ in 0..max_count_rounds(lengths.len()) {
+        let mut changed = false;
+        for &[a, b] in equal {
+            let m = count[a].max(count[b]);
+            for k in [a, b] {
+                if count[k] < m {
+                    (count[k], last, changed) = (m, k, true);
+                }
+            }
+        }
+        for sides in opposite {
+            let total = |c: &[usize], list: &[usize]| list.iter().map(|&k| c[k]).sum::<usize>();
+            let want = total(&count, &sides[0]).max(total(&count, &sides[1])).max(2);
+            for list in sides {
+                while total(&count, list) < want {
+                    let coarsest = list.iter().copied().max_by(|&x, &y| {
+                        (lengths[x] / count[x] as f64).total_cmp(&(lengths[y] / count[y] as f64)).then(y.cmp(&x))
+                    });
+                    let Some(k) = coarsest else { break };
+                    (count[k], last, changed) = (count[k] + 1, k, true);
+                }
+            }
+        }
+        if !changed {
+            return Ok(count);
+        }
+        if count.iter().sum::<usize>() > MAX_NODES {
+            break;
+        }
+    }
+    Err(last)
 }
 
 /// One panel built: its grid, flat rest shape, placed initial shape, material frame and map quality.
@@ -434,21 +602,23 @@ fn side_of(corners: &[String; 4], from: &str, to: &str) -> Option<(usize, bool)>
     }
 }
 
-/// Union–find root.
-fn root(parent: &mut [usize], mut k: usize) -> usize {
-    while parent[k] != k {
-        parent[k] = parent[parent[k]];
-        k = parent[k];
-    }
-    k
-}
-
-/// One seam side resolved: the panel, its side `c`, whether `from → to` runs with the outline.
+/// One seam side resolved: the panel, its side `c`, whether `from → to` runs with the outline, the arc lengths
+/// of its two ends along the side (increasing).
 #[derive(Debug, Clone, Copy)]
 struct Resolved {
     panel: usize,
     side: usize,
     along: bool,
+    arcs: [f64; 2],
+}
+
+/// The segments of the panels' sides between the points where seams start or end, and their cell counts.
+#[derive(Debug, Clone)]
+struct Layout {
+    /// Per panel, per side: `(node index from the side's start, arc length)` at each break.
+    breaks: Vec<[Vec<(usize, f64)>; 4]>,
+    /// Per panel, the node counts `[u1, u2]`.
+    counts: Vec<[usize; 2]>,
 }
 
 impl Pattern {
@@ -471,7 +641,8 @@ impl Pattern {
         let outlines =
             self.panels.iter().enumerate().map(|(p, panel)| Outline::new(p, panel)).collect::<Result<Vec<_>, _>>()?;
         let resolved = self.resolve_seams(&outlines)?;
-        let counts = self.counts(&outlines, &resolved);
+        let (layout, sides) = self.layout(&outlines, &resolved)?;
+        let counts = &layout.counts;
         let total = counts.iter().map(|[m, n]| m.saturating_mul(*n)).fold(0usize, usize::saturating_add);
         if total > MAX_NODES {
             let message =
@@ -481,7 +652,7 @@ impl Pattern {
         let mut panels = Vec::with_capacity(self.panels.len());
         let mut warnings = Vec::new();
         for (p, (panel, outline)) in self.panels.iter().zip(&outlines).enumerate() {
-            let built = build_panel(p, panel, outline, counts[p])?;
+            let built = build_panel(p, panel, outline, &layout.breaks[p])?;
             let [lo, hi] = built.jacobian;
             if lo < DISTORTION_WARNING * hi {
                 warnings.push((
@@ -496,38 +667,33 @@ impl Pattern {
             }
             panels.push(built);
         }
-        let seams = resolved.iter().map(|[a, b]| Seam { a: seam_side(a), b: seam_side(b) }).collect();
-        let seam_lengths = resolved.iter().map(|r| r.map(|s| outlines[s.panel].sides[s.side].length())).collect();
+        let seams = sides.iter().map(|&[a, b]| Seam { a, b }).collect();
+        let seam_lengths = resolved.iter().map(|r| r.map(|s| s.arcs[1] - s.arcs[0])).collect();
         Ok(BuiltPattern { panels, seams, seam_lengths, warnings })
     }
 
-    /// Each seam's two sides found and checked: the edges exist, no edge is sewn twice, the senses agree,
-    /// the lengths match.
+    /// Each seam's two sides found and checked: the points exist and lie on one edge, no part of an edge is
+    /// sewn twice, the senses agree, the lengths match.
     fn resolve_seams(&self, outlines: &[Outline]) -> Result<Vec<[Resolved; 2]>, PatternError> {
-        let mut used: Vec<((usize, usize), usize)> = Vec::new();
+        let mut used: Vec<(Resolved, usize)> = Vec::new();
         let mut out = Vec::with_capacity(self.seams.len());
         for (s, seam) in self.seams.iter().enumerate() {
-            let mut sides = [Resolved { panel: 0, side: 0, along: true }; 2];
+            let mut sides = [Resolved { panel: 0, side: 0, along: true, arcs: [0.0; 2] }; 2];
             for (k, r) in [&seam.a, &seam.b].into_iter().enumerate() {
                 let key = format!("seam[{s}].{}", ["a", "b"][k]);
-                let p = self
-                    .panels
-                    .iter()
-                    .position(|q| q.name == r.panel)
-                    .ok_or_else(|| error(key.clone(), format!("seam {s}: there is no panel `{}`", r.panel)))?;
-                let o = &outlines[p];
-                let (side, along) = side_of(&o.corners, &r.from, &r.to).ok_or_else(|| {
-                    let edges: Vec<String> = (0..4).map(|c| o.side_name(c)).collect();
-                    let message =
-                        format!("seam {s}: {r} does not exist; its edges are {} (either way)", edges.join(", "));
-                    error(key.clone(), message)
-                })?;
-                if let Some((_, first)) = used.iter().find(|(e, _)| *e == (p, side)) {
-                    let message = format!("seam {s}: {r} is already sewn by seam {first}; an edge takes one seam");
+                let here = self.resolve_side(s, r, outlines).map_err(|message| error(key.clone(), message))?;
+                let overlap = |u: &Resolved| {
+                    u.panel == here.panel && u.side == here.side && u.arcs[0] < here.arcs[1] && here.arcs[0] < u.arcs[1]
+                };
+                if let Some((_, first)) = used.iter().find(|(u, _)| overlap(u)) {
+                    let message = format!(
+                        "seam {s}: {r} is already sewn by seam {first}; an edge takes one seam (two seams on one \
+                         edge must not overlap)"
+                    );
                     return Err(error(key, message));
                 }
-                used.push(((p, side), s));
-                sides[k] = Resolved { panel: p, side, along };
+                used.push((here, s));
+                sides[k] = here;
             }
             if sides[0].along == sides[1].along {
                 let how = if sides[0].along { "with" } else { "against" };
@@ -538,7 +704,7 @@ impl Pattern {
                 );
                 return Err(error(format!("seam[{s}]"), message));
             }
-            let [la, lb] = sides.map(|r| outlines[r.panel].sides[r.side].length());
+            let [la, lb] = sides.map(|r| r.arcs[1] - r.arcs[0]);
             if (la - lb).abs() > self.tolerance {
                 let message = format!(
                     "seam {s}: {} is {la:.4} m long and {} {lb:.4} m; they differ by more than the tolerance {} m",
@@ -551,34 +717,119 @@ impl Pattern {
         Ok(out)
     }
 
-    /// Node counts `[u1, u2]` of every panel: from the target edge length on the longer of each pair of
-    /// opposite sides, the largest along every chain of seams.
-    fn counts(&self, outlines: &[Outline], seams: &[[Resolved; 2]]) -> Vec<[usize; 2]> {
-        let classes = 2 * outlines.len();
-        let mut parent: Vec<usize> = (0..classes).collect();
-        let class = |r: &Resolved| 2 * r.panel + r.side % 2;
-        for [a, b] in seams {
-            let (x, y) = (root(&mut parent, class(a)), root(&mut parent, class(b)));
-            parent[x.max(y)] = x.min(y);
-        }
-        let mut count = vec![3usize; classes];
-        for (p, o) in outlines.iter().enumerate() {
-            for (c, side) in o.sides.iter().enumerate() {
-                // A length that is a whole number of edges up to rounding takes that number.
-                let n = (side.length() / self.edge_length - 1e-9).ceil().max(1.0) as usize + 1;
-                let r = root(&mut parent, 2 * p + c % 2);
-                count[r] = count[r].max(n);
+    /// One side `r` of seam `s`: its panel, and the one edge that both its points (corners or marks) lie on.
+    fn resolve_side(&self, s: usize, r: &EdgeRef, outlines: &[Outline]) -> Result<Resolved, String> {
+        let p = self
+            .panels
+            .iter()
+            .position(|q| q.name == r.panel)
+            .ok_or_else(|| format!("seam {s}: there is no panel `{}`", r.panel))?;
+        let o = &outlines[p];
+        let [from, to] = [&r.from, &r.to].map(|n| o.places(n));
+        for (name, places) in [(&r.from, &from), (&r.to, &to)] {
+            if places.is_empty() {
+                let marks: Vec<&str> = o.marks.iter().map(|m| m.0.as_str()).collect();
+                let marks = if marks.is_empty() { "none".to_string() } else { marks.join(", ") };
+                return Err(format!(
+                    "seam {s}: panel `{}` has no corner or mark `{name}`; its corners are {}, its marks {marks}",
+                    r.panel,
+                    o.corners.join(", ")
+                ));
             }
         }
-        (0..outlines.len())
-            .map(|p| [root(&mut parent, 2 * p), root(&mut parent, 2 * p + 1)].map(|r| count[r]))
-            .collect()
+        if r.from == r.to {
+            return Err(format!("seam {s}: {r} starts and ends at one point"));
+        }
+        let common = from.iter().find_map(|&(c, x)| to.iter().find(|t| t.0 == c).map(|&(_, y)| (c, x, y)));
+        let Some((side, x, y)) = common else {
+            let corner = |n: &str| o.corners.iter().any(|c| c == n);
+            if corner(&r.from) && corner(&r.to) {
+                let edges: Vec<String> = (0..4).map(|c| o.side_name(c)).collect();
+                return Err(format!("seam {s}: {r} does not exist; its edges are {} (either way)", edges.join(", ")));
+            }
+            let (mark, other) = if corner(&r.from) { (&r.to, &r.from) } else { (&r.from, &r.to) };
+            let on = o.places(mark).first().map_or(0, |m| m.0);
+            return Err(format!(
+                "seam {s}: {r}: the mark `{mark}` is on the edge {}, not on an edge through `{other}`; a seam side \
+                 runs along one edge",
+                o.side_name(on)
+            ));
+        };
+        Ok(Resolved { panel: p, side, along: x < y, arcs: [x.min(y), x.max(y)] })
+    }
+
+    /// The segments of every side between the seams' ends, their cell counts ([`solve_counts`]) and each panel's
+    /// node counts; each seam side's node span.
+    fn layout(
+        &self,
+        outlines: &[Outline],
+        seams: &[[Resolved; 2]],
+    ) -> Result<(Layout, Vec<[SeamSide; 2]>), PatternError> {
+        // Segments: (panel, side, [start, end] arc length), side by side.
+        let mut segments: Vec<(usize, usize, [f64; 2])> = Vec::new();
+        let mut first = vec![[0usize; 5]; outlines.len()];
+        for (p, o) in outlines.iter().enumerate() {
+            for c in 0..4 {
+                first[p][c] = segments.len();
+                let mut cuts: Vec<f64> = vec![0.0, o.sides[c].length()];
+                let ends = seams.iter().flatten().filter(|r| r.panel == p && r.side == c);
+                cuts.extend(ends.flat_map(|r| r.arcs));
+                cuts.sort_by(f64::total_cmp);
+                cuts.dedup();
+                segments.extend(cuts.windows(2).map(|w| (p, c, [w[0], w[1]])));
+            }
+            first[p][4] = segments.len();
+        }
+        let find = |r: &Resolved| {
+            (first[r.panel][r.side]..first[r.panel][r.side + 1]).find(|&k| segments[k].2[0] == r.arcs[0])
+        };
+        let equal: Vec<[usize; 2]> = seams.iter().map(|[a, b]| [find(a).unwrap_or(0), find(b).unwrap_or(0)]).collect();
+        let range = |p: usize, c: usize| (first[p][c]..first[p][c + 1]).collect::<Vec<_>>();
+        let opposite: Vec<[Vec<usize>; 2]> =
+            (0..outlines.len()).flat_map(|p| [[range(p, 0), range(p, 2)], [range(p, 1), range(p, 3)]]).collect();
+        let lengths: Vec<f64> = segments.iter().map(|g| g.2[1] - g.2[0]).collect();
+        let count = solve_counts(&lengths, self.edge_length, &equal, &opposite).map_err(|k| {
+            let (p, c, _) = segments[k];
+            let message = format!(
+                "the node counts of the seams' segments do not settle in {} rounds (last raised: panel `{}` edge \
+                 {}): the seams and opposite edges ask for counts that cannot all agree",
+                max_count_rounds(segments.len()),
+                self.panels[p].name,
+                outlines[p].side_name(c)
+            );
+            error("seam".into(), message)
+        })?;
+        let breaks: Vec<[Vec<(usize, f64)>; 4]> = (0..outlines.len())
+            .map(|p| {
+                [0, 1, 2, 3].map(|c| {
+                    let mut b = vec![(0, 0.0)];
+                    for k in range(p, c) {
+                        let n = b.last().map_or(0, |x| x.0) + count[k];
+                        b.push((n, segments[k].2[1]));
+                    }
+                    b
+                })
+            })
+            .collect();
+        let counts =
+            breaks.iter().map(|b| [b[0].last().map_or(0, |x| x.0) + 1, b[1].last().map_or(0, |x| x.0) + 1]).collect();
+        let layout = Layout { breaks, counts };
+        let sides = seams.iter().map(|pair| pair.map(|r| seam_side(&r, &layout))).collect();
+        Ok((layout, sides))
     }
 }
 
-fn seam_side(r: &Resolved) -> SeamSide {
+/// A resolved seam side as the model joins it: its grid edge and the span of its nodes along it (`None`: the
+/// whole edge).
+fn seam_side(r: &Resolved, layout: &Layout) -> SeamSide {
     let (edge, natural) = EDGES[r.side];
-    SeamSide { panel: r.panel, edge, reversed: r.along != natural }
+    let breaks = &layout.breaks[r.panel][r.side];
+    let cells = breaks.last().map_or(0, |b| b.0);
+    let at = |arc: f64| breaks.iter().find(|b| b.1 == arc).map_or(0, |b| b.0);
+    let [lo, hi] = r.arcs.map(at);
+    let span = if natural { [lo, hi] } else { [cells - hi, cells - lo] };
+    let span = if span == [0, cells] { None } else { Some(span) };
+    SeamSide { panel: r.panel, edge, reversed: r.along != natural, span }
 }
 
 /// Panel `p`'s grid of `[m, n]` nodes: the Coons map, the Jacobian check, the placement.
@@ -586,8 +837,9 @@ fn build_panel(
     p: usize,
     panel: &PanelPattern,
     outline: &Outline,
-    [m, n]: [usize; 2],
+    breaks: &[Vec<(usize, f64)>; 4],
 ) -> Result<BuiltPanel, PatternError> {
+    let [m, n] = [breaks[0].last().map_or(0, |b| b.0) + 1, breaks[1].last().map_or(0, |b| b.0) + 1];
     let key = format!("panel[{p}].outline");
     let avg = |a: usize, b: usize| 0.5 * (outline.sides[a].length() + outline.sides[b].length());
     let grid = Grid::new(m, n, avg(0, 2) / (m - 1) as f64, avg(1, 3) / (n - 1) as f64, [Topology::Free; 2])
@@ -595,7 +847,7 @@ fn build_panel(
     let pattern: Vec<[f64; 2]> = (0..grid.len())
         .map(|k| {
             let (i, j) = grid.coords(k);
-            coons(outline, i as f64 / (m - 1) as f64, j as f64 / (n - 1) as f64)
+            coons_in(outline, breaks, i as f64 / (m - 1) as f64, j as f64 / (n - 1) as f64)
         })
         .collect();
     let jacobian = jacobian_range(&grid, &pattern);
@@ -607,6 +859,7 @@ fn build_panel(
         );
         return Err(error(key, message));
     }
+    check_placement(p, panel)?;
     let [gx, gy] = panel.grain;
     if !(gx.is_finite() && gy.is_finite() && gx.hypot(gy) > 0.0) {
         return Err(error(
@@ -625,6 +878,24 @@ fn build_panel(
         jacobian,
         corners: outline.corners.clone(),
     })
+}
+
+/// A cylinder's radius is a positive length, a tilted one's direction a non-zero vector.
+fn check_placement(p: usize, panel: &PanelPattern) -> Result<(), PatternError> {
+    let (radius, direction) = match panel.placement {
+        Placement::Flat { .. } => return Ok(()),
+        Placement::Cylinder { radius, .. } => (radius, Vec3::Z),
+        Placement::Tilted { radius, direction, .. } => (radius, direction),
+    };
+    let bad =
+        |message: String| Err(error(format!("panel[{p}].placement"), format!("panel `{}`: {message}", panel.name)));
+    if !(radius > 0.0 && radius.is_finite()) {
+        return bad(format!("the cylinder's radius {radius} m is not a positive length"));
+    }
+    if !(direction.is_finite() && direction.length() > 0.0) {
+        return bad("the cylinder's direction must be a non-zero vector".into());
+    }
+    Ok(())
 }
 
 /// Smallest and largest Jacobian of the bilinear cells at their corners, per unit of the grid's parameters.

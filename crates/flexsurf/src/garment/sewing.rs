@@ -70,8 +70,8 @@ pub struct Sewn {
 fn side_nodes(builder: &ModelBuilder, side: &SeamSide) -> Vec<usize> {
     let offset: usize = builder.panels[..side.panel].iter().map(|p| p.grid.len()).sum();
     let grid = &builder.panels[side.panel].grid;
-    let n = side.edge.count(grid);
-    (0..n).map(|t| offset + side.edge.node(grid, if side.reversed { n - 1 - t } else { t }, 0)).collect()
+    let n = side.len(grid);
+    (0..n).map(|t| offset + side.node(grid, t, n, 0)).collect()
 }
 
 /// The node pairs of each seam (panel nodes; none for a seam of a missing panel, which the build refuses).

@@ -186,7 +186,11 @@ pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
         v
     }
     let side = |s: &crate::seam::SeamSide| -> Vec<usize> {
-        let mut v = edge_vertices(&model.panels[s.panel].grid, k, s.edge);
+        let grid = &model.panels[s.panel].grid;
+        let [lo, hi] = s.range(grid);
+        let mut v = edge_vertices(grid, k, s.edge);
+        v.truncate(hi * k + 1);
+        v.drain(..lo * k);
         if s.reversed {
             v.reverse();
         }

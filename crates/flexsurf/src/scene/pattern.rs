@@ -110,6 +110,9 @@ pub struct VertexEntry {
     /// A corner's name (four per panel).
     #[serde(default)]
     pub corner: Option<String>,
+    /// A mark's name: a named point of an edge that is not a corner, where a seam side may start or end.
+    #[serde(default)]
+    pub mark: Option<String>,
     /// The two control points of a cubic Bézier from the previous vertex to this one (for the first vertex:
     /// from the last); without it the piece is straight.
     #[serde(default)]
@@ -137,7 +140,9 @@ pub struct FlatEntry {
 
 /// A wrap onto the vertical cylinder of `radius` about `axis`: the pattern point `center` goes to `angle_deg`
 /// around (from `+x`, counter-clockwise seen from above) at `height`; pattern `x` runs around, `y` up, the
-/// right side out.
+/// right side out. With `direction`, the cylinder's axis is tilted: it runs through `[axis, height]` along
+/// `direction`, `angle_deg` is measured from `e₁ = e₂ × e₃` (`e₃` the direction, `e₂` the part of `+y` across
+/// it) and pattern `y` runs along the direction (a sleeve around an arm).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CylinderEntry {
@@ -152,6 +157,9 @@ pub struct CylinderEntry {
     pub height: f64,
     /// The pattern point placed at `angle_deg`, `height` (m).
     pub center: [f64; 2],
+    /// The axis direction `[x, y, z]`, default vertical (`[0, 0, 1]`).
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
 }
 
 /// An edge, by its panel and end corners, in the sense the seam runs.
@@ -160,9 +168,9 @@ pub struct CylinderEntry {
 pub struct EdgeEntry {
     /// The panel's name.
     pub panel: String,
-    /// The corner the seam starts at.
+    /// The corner or mark the seam starts at.
     pub from: String,
-    /// The corner it ends at (next to `from` along the outline, either way).
+    /// The corner or mark it ends at (on the same edge as `from`, either way along it).
     pub to: String,
 }
 
@@ -315,7 +323,7 @@ impl DxfEntry {
         });
         let reach = 0.01 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
         let mut vertices: Vec<VertexEntry> =
-            outline.iter().map(|v| VertexEntry { at: v.at, corner: None, curve: v.curve }).collect();
+            outline.iter().map(|v| VertexEntry { at: v.at, corner: None, mark: None, curve: v.curve }).collect();
         for (c, corner) in self.corners.iter().enumerate() {
             let at = [corner.at[0] * scale, corner.at[1] * scale];
             let bad = |message: String| (format!("panel[{p}].dxf.corners[{c}]"), message);
@@ -338,16 +346,28 @@ impl DxfEntry {
 
 impl PanelEntry {
     fn panel(&self) -> PanelPattern {
-        let outline =
-            self.outline.iter().map(|v| Vertex { at: v.at, corner: v.corner.clone(), curve: v.curve }).collect();
+        let outline = self
+            .outline
+            .iter()
+            .map(|v| Vertex { at: v.at, corner: v.corner.clone(), mark: v.mark.clone(), curve: v.curve })
+            .collect();
         let placement = match &self.placement {
             PlacementEntry::Flat(f) => Placement::Flat { offset: Vec3::from_array(f.offset) },
-            PlacementEntry::Cylinder(c) => Placement::Cylinder {
-                axis: c.axis,
-                radius: c.radius,
-                angle: c.angle_deg.to_radians(),
-                height: c.height,
-                center: c.center,
+            PlacementEntry::Cylinder(c) => match c.direction {
+                None => Placement::Cylinder {
+                    axis: c.axis,
+                    radius: c.radius,
+                    angle: c.angle_deg.to_radians(),
+                    height: c.height,
+                    center: c.center,
+                },
+                Some(d) => Placement::Tilted {
+                    origin: Vec3::new(c.axis[0], c.axis[1], c.height),
+                    direction: Vec3::from_array(d),
+                    radius: c.radius,
+                    angle: c.angle_deg.to_radians(),
+                    center: c.center,
+                },
             },
         };
         PanelPattern { name: self.name.clone(), outline, grain: self.grain, placement }

@@ -290,6 +290,10 @@ pub enum ObstacleSpec {
 pub enum BuiltinBody {
     /// The paper's 22-patch lower-body mannequin (`docs/mannequin.md`).
     Mannequin,
+    /// The mannequin with an upper body: torso to the neck, shoulders and two arms in an A-pose
+    /// (`docs/mannequin.md`).
+    #[serde(rename = "mannequin_upper")]
+    MannequinUpper,
 }
 
 /// A NURBS body: exactly one of `file` (a body file in the format of `bodies/mannequin.toml`, relative to the

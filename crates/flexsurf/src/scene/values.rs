@@ -401,10 +401,12 @@ fn obstacle(v: &Validator<'_>, i: usize, o: &ObstacleSpec) -> Result<Obstacle, S
             (Some(_), Some(_)) | (None, None) => {
                 return Err(v.bad(
                     &key("nurbs"),
-                    "give exactly one of `file` (a body file) and `builtin` (\"mannequin\")".into(),
+                    "give exactly one of `file` (a body file) and `builtin` (\"mannequin\" or \"mannequin_upper\")"
+                        .into(),
                 ));
             }
             (None, Some(BuiltinBody::Mannequin)) => Obstacle::Nurbs(Arc::new(mannequin::generate())),
+            (None, Some(BuiltinBody::MannequinUpper)) => Obstacle::Nurbs(Arc::new(mannequin::generate_upper())),
             (Some(f), None) => {
                 let path = relative_to(v.file(), f);
                 let body =

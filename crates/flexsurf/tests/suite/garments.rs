@@ -308,7 +308,7 @@ fn the_straight_skirt_pattern_builds() {
     }
     match spec.pattern().panels[0].placement {
         Placement::Cylinder { radius, .. } => assert!(radius > 0.2),
-        Placement::Flat { .. } => panic!("the skirt is placed on a cylinder"),
+        _ => panic!("the skirt is placed on a vertical cylinder"),
     }
     let _: &Pattern = &spec.pattern();
     // The four-gore skirt: four gores of 20 nodes down (0.55 m with curved hips at 0.03 m), matched all round.

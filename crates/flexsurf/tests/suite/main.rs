@@ -30,4 +30,5 @@ mod sparsity;
 mod statics;
 mod threads;
 mod trust;
+mod tshirt;
 mod two_sheets;

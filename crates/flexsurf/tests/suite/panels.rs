@@ -187,7 +187,7 @@ fn multigrid_coarsens_each_panel_and_solves_as_cholesky_does() {
             Vec3::new(0.127 * a.cos(), 0.2 + 0.3 * j as f64 / 24.0, 0.13 + 0.127 * a.sin())
         })
         .collect();
-    let side = |edge| SeamSide { panel: 0, edge, reversed: false };
+    let side = |edge| SeamSide::whole(0, edge, false);
     let mut tube = ModelBuilder::new(tube_grid, tube_rest.clone(), fabric, stiffness, ModelKind::Tfs, G)
         .seam(Seam { a: side(Edge::U1Start), b: side(Edge::U1End) });
     floor(&mut tube);

@@ -21,7 +21,7 @@ use std::f64::consts::FRAC_PI_2;
 const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
 
 fn side(panel: usize, edge: Edge) -> SeamSide {
-    SeamSide { panel, edge, reversed: false }
+    SeamSide::whole(panel, edge, false)
 }
 
 /// Steps `model` from `x` at rest for `steps` steps of `dt`.
