@@ -66,17 +66,9 @@ const LEG: [Ring; 7] = [
     ring(0.89, 0.08, 0.06, 0.06, 0.06),
 ];
 
-/// The upper-body mannequin's torso rings, bottom to top: the lower body's up to the waist and below it
-/// (0.70–1.11 m), then on through the chest (girth ≈ 0.9 m), the shoulders and the neck to a closed top at
-/// 1.56 m.
-const UPPER_TORSO: [Ring; 15] = [
-    ring(0.70, 0.0, 0.11, 0.0, 0.0),
-    ring(0.70, 0.0, 0.15, 0.085, 0.095),
-    ring(0.77, 0.0, 0.18, 0.095, 0.14),
-    ring(0.87, 0.0, 0.185, 0.10, 0.15),
-    ring(0.96, 0.0, 0.16, 0.095, 0.115),
-    ring(1.04, 0.0, 0.124, 0.089, 0.089),
-    ring(1.11, 0.0, 0.135, 0.095, 0.095),
+/// The upper-body mannequin's torso rings above the lower body's first seven (0.70–1.11 m, shared with
+/// [`TORSO`]): on through the chest (girth ≈ 0.9 m), the shoulders and the neck to a closed top at 1.56 m.
+const UPPER_TORSO_TOP: [Ring; 8] = [
     ring(1.20, 0.0, 0.16, 0.11, 0.105),
     ring(1.28, 0.0, 0.17, 0.12, 0.11),
     ring(1.36, 0.0, 0.18, 0.105, 0.095),
@@ -308,7 +300,8 @@ pub fn generate() -> NurbsBody {
 pub fn generate_upper() -> NurbsBody {
     use std::f64::consts::FRAC_PI_4;
     let bands = [0.0, 1.0, 3.0, 5.0, 7.0, 9.0, 11.0, 12.0];
-    let torso = Surface::loft(&UPPER_TORSO, 8, -3.0 * FRAC_PI_4).split(&[0.0, 2.0, 4.0, 6.0, 8.0], &bands);
+    let rings: Vec<Ring> = TORSO[..7].iter().chain(&UPPER_TORSO_TOP).copied().collect();
+    let torso = Surface::loft(&rings, 8, -3.0 * FRAC_PI_4).split(&[0.0, 2.0, 4.0, 6.0, 8.0], &bands);
     let leg_phase = -std::f64::consts::FRAC_PI_2;
     let right_leg = Surface::loft(&LEG, 9, leg_phase).split(&[0.0, 3.0, 6.0, 9.0], &[0.0, 4.0]);
     let left_rings = LEG.map(|r| Ring { cx: -r.cx, ..r });
