@@ -72,11 +72,8 @@ impl CurveReport {
 /// Runs the virtual test of every law of `laws` on `fabric` (whose constants of those directions become the
 /// laws' quadratic parts, [`Laws::apply`]) with the `kes` calibration.
 pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError> {
-    let mut applied = *fabric;
-    laws.apply(&mut applied)?;
+    let (applied, s, shared) = applied(fabric, laws)?;
     let fabric = &applied;
-    let s = Stiffness::calibrate(fabric, Calibration::Kes)?;
-    let shared = Arc::new(laws.clone());
     let mut tests = Vec::new();
     let positive = |c: &Curve| c.points().iter().copied().filter(|p| p.0 > 0.0).collect::<Vec<_>>();
     for (law, curve, angle) in
@@ -101,8 +98,6 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
     if let Some(c) = &laws.shear {
         let mut x = None;
         let mut points = Vec::new();
-        // A sheared square wrinkles once its compressive principal stress (the shear resultant) exceeds about
-        // 9.34 π² D/b² (a clamped square plate); the side b keeps that 4 times above the largest resultant.
         let n_max = c.points().iter().fold(0.0, |a: f64, p| a.max(p.1.abs()));
         let side = square_side(&s, n_max);
         for (g, n) in positive(c) {
@@ -125,6 +120,15 @@ pub fn kes_curves(fabric: &Fabric, laws: &Laws) -> Result<CurveReport, LabError>
     Ok(CurveReport { tests })
 }
 
+/// `fabric` with the laws' quadratic parts ([`Laws::apply`]), its `kes` stiffness and the laws shared with the
+/// test's terms: what every virtual test of this module starts from.
+fn applied(fabric: &Fabric, laws: &Laws) -> Result<(Fabric, Stiffness, Arc<Laws>), LabError> {
+    let mut applied = *fabric;
+    laws.apply(&mut applied)?;
+    let s = Stiffness::calibrate(&applied, Calibration::Kes)?;
+    Ok((applied, s, Arc::new(laws.clone())))
+}
+
 /// The side of the sheared square: a clamped square plate wrinkles once its compressive principal stress (the
 /// shear resultant) exceeds about 9.34 π² D/b²; the side b keeps that 4 times above `n_max`, at most 5 cm.
 fn square_side(s: &Stiffness, n_max: f64) -> f64 {
@@ -143,10 +147,7 @@ pub fn shear_loop(
     phi_max: f64,
     steps: usize,
 ) -> Result<Vec<(f64, f64)>, LabError> {
-    let mut applied = *fabric;
-    laws.apply(&mut applied)?;
-    let s = Stiffness::calibrate(&applied, Calibration::Kes)?;
-    let shared = Arc::new(laws.clone());
+    let (applied, s, shared) = applied(fabric, laws)?;
     let elastic = |g: f64| laws.shear.as_ref().map_or(applied.shear * g, |c| c.resultant(g));
     let side = square_side(&s, elastic(phi_max.sin()).abs() + half_width);
     let q = steps.max(1) as f64;
@@ -298,10 +299,7 @@ pub fn bending_loop(
     kappa_max: f64,
     steps: usize,
 ) -> Result<Vec<(f64, f64)>, LabError> {
-    let mut applied = *fabric;
-    laws.apply(&mut applied)?;
-    let s = Stiffness::calibrate(&applied, Calibration::Kes)?;
-    let shared = Arc::new(laws.clone());
+    let (applied, s, shared) = applied(fabric, laws)?;
     let arc = BendingTester { f: &applied, s: &s, laws: &shared, along_weft, len: (1.5 / kappa_max).min(0.2) };
     let q = steps.max(1) as f64;
     // From the first increment (a flat strip without load has no scale for the solver's residual).
