@@ -461,9 +461,9 @@ fn residual(model: &Model, x: &[Vec3]) -> f64 {
 /// Shadow area (m²) of the drape `x`: the xy footprint of its Coons surface (1024² raster) plus the hole inside
 /// the clamp, and never less than the disc.
 fn shadow_area(model: &Model, x: &[Vec3], ring: &Annulus) -> f64 {
-    let (rd, hr) = (ring.rd, ring.first());
+    let (rd, inner) = (ring.rd, ring.radius(0));
     let mesh = CoonsSurface::new(&model.panels[0].grid, x).tessellate(4);
-    let hole = PI * (rd - 0.5 * hr) * (rd - 0.5 * hr);
+    let hole = PI * inner * inner;
     (projected_area_xy(&mesh, 1024) + hole).max(PI * rd * rd)
 }
 
