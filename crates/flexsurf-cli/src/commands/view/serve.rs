@@ -6,8 +6,9 @@
 //! - It listens on 127.0.0.1 only and answers `GET` of three fixed paths (`/`, `/view.html`, `/state`;
 //!   `/favicon.ico` is empty); any other path is 404, so no path reaches a file (no traversal).
 //! - A fixed pool of [`WORKERS`] threads answers connections concurrently; each must send its whole request
-//!   head within [`HEAD_TIMEOUT`] and in at most [`MAX_HEAD`] bytes (else 408 or 431, and closed), so idle
-//!   or oversized connections hold a worker for at most that long and never the server.
+//!   head within [`HEAD_TIMEOUT`] and in at most [`MAX_HEAD`] bytes (else 408 or 431, and closed after
+//!   dropping for at most [`LINGER`] what the client still sends, so that the reply is not lost to a reset),
+//!   so idle or oversized connections hold a worker for at most that long and never the server.
 //! - The `Host` header must name the loopback address with the server's port (`localhost`, `127.0.0.1` or
 //!   `[::1]`), which defeats DNS rebinding (a page of another site resolved to 127.0.0.1 sends its own name).
 //! - The page is built once for each state of the run ([`viewer::run_state`]: the sizes and times of
@@ -32,6 +33,10 @@ pub const HEAD_TIMEOUT: Duration = Duration::from_secs(3);
 const WRITE_TIMEOUT: Duration = Duration::from_secs(30);
 /// Connections accepted and waiting for a worker, beyond which accepting waits.
 const QUEUE: usize = 64;
+/// After refusing a request whose head was not read to its end, how long the rest is read and dropped.
+const LINGER: Duration = Duration::from_secs(1);
+/// ... and how many bytes at most.
+const LINGER_BYTES: usize = 4 << 20;
 
 /// The page built for one state of the run (or why it could not be).
 type Page = (String, Result<Arc<Vec<u8>>, String>);
@@ -168,9 +173,9 @@ impl Site {
 
 fn answer(site: &Site, mut stream: TcpStream) -> Result<()> {
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
-    let (status, kind, body) = match read_head(&mut stream) {
-        Ok(Ok((method, target, host))) => site.reply(&method, &target, host.as_deref()),
-        Ok(Err(reply)) => reply,
+    let ((status, kind, body), unread) = match read_head(&mut stream) {
+        Ok(Ok((method, target, host))) => (site.reply(&method, &target, host.as_deref()), false),
+        Ok(Err(reply)) => (reply, true),
         // The client went away or the connection failed: nothing to answer.
         Err(_) => return Ok(()),
     };
@@ -181,7 +186,34 @@ fn answer(site: &Site, mut stream: TcpStream) -> Result<()> {
         body.len()
     )?;
     stream.write_all(&body)?;
+    if unread {
+        linger(stream);
+    }
     Ok(())
+}
+
+/// Closes a connection whose client may still be sending: closing a socket with unread input resets it, and
+/// the reset can destroy the reply before the client reads it. So the reply is ended (`shutdown(Write)`) and
+/// what the client still sends is read and dropped, for at most [`LINGER`] and [`LINGER_BYTES`].
+fn linger(mut stream: TcpStream) {
+    if stream.shutdown(std::net::Shutdown::Write).is_err() {
+        return;
+    }
+    let deadline = Instant::now() + LINGER;
+    let mut sink = [0u8; 16 * 1024];
+    let mut total = 0;
+    while total < LINGER_BYTES {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() || stream.set_read_timeout(Some(left)).is_err() {
+            return;
+        }
+        match stream.read(&mut sink) {
+            Ok(0) => return,
+            Ok(n) => total += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return,
+        }
+    }
 }
 
 #[cfg(test)]
