@@ -85,8 +85,42 @@ fn main() -> ExitCode {
             None => ExitCode::SUCCESS,
         },
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", report(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes joined by ": ", as `{:#}` writes them, leaving out a cause whose text the message
+/// before it already ends with (an error that writes its cause into its own message and also returns it as
+/// its source, as `#[from]` variants do, would otherwise be read twice).
+fn report(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.is_empty() && out.ends_with(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::report;
+    use flexsurf::integrate::linsolve::LinearError;
+    use flexsurf::integrate::statics::StaticError;
+
+    #[test]
+    fn a_cause_already_in_the_message_is_written_once() {
+        let e = anyhow::Error::new(StaticError::from(LinearError::Symbolic("out of memory".into())))
+            .context("KES curves of m");
+        assert_eq!(report(&e), "KES curves of m: static solve: symbolic factorisation failed: out of memory");
+        let plain = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(report(&plain), "outer: inner");
     }
 }

@@ -742,7 +742,11 @@ impl StaticSolver {
             nw.fresh = true;
             return Ok(Flow::Next);
         }
-        if nw.res <= nw.tol.sqrt() && nw.watch.is_none() {
+        if nw.res <= nw.tol.sqrt() {
+            // Within round-off of a stationary point, where `Π` cannot judge a step: a watchdog's checkpoint
+            // (a tentative step under way) cannot be judged by `Π` either, and waiting for it would only grow
+            // the shift until the budget ran out, as it did on the KES bending strip of an ARCSim material.
+            nw.watch = None;
             let exact_at_x = nw.fresh && nw.op == Operator::Exact;
             if self.settle(model, x, nw, exact_at_x)? {
                 return Ok(Flow::Done(Outcome::Converged(nw.it, nw.res, nw.pi, nw.escapes)));

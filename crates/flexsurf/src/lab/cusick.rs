@@ -383,10 +383,10 @@ fn relax(fabric: &Fabric, model: &Model, start: Vec<Vec3>, settle: &Settle) -> R
     // At most one Newton correction per step, as this relaxation was calibrated with: a drape has several
     // equilibria, and the relaxation path (not the physics) picks one.
     let params = StepParams { dt, solver: SolverKind::Auto, newton_iterations: 2, ..StepParams::default() };
-    let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", source: e })?;
+    let mut stepper = Stepper::new(&dyn_model, &params).map_err(|e| LabError::Step { test: "cusick", cause: e })?;
     let mut steps = 0;
     for _ in 0..settle.max_steps {
-        stepper.step(&dyn_model, &mut state).map_err(|e| LabError::Step { test: "cusick", source: e })?;
+        stepper.step(&dyn_model, &mut state).map_err(|e| LabError::Step { test: "cusick", cause: e })?;
         steps += 1;
         let vmax = (0..state.x.len()).map(|k| state.velocity(k).length()).fold(0.0, f64::max);
         if vmax < settle.rest_speed {
@@ -433,7 +433,7 @@ fn settle_statically(
 /// missed (at most four solves, quadratically convergent from the previous; a residual left above `tolerance` by
 /// round-off is reported, not an error). Returns the Newton iterations.
 fn equilibrate(model: &Model, x: &mut [Vec3], tolerance: f64) -> Result<usize, LabError> {
-    let err = |source| LabError::Solve { test: "cusick", source };
+    let err = |cause| LabError::Solve { test: "cusick", cause };
     let mut solver = StaticSolver::new(model).map_err(err)?;
     let (mut tol, mut iterations) = (tolerance, 0);
     for _ in 0..4 {

@@ -101,7 +101,7 @@ pub(super) fn solve(model: &Model, x: &mut [Vec3], test: &'static str) -> Result
     StaticSolver::new(model)
         .and_then(|mut s| s.solve(model, x, &opts))
         .map(|_| ())
-        .map_err(|source| LabError::Solve { test, source })
+        .map_err(|cause| LabError::Solve { test, cause })
 }
 
 /// Tension test with the warp at `angle` from the strip's axis (u1); returns `T/ε`.

@@ -20,12 +20,12 @@ pub enum LabError {
     #[error(transparent)]
     Material(#[from] MaterialError),
     /// The equilibrium solve failed.
-    #[error("{test}: {source}")]
+    #[error("{test}: {cause}")]
     Solve {
         /// Which test.
         test: &'static str,
         /// Why.
-        source: StaticError,
+        cause: StaticError,
     },
     /// A test option is out of range.
     #[error("{0}")]
@@ -34,11 +34,11 @@ pub enum LabError {
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
     /// A dynamic relaxation step failed.
-    #[error("{test}: {source}")]
+    #[error("{test}: {cause}")]
     Step {
         /// Which test.
         test: &'static str,
         /// Why.
-        source: crate::integrate::StepError,
+        cause: crate::integrate::StepError,
     },
 }

@@ -73,7 +73,7 @@ impl NurbsBody {
             let points = p.points.iter().map(|&x| scale * x + offset).collect();
             let weights = p.rational.then(|| p.weights.clone());
             let q = NurbsPatch::new(p.degree(), p.ku.knots.clone(), p.kv.knots.clone(), points, weights)
-                .map_err(|e| NurbsError::Patch { index: k, source: Box::new(e) })?;
+                .map_err(|e| NurbsError::Patch { index: k, cause: Box::new(e) })?;
             patches.push((self.parts[self.part_of[k]].name.clone(), q));
         }
         Self::new(self.name.clone(), patches)

@@ -123,12 +123,12 @@ pub enum NurbsError {
         value: f64,
     },
     /// A problem in one patch of a body.
-    #[error("patch {index}: {source}")]
+    #[error("patch {index}: {cause}")]
     Patch {
         /// Patch number (0-based, in file order).
         index: usize,
         /// What is wrong with it.
-        source: Box<NurbsError>,
+        cause: Box<NurbsError>,
     },
     /// A body without patches.
     #[error("the body has no patches")]
@@ -160,11 +160,11 @@ pub enum NurbsError {
         message: String,
     },
     /// A file's patch is invalid.
-    #[error("{file}: {source}")]
+    #[error("{file}: {cause}")]
     File {
         /// File name.
         file: String,
         /// What is wrong.
-        source: Box<NurbsError>,
+        cause: Box<NurbsError>,
     },
 }

@@ -39,22 +39,19 @@ impl NurbsBody {
         })?;
         if let Some(units) = raw.units {
             if units != "m" {
-                return Err(NurbsError::File { file: file.into(), source: Box::new(NurbsError::Units(units)) });
+                return Err(NurbsError::File { file: file.into(), cause: Box::new(NurbsError::Units(units)) });
             }
         }
         let mut patches = Vec::with_capacity(raw.patch.len());
         for (index, pf) in raw.patch.into_iter().enumerate() {
             let points = pf.points.iter().map(|p| Vec3::from_array(*p)).collect();
             let patch = NurbsPatch::new(pf.degree, pf.knots_u, pf.knots_v, points, pf.weights).map_err(|e| {
-                NurbsError::File {
-                    file: file.into(),
-                    source: Box::new(NurbsError::Patch { index, source: Box::new(e) }),
-                }
+                NurbsError::File { file: file.into(), cause: Box::new(NurbsError::Patch { index, cause: Box::new(e) }) }
             })?;
             patches.push((pf.part.unwrap_or_else(|| "body".to_string()), patch));
         }
         let name = raw.name.unwrap_or_else(|| file.to_string());
-        Self::new(name, patches).map_err(|e| NurbsError::File { file: file.into(), source: Box::new(e) })
+        Self::new(name, patches).map_err(|e| NurbsError::File { file: file.into(), cause: Box::new(e) })
     }
 
     /// Loads a body from a TOML file.

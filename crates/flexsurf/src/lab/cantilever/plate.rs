@@ -216,7 +216,7 @@ fn chord(
     let opts = StaticOptions { tolerance: 1e-9, max_iterations: 300 };
     StaticSolver::new(&model)
         .and_then(|mut solver| solver.solve(&model, &mut x, &opts))
-        .map_err(|source| LabError::Solve { test: "cantilever", source })?;
+        .map_err(|cause| LabError::Solve { test: "cantilever", cause })?;
     let (tip, clamp) = specimen.chord_nodes();
     let (clamp, tip) = (x[clamp], x[tip]);
     let drop = clamp.z - tip.z;

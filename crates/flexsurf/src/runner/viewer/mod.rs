@@ -35,12 +35,12 @@ pub enum ViewError {
     )]
     NoAnimation(PathBuf),
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Io {
         /// The path.
         path: PathBuf,
         /// Cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// `summary.json` or `animation.glb` is not what a run writes.
     #[error("{}: {message}", path.display())]
@@ -58,13 +58,12 @@ pub const MAX_ANIMATION_BYTES: u64 = 1 << 30;
 /// The bytes of the regular file `path`, at most `limit` of them: a FIFO, a device (`/dev/zero`) or a huge
 /// file is an error naming what it is, read no further.
 pub(crate) fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, ViewError> {
-    crate::io::input::read_bytes_limited(path, limit)
-        .map_err(|source| ViewError::Io { path: path.to_path_buf(), source })
+    crate::io::input::read_bytes_limited(path, limit).map_err(|cause| ViewError::Io { path: path.to_path_buf(), cause })
 }
 
 /// Checks that `path` is a regular file of at most `limit` bytes before a reader opens it itself.
 pub(crate) fn check_regular(path: &Path, limit: u64) -> Result<(), ViewError> {
-    let io = |source| ViewError::Io { path: path.to_path_buf(), source };
+    let io = |cause| ViewError::Io { path: path.to_path_buf(), cause };
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
         return Err(ViewError::Invalid { path: path.to_path_buf(), message: "is not a regular file".into() });
@@ -149,7 +148,7 @@ fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
             (b, false)
         }
         // A run in progress: the frames of its VTK series so far.
-        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+        Err(ViewError::Io { cause, .. }) if cause.kind() == std::io::ErrorKind::NotFound => {
             if !dir.join(PVD_FILE).exists() {
                 return Err(ViewError::NoAnimation(glb_path));
             }
@@ -162,7 +161,7 @@ fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
     let summary: serde_json::Value = match read_limited(&summary_path, crate::io::input::MAX_INPUT_BYTES) {
         Ok(bytes) => serde_json::from_slice(&bytes)
             .map_err(|e| ViewError::Invalid { path: summary_path.clone(), message: e.to_string() })?,
-        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
+        Err(ViewError::Io { cause, .. }) if cause.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
         Err(e) => return Err(e),
     };
     // A summary beside a missing animation.glb is an earlier run's: a run removes it when it starts.
@@ -178,7 +177,7 @@ fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
 pub fn write_view(dir: &Path) -> Result<PathBuf, ViewError> {
     let html = view_html(dir)?;
     let path = dir.join(VIEW_FILE);
-    write_atomic(&path, html.as_bytes()).map_err(|source| ViewError::Io { path: path.clone(), source })?;
+    write_atomic(&path, html.as_bytes()).map_err(|cause| ViewError::Io { path: path.clone(), cause })?;
     Ok(path)
 }
 

@@ -150,7 +150,7 @@ pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
     let path = dir.join(GLB_FILE);
     let bytes = match super::read_limited(&path, super::MAX_ANIMATION_BYTES) {
         Ok(b) => b,
-        Err(ViewError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+        Err(ViewError::Io { cause, .. }) if cause.kind() == std::io::ErrorKind::NotFound => {
             return Err(ViewError::NoAnimation(path))
         }
         Err(e) => return Err(e),
@@ -259,18 +259,18 @@ pub fn write_gif(dir: &Path, fps: f64, size: (u32, u32)) -> Result<PathBuf, View
         }
         Ok(())
     })
-    .map_err(|source| ViewError::Io { path: path.clone(), source })?;
+    .map_err(|cause| ViewError::Io { path: path.clone(), cause })?;
     Ok(path)
 }
 
 /// Writes the movie's pictures as `frame_NNNNN.png` into `folder` (created), for `ffmpeg`.
 pub fn write_pictures(dir: &Path, folder: &Path, fps: f64, size: (u32, u32)) -> Result<usize, ViewError> {
     let run = read_glb_run(dir)?;
-    std::fs::create_dir_all(folder).map_err(|source| ViewError::Io { path: folder.to_path_buf(), source })?;
+    std::fs::create_dir_all(folder).map_err(|cause| ViewError::Io { path: folder.to_path_buf(), cause })?;
     let pictures = movie_pictures(&run, fps, 3000, size.0, size.1);
     for (k, (_, img)) in pictures.iter().enumerate() {
         let p = folder.join(format!("frame_{k:05}.png"));
-        render::save_png(&p, img).map_err(|source| ViewError::Io { path: p.clone(), source })?;
+        render::save_png(&p, img).map_err(|cause| ViewError::Io { path: p.clone(), cause })?;
     }
     Ok(pictures.len())
 }
