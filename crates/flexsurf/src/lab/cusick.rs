@@ -90,10 +90,32 @@ pub fn default_grid(specimen: f64, level: usize) -> (usize, usize) {
 pub const ASSUMED_ORDER: f64 = 1.0;
 
 /// The Richardson estimate of the grid-converged value from `(spacing, value)` pairs, coarsest first (the grids
-/// refined alike in both directions): `(value at spacing 0, order)`. With three or more, the order is the one
-/// the last three show when they converge monotonically with an order between 0.5 and 4, else
-/// [`ASSUMED_ORDER`]; the estimate extrapolates the two finest.
+/// refined alike in both directions): `(value at spacing 0, order)`; [`grid_convergence`]'s first two numbers.
 pub fn richardson(points: &[(f64, f64)]) -> Result<(f64, f64), LabError> {
+    grid_convergence(points).map(|g| (g.extrapolated, g.order))
+}
+
+/// What a grid study says of the grid-converged value: the Richardson estimate and the numerical uncertainty of
+/// the finest level's value, as Roache's grid convergence index (GCI; as in ASME V&V 20).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GridConvergence {
+    /// The Richardson estimate at spacing 0 from the two finest levels.
+    pub extrapolated: f64,
+    /// The order used: observed from the last three levels where they converge monotonically with an order
+    /// between 0.5 and 4, else [`ASSUMED_ORDER`].
+    pub order: f64,
+    /// Whether [`GridConvergence::order`] was observed (else assumed).
+    pub observed: bool,
+    /// The finest level's uncertainty band (same units as the values): `Fs |f₂ − f₁| / (r^p − 1)`, `r` the ratio
+    /// of the two finest spacings, the safety factor `Fs` 1.25 with an observed order and 3 with an assumed one.
+    pub uncertainty: f64,
+    /// `|f₂ − f₁|`: how far apart the two finest levels are.
+    pub spread: f64,
+}
+
+/// [`GridConvergence`] of `(spacing, value)` pairs, coarsest first: two or more finite values on decreasing
+/// positive spacings.
+pub fn grid_convergence(points: &[(f64, f64)]) -> Result<GridConvergence, LabError> {
     let n = points.len();
     if n < 2 || points.windows(2).any(|p| !(p[1].0 < p[0].0 && p[1].0 > 0.0)) || points.iter().any(|p| !p.1.is_finite())
     {
@@ -101,9 +123,18 @@ pub fn richardson(points: &[(f64, f64)]) -> Result<(f64, f64), LabError> {
             "richardson: needs two or more finite values on decreasing positive spacings, got {points:?}"
         )));
     }
-    let p = if n >= 3 { observed_order(&points[n - 3..]).unwrap_or(ASSUMED_ORDER) } else { ASSUMED_ORDER };
+    let observed = if n >= 3 { observed_order(&points[n - 3..]) } else { None };
+    let p = observed.unwrap_or(ASSUMED_ORDER);
     let ((h1, d1), (h2, d2)) = (points[n - 2], points[n - 1]);
-    Ok((d2 + (d2 - d1) * h2.powf(p) / (h1.powf(p) - h2.powf(p)), p))
+    let grow = (h1 / h2).powf(p) - 1.0;
+    let safety = if observed.is_some() { 1.25 } else { 3.0 };
+    Ok(GridConvergence {
+        extrapolated: d2 + (d2 - d1) / grow,
+        order: p,
+        observed: observed.is_some(),
+        uncertainty: safety * (d2 - d1).abs() / grow,
+        spread: (d2 - d1).abs(),
+    })
 }
 
 /// The order `p` with `(d0 − d1)/(d1 − d2) = (h0^p − h1^p)/(h1^p − h2^p)`, by bisection on [0.5, 4]; `None`

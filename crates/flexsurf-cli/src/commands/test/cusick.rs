@@ -8,7 +8,9 @@ use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
-use flexsurf::lab::cusick::{cusick_settled, default_polar, richardson, Drape, PolarGrid, Settle, DISC};
+use flexsurf::lab::cusick::{
+    cusick_settled, default_polar, grid_convergence, Drape, GridConvergence, PolarGrid, Settle, DISC,
+};
 use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
 use flexsurf::surface::mesh::TriMesh;
@@ -155,19 +157,19 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
 }
 
 /// The Richardson estimate of the grid-converged mean drape coefficient from the two finest levels, with the
-/// order it assumed: `None` with fewer than two levels.
-fn estimate(runs: &[LevelRun]) -> Option<(f64, f64)> {
+/// order it used and the finest level's grid uncertainty: `None` with fewer than two levels.
+fn estimate(runs: &[LevelRun]) -> Option<GridConvergence> {
     if runs.len() < 2 || runs.iter().any(|r| r.level.is_none()) {
         return None;
     }
     let pts: Vec<(f64, f64)> = runs.iter().map(|r| (r.spacing[0], mean_sd(&r.dcs()).0)).collect();
-    richardson(&pts).ok()
+    grid_convergence(&pts).ok()
 }
 
 /// Prints the per-specimen lines and the per-level means.
 fn print_table(
     runs: &[LevelRun],
-    estimate: Option<(f64, f64)>,
+    estimate: Option<GridConvergence>,
     name: &str,
     calibration: Calibration,
     specimen: f64,
@@ -207,15 +209,26 @@ fn print_table(
             println!("  mean drape coefficient {m:.2} % (s.d. {sd:.2}), nodes {nm:.1} (s.d. {nsd:.2})");
         }
     }
-    if let Some((dc, p)) = estimate {
-        println!("Richardson estimate of the grid-converged drape coefficient: {dc:.2} % (order {p:.2} in h)");
+    if let Some(g) = estimate {
+        let how = if g.observed { "observed" } else { "assumed" };
+        println!(
+            "Richardson estimate of the grid-converged drape coefficient: {:.2} % (order {:.2} in h, {how}); the \
+             finest level's grid uncertainty (GCI) ±{:.2} points; the two finest levels differ by {:.2} points",
+            g.extrapolated, g.order, g.uncertainty, g.spread
+        );
+        if g.spread > 1.0 {
+            println!(
+                "  not grid-converged to 1 point at these levels: read the drape coefficient with that uncertainty, \
+                 or refine (--grid R,N)"
+            );
+        }
     }
 }
 
 /// The JSON report.
 fn json(
     runs: &[LevelRun],
-    estimate: Option<(f64, f64)>,
+    estimate: Option<GridConvergence>,
     name: &str,
     calibration: Calibration,
     files: &[(PathBuf, PathBuf)],
@@ -237,7 +250,9 @@ fn json(
     serde_json::json!({ "test": "cusick", "material": name, "calibration": calibration,
         "report": finest.drapes[0].report, "specimens": finest.drapes.iter().map(|d| d.report).collect::<Vec<_>>(),
         "mean_drape_coefficient": mean, "sd_drape_coefficient": sd, "levels": levels,
-        "richardson_drape_coefficient": estimate.map(|e| e.0), "richardson_order": estimate.map(|e| e.1),
+        "richardson_drape_coefficient": estimate.map(|e| e.extrapolated), "richardson_order": estimate.map(|e| e.order),
+        "richardson_order_observed": estimate.map(|e| e.observed), "grid_uncertainty": estimate.map(|e| e.uncertainty),
+        "grid_spread": estimate.map(|e| e.spread),
         "picture": files[0].0, "mesh": files[0].1,
         "pictures": files.iter().map(|f| &f.0).collect::<Vec<_>>(),
         "meshes": files.iter().map(|f| &f.1).collect::<Vec<_>>(), "files": written, "wall_seconds": seconds })
@@ -245,7 +260,7 @@ fn json(
 
 /// `cusick.csv` (one row per level and specimen) and `cusick_levels.csv` (one row per level, then the
 /// Richardson estimate at spacing 0).
-fn write_tables(runs: &[LevelRun], estimate: Option<(f64, f64)>, out: &Path) -> Result<Vec<PathBuf>> {
+fn write_tables(runs: &[LevelRun], estimate: Option<GridConvergence>, out: &Path) -> Result<Vec<PathBuf>> {
     let mut each = String::from(
         "level,radial_cells,nodes_around,grading,radial_spacing_mm,edge_spacing_mm,hem_spacing_mm,specimen,drape_coefficient,nodes,\
          relaxed_drape_coefficient,steps,static_iterations,relaxed_residual,residual,seconds\n",
@@ -277,8 +292,9 @@ fn write_tables(runs: &[LevelRun], estimate: Option<(f64, f64)>, out: &Path) -> 
         let ((m, sd), (nm, nsd), (ts, _)) = (mean_sd(&run.dcs()), mean_sd(&run.nodes()), mean_sd(&run.seconds));
         let _ = writeln!(levels, "{grid},{},{m:.4},{sd:.4},{nm:.3},{nsd:.3},{ts:.3}", run.drapes.len());
     }
-    if let Some((dc, _)) = estimate {
-        let _ = writeln!(levels, "richardson,,,,0,0,0,,{dc:.4},,,,");
+    if let Some(g) = estimate {
+        // The estimate at spacing 0, its grid uncertainty (GCI) in the s.d. column's place.
+        let _ = writeln!(levels, "richardson,,,,0,0,0,,{:.4},{:.4},,,", g.extrapolated, g.uncertainty);
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut paths = Vec::new();
@@ -295,7 +311,7 @@ fn write_tables(runs: &[LevelRun], estimate: Option<(f64, f64)>, out: &Path) -> 
 /// level, with the Richardson estimate at spacing 0.
 fn levels_chart(
     runs: &[LevelRun],
-    estimate: Option<(f64, f64)>,
+    estimate: Option<GridConvergence>,
     name: &str,
     specimen: f64,
     out: &Path,
@@ -314,9 +330,10 @@ fn levels_chart(
         .collect();
     let mean: Vec<(f64, f64)> = runs.iter().map(|r| (1e3 * r.spacing[0], mean_sd(&r.dcs()).0)).collect();
     series.push(Series { name: "mean".into(), color: [30, 30, 30], points: mean.clone(), dots: true });
-    if let (Some((dc, p)), Some(&last)) = (estimate, mean.last()) {
+    if let (Some(g), Some(&last)) = (estimate, mean.last()) {
+        let (dc, p, u) = (g.extrapolated, g.order, g.uncertainty);
         series.push(Series {
-            name: format!("Richardson {dc:.1} % (order {p:.1})"),
+            name: format!("Richardson {dc:.1} % (order {p:.1}), GCI ±{u:.1}"),
             color: [214, 39, 40],
             points: vec![last, (0.0, dc)],
             dots: true,
