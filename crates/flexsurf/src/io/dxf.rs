@@ -217,6 +217,78 @@ pub fn nearest_vertex(outline: &[DxfVertex], at: [f64; 2]) -> Option<(usize, f64
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
+/// The point nearest to `at` on the pieces of `outline` (the piece arriving at vertex `i` runs from vertex
+/// `i − 1`, straight or along its Bézier): `(i, t, distance)` with `t` in [0, 1] along the piece.
+pub fn nearest_on_outline(outline: &[DxfVertex], at: [f64; 2]) -> Option<(usize, f64, f64)> {
+    let n = outline.len();
+    let dist = |p: [f64; 2]| (p[0] - at[0]).hypot(p[1] - at[1]);
+    (0..n)
+        .map(|i| {
+            let t = match outline[i].curve {
+                None => {
+                    let (p, q) = (outline[(i + n - 1) % n].at, outline[i].at);
+                    let d = [q[0] - p[0], q[1] - p[1]];
+                    let len2 = d[0] * d[0] + d[1] * d[1];
+                    if len2 > 0.0 {
+                        (((at[0] - p[0]) * d[0] + (at[1] - p[1]) * d[1]) / len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    }
+                }
+                // A cubic's distance: the best of 64 samples, then golden-section search around it.
+                Some(_) => {
+                    let f = |t: f64| dist(piece_point(outline, i, t));
+                    let best = (0..=64).map(|k| k as f64 / 64.0).min_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap_or(0.0);
+                    let (mut lo, mut hi) = ((best - 1.0 / 64.0).max(0.0), (best + 1.0 / 64.0).min(1.0));
+                    let r = 0.5 * (5f64.sqrt() - 1.0);
+                    for _ in 0..80 {
+                        let (a, b) = (hi - r * (hi - lo), lo + r * (hi - lo));
+                        if f(a) < f(b) {
+                            hi = b;
+                        } else {
+                            lo = a;
+                        }
+                    }
+                    0.5 * (lo + hi)
+                }
+            };
+            (i, t, dist(piece_point(outline, i, t)))
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+}
+
+/// The point at `t` along the piece arriving at vertex `i`.
+fn piece_point(outline: &[DxfVertex], i: usize, t: f64) -> [f64; 2] {
+    let n = outline.len();
+    let (p, q) = (outline[(i + n - 1) % n].at, outline[i].at);
+    let u = 1.0 - t;
+    match outline[i].curve {
+        None => [u * p[0] + t * q[0], u * p[1] + t * q[1]],
+        Some([a, b]) => {
+            let f = |k: usize| u * u * u * p[k] + 3.0 * u * u * t * a[k] + 3.0 * u * t * t * b[k] + t * t * t * q[k];
+            [f(0), f(1)]
+        }
+    }
+}
+
+/// Splits the piece arriving at vertex `i` at `t` (0 < t < 1): a new vertex there, inserted before vertex `i`
+/// (a Bézier split exactly, by de Casteljau's construction, so the outline keeps its shape). Returns the new
+/// vertex's index.
+pub fn split_piece(outline: &mut Vec<DxfVertex>, i: usize, t: f64) -> usize {
+    let n = outline.len();
+    let (p, q) = (outline[(i + n - 1) % n].at, outline[i].at);
+    let lerp = |a: [f64; 2], b: [f64; 2]| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    let at = piece_point(outline, i, t);
+    let curve = outline[i].curve.map(|[a, b]| {
+        let (pa, ab, bq) = (lerp(p, a), lerp(a, b), lerp(b, q));
+        let (first, second) = (lerp(pa, ab), lerp(ab, bq));
+        outline[i].curve = Some([second, bq]);
+        [pa, first]
+    });
+    outline.insert(i, DxfVertex { at, curve });
+    i
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,5 +345,30 @@ mod tests {
         };
         assert_eq!(n, v.len());
         assert_eq!(pieces(&v), pieces(&r));
+    }
+
+    #[test]
+    fn a_split_keeps_the_outline_and_finds_its_points() {
+        // The half disc: its arc split where the outline passes nearest (0.6, −0.8): the new vertex lies on
+        // the circle there, and both halves stay on it.
+        let raw: Raw = vec![([1.0, 0.0], 0.0), ([-1.0, 0.0], 1.0)];
+        let mut v = with_arcs(&raw).unwrap();
+        let (i, t, d) = nearest_on_outline(&v, [0.6, -0.8]).unwrap();
+        assert!(v[i].curve.is_some() && d < 3e-4, "{i} {t} {d}");
+        let k = split_piece(&mut v, i, t);
+        assert!((v[k].at[0] - 0.6).abs() < 3e-4 && (v[k].at[1] + 0.8).abs() < 3e-4, "{:?}", v[k]);
+        let n = v.len();
+        for j in [k, (k + 1) % n] {
+            for s in 0..=8 {
+                let p = piece_point(&v, j, s as f64 / 8.0);
+                assert!((p[0].hypot(p[1]) - 1.0).abs() < 3e-4, "piece {j} at {s}/8: {p:?}");
+            }
+        }
+        // A straight piece: the foot of the perpendicular.
+        let mut v = with_arcs(&vec![([0.0, 0.0], 0.0), ([2.0, 0.0], 0.0), ([2.0, 1.0], 0.0)]).unwrap();
+        let (i, t, d) = nearest_on_outline(&v, [0.5, 0.1]).unwrap();
+        assert!((i, (t - 0.25).abs() < 1e-12, (d - 0.1).abs() < 1e-12) == (1, true, true), "{i} {t} {d}");
+        let k = split_piece(&mut v, i, t);
+        assert_eq!((v.len(), v[k].at, v[k].curve), (4, [0.5, 0.0], None));
     }
 }

@@ -89,9 +89,14 @@ pub struct DxfEntry {
     /// The four corners, in the order of a written outline's (the first is the grid's origin): each the
     /// outline vertex at `at`, in the drawing's units.
     pub corners: Vec<CornerEntry>,
+    /// Marks (notches: named points of an edge where a seam side may start or end), in the drawing's units:
+    /// each the outline vertex at `at`, or, where none is that near, the nearest point of the outline, which
+    /// becomes a vertex (a straight piece or an arc split there, its shape kept).
+    #[serde(default)]
+    pub marks: Vec<CornerEntry>,
 }
 
-/// A corner of a DXF outline: its name and where it is, in the drawing's units.
+/// A corner or a mark of a DXF outline: its name and where it is, in the drawing's units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CornerEntry {
@@ -322,8 +327,13 @@ impl DxfEntry {
             ([lo[0].min(v.at[0]), lo[1].min(v.at[1])], [hi[0].max(v.at[0]), hi[1].max(v.at[1])])
         });
         let reach = 0.01 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
-        let mut vertices: Vec<VertexEntry> =
-            outline.iter().map(|v| VertexEntry { at: v.at, corner: None, mark: None, curve: v.curve }).collect();
+        let mut outline = outline;
+        let marks = self.place_marks(&mut outline, (scale, reach), p)?;
+        let mut vertices: Vec<VertexEntry> = outline
+            .iter()
+            .zip(marks)
+            .map(|(v, mark)| VertexEntry { at: v.at, corner: None, mark, curve: v.curve })
+            .collect();
         for (c, corner) in self.corners.iter().enumerate() {
             let at = [corner.at[0] * scale, corner.at[1] * scale];
             let bad = |message: String| (format!("panel[{p}].dxf.corners[{c}]"), message);
@@ -335,12 +345,56 @@ impl DxfEntry {
             if let Some(other) = &vertices[i].corner {
                 return Err(bad(format!("corner `{}` is at the same vertex as corner `{other}`", corner.name)));
             }
+            if let Some(mark) = &vertices[i].mark {
+                return Err(bad(format!("corner `{}` is at the vertex of mark `{mark}`", corner.name)));
+            }
             vertices[i].corner = Some(corner.name.clone());
         }
         // The grid's origin is the first corner given: the outline starts there.
         let first = vertices.iter().position(|v| v.corner.as_deref() == Some(&self.corners[0].name)).unwrap_or(0);
         vertices.rotate_left(first);
         Ok(vertices)
+    }
+
+    /// Puts the marks on `outline` (`scale`: metres per drawing unit; `reach`: how near, in metres): each at the
+    /// vertex within `reach` of it, else at the nearest point of the outline within `reach`, which becomes a
+    /// vertex. Returns each vertex's mark, or the error naming `panel[p].dxf.marks[k]`.
+    fn place_marks(
+        &self,
+        outline: &mut Vec<crate::io::dxf::DxfVertex>,
+        (scale, reach): (f64, f64),
+        p: usize,
+    ) -> Result<Vec<Option<String>>, (String, String)> {
+        let mut names: Vec<Option<String>> = vec![None; outline.len()];
+        for (k, mark) in self.marks.iter().enumerate() {
+            let bad = |message: String| (format!("panel[{p}].dxf.marks[{k}]"), message);
+            let at = [mark.at[0] * scale, mark.at[1] * scale];
+            let (i, d) = crate::io::dxf::nearest_vertex(outline, at).unwrap_or((0, f64::INFINITY));
+            let i = if d <= reach {
+                i
+            } else {
+                match crate::io::dxf::nearest_on_outline(outline, at) {
+                    Some((piece, t, d)) if d <= reach => {
+                        let i = crate::io::dxf::split_piece(outline, piece, t);
+                        names.insert(i, None);
+                        i
+                    }
+                    found => {
+                        let far = found.map_or(f64::INFINITY, |f| f.2) / scale;
+                        return Err(bad(format!(
+                            "mark `{}`: the outline passes no nearer than {far:.4} drawing units (within 1 % of the \
+                             outline's size is needed)",
+                            mark.name
+                        )));
+                    }
+                }
+            };
+            if let Some(other) = &names[i] {
+                return Err(bad(format!("mark `{}` is at the same vertex as mark `{other}`", mark.name)));
+            }
+            names[i] = Some(mark.name.clone());
+        }
+        Ok(names)
     }
 }
 

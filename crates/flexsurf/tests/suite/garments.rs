@@ -591,6 +591,72 @@ fn dxf_outline_errors_name_the_key_and_what_is_wrong() {
     }
 }
 
+/// Marks on a DXF outline (notches): a mark between the vertices of a straight side becomes a vertex there, so
+/// the panel is the written outline with that marked vertex (the same grid to 1e-12 m, the mark where it was
+/// put); a mark on an arc splits the arc exactly (the grid's row stays on the circle); a seam runs from a mark.
+/// A mark far from the outline, on a corner, or on another mark is an error naming the key.
+#[test]
+fn marks_on_a_dxf_outline_are_vertices_where_they_are_put() {
+    let dir = flexsurf::testing::scratch("garments", "dxf-marks");
+    let bulge = (60f64.to_radians() / 4.0).tan();
+    let outline = vec![[0.0, 0.0, 0.0], [600.0, 0.0, 0.0], [600.0, 400.0, bulge], [0.0, 400.0, 0.0]];
+    let plain = vec![[0.0, 0.0, 0.0], [600.0, 0.0, 0.0], [600.0, 400.0, 0.0], [0.0, 400.0, 0.0]];
+    write_dxf(&dir, "panel.dxf", dxf::enums::Units::Millimeters, &[("P", outline), ("R", plain)]);
+    let file = dir.join("pattern.toml");
+    let corners = [("a", [0.0, 0.0]), ("b", [600.0, 0.0]), ("c", [600.0, 400.0]), ("d", [0.0, 400.0])];
+    // The arc: radius 0.6, centre 0.6 cos 30° below the chord's midpoint; its top at (0.3, 0.4 + 0.6 (1 − cos 30°)).
+    let top = 400.0 + 600.0 * (1.0 - 30f64.to_radians().cos());
+    let marks = format!(", marks = [{{ name = \"n\", at = [200.0, 0.0] }}, {{ name = \"t\", at = [300.0, {top}] }}]");
+    let text = format!(
+        "{}{}{}",
+        dxf_pattern("P", &corners, &marks),
+        rectangle("q", [0.0, -0.2, 0.2, 0.0]),
+        seam(("p", "a", "n"), ("q", "d", "c"))
+    );
+    let spec = parse(&text);
+    let built = spec.build(&file).unwrap();
+    let outline = &spec.with_dxf_outlines(&file).unwrap().pattern().panels[0].outline;
+    let n = outline.iter().find(|v| v.mark.as_deref() == Some("n")).expect("mark n");
+    assert!((n.at[0] - 0.2).abs() < 1e-12 && n.at[1].abs() < 1e-12, "{n:?}");
+    let t = outline.iter().find(|v| v.mark.as_deref() == Some("t")).expect("mark t");
+    let centre = [0.3, 0.4 - 0.6 * 30f64.to_radians().cos()];
+    let r = (t.at[0] - centre[0]).hypot(t.at[1] - centre[1]);
+    assert!(
+        (r - 0.6).abs() < 3e-4 * 0.6 && (t.at[0] - 0.3).abs() < 1e-3,
+        "mark t at {:?}, {r} m from the centre",
+        t.at
+    );
+    let panel = &built.panels[0];
+    let (m, k) = (panel.grid.count(0), panel.grid.count(1));
+    for i in 0..m {
+        let q = panel.flat[panel.grid.index(i, k - 1)];
+        let r = (q.x - centre[0]).hypot(q.y - centre[1]);
+        assert!((r - 0.6).abs() < 3e-4 * 0.6, "top node {i} at {q}: {r} m from the centre");
+    }
+    // The seam from the mark: the bottom from a to n, 0.2 m, is sewn to q's top.
+    assert_eq!(built.seams.len(), 1);
+    // The written twin of the plain rectangle with the mark n: the same grid.
+    let from_dxf =
+        parse(&dxf_pattern("R", &corners, ", marks = [{ name = \"n\", at = [200.0, 0.0] }]")).build(&file).unwrap();
+    let written = build(
+        "edge_length = 0.05\n[[panel]]\nname = \"p\"\ngrain = [1.0, 0.0]\noutline = [{ at = [0.0, 0.0], corner = \"a\" }, \
+         { at = [0.2, 0.0], mark = \"n\" }, { at = [0.6, 0.0], corner = \"b\" }, { at = [0.6, 0.4], corner = \"c\" }, \
+         { at = [0.0, 0.4], corner = \"d\" }]\nplacement = { flat = {} }\n",
+    );
+    let (a, b) = (&from_dxf.panels[0], &written.panels[0]);
+    assert_eq!((a.grid.count(0), a.grid.count(1)), (b.grid.count(0), b.grid.count(1)));
+    for (p, q) in a.flat.iter().zip(&b.flat) {
+        assert!((*p - *q).length() < 1e-12, "{p} against {q}");
+    }
+    let error = |marks: &str| parse(&dxf_pattern("P", &corners, marks)).build(&file).unwrap_err().to_string();
+    let far = error(", marks = [{ name = \"f\", at = [300.0, 200.0] }]");
+    assert!(far.contains("panel[0].dxf.marks[0]") && far.contains("mark `f`"), "{far}");
+    let on_corner = error(", marks = [{ name = \"x\", at = [600.0, 0.0] }]");
+    assert!(on_corner.contains("panel[0].dxf.corners[1]") && on_corner.contains("mark `x`"), "{on_corner}");
+    let twice = error(", marks = [{ name = \"x\", at = [200.0, 0.0] }, { name = \"y\", at = [201.0, 0.0] }]");
+    assert!(twice.contains("panel[0].dxf.marks[1]") && twice.contains("mark `x`"), "{twice}");
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // A garment of two fabrics
 // ---------------------------------------------------------------------------------------------------------------
