@@ -163,6 +163,9 @@ pub struct Pattern {
     pub panels: Vec<PanelPattern>,
     /// The seams.
     pub seams: Vec<SeamPattern>,
+    /// The spans held after sewing (a waistband), each between two corners or marks of one edge: the grid has
+    /// a node at each end, as at a seam's.
+    pub holds: Vec<EdgeRef>,
     /// Target grid edge length (m).
     pub edge_length: f64,
     /// Largest difference of two sewn edges' lengths (m).
@@ -581,6 +584,8 @@ pub struct BuiltPattern {
     pub seams: Vec<Seam>,
     /// Arc lengths of each seam's two edges (m).
     pub seam_lengths: Vec<[f64; 2]>,
+    /// Each hold's span of its panel's grid edge (in the sense it was written).
+    pub holds: Vec<SeamSide>,
     /// Badly distorted panel maps (smallest to largest Jacobian under [`DISTORTION_WARNING`]): key, message.
     pub warnings: Vec<(String, String)>,
 }
@@ -641,7 +646,16 @@ impl Pattern {
         let outlines =
             self.panels.iter().enumerate().map(|(p, panel)| Outline::new(p, panel)).collect::<Result<Vec<_>, _>>()?;
         let resolved = self.resolve_seams(&outlines)?;
-        let (layout, sides) = self.layout(&outlines, &resolved)?;
+        let held = self
+            .holds
+            .iter()
+            .enumerate()
+            .map(|(h, r)| {
+                self.resolve_side(&format!("hold {h}"), r, &outlines).map_err(|m| error(format!("hold[{h}]"), m))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let (layout, sides) = self.layout(&outlines, &resolved, &held)?;
+        let holds = held.iter().map(|r| seam_side(r, &layout)).collect();
         let counts = &layout.counts;
         let total = counts.iter().map(|[m, n]| m.saturating_mul(*n)).fold(0usize, usize::saturating_add);
         if total > MAX_NODES {
@@ -669,7 +683,7 @@ impl Pattern {
         }
         let seams = sides.iter().map(|&[a, b]| Seam { a, b }).collect();
         let seam_lengths = resolved.iter().map(|r| r.map(|s| s.arcs[1] - s.arcs[0])).collect();
-        Ok(BuiltPattern { panels, seams, seam_lengths, warnings })
+        Ok(BuiltPattern { panels, seams, seam_lengths, holds, warnings })
     }
 
     /// Each seam's two sides found and checked: the points exist and lie on one edge, no part of an edge is
@@ -681,7 +695,9 @@ impl Pattern {
             let mut sides = [Resolved { panel: 0, side: 0, along: true, arcs: [0.0; 2] }; 2];
             for (k, r) in [&seam.a, &seam.b].into_iter().enumerate() {
                 let key = format!("seam[{s}].{}", ["a", "b"][k]);
-                let here = self.resolve_side(s, r, outlines).map_err(|message| error(key.clone(), message))?;
+                let here = self
+                    .resolve_side(&format!("seam {s}"), r, outlines)
+                    .map_err(|message| error(key.clone(), message))?;
                 let overlap = |u: &Resolved| {
                     u.panel == here.panel && u.side == here.side && u.arcs[0] < here.arcs[1] && here.arcs[0] < u.arcs[1]
                 };
@@ -717,13 +733,14 @@ impl Pattern {
         Ok(out)
     }
 
-    /// One side `r` of seam `s`: its panel, and the one edge that both its points (corners or marks) lie on.
-    fn resolve_side(&self, s: usize, r: &EdgeRef, outlines: &[Outline]) -> Result<Resolved, String> {
+    /// One side `r` of a seam or a hold (`what`, as messages name it): its panel, and the one edge that both its
+    /// points (corners or marks) lie on.
+    fn resolve_side(&self, what: &str, r: &EdgeRef, outlines: &[Outline]) -> Result<Resolved, String> {
         let p = self
             .panels
             .iter()
             .position(|q| q.name == r.panel)
-            .ok_or_else(|| format!("seam {s}: there is no panel `{}`", r.panel))?;
+            .ok_or_else(|| format!("{what}: there is no panel `{}`", r.panel))?;
         let o = &outlines[p];
         let [from, to] = [&r.from, &r.to].map(|n| o.places(n));
         for (name, places) in [(&r.from, &from), (&r.to, &to)] {
@@ -731,39 +748,40 @@ impl Pattern {
                 let marks: Vec<&str> = o.marks.iter().map(|m| m.0.as_str()).collect();
                 let marks = if marks.is_empty() { "none".to_string() } else { marks.join(", ") };
                 return Err(format!(
-                    "seam {s}: panel `{}` has no corner or mark `{name}`; its corners are {}, its marks {marks}",
+                    "{what}: panel `{}` has no corner or mark `{name}`; its corners are {}, its marks {marks}",
                     r.panel,
                     o.corners.join(", ")
                 ));
             }
         }
         if r.from == r.to {
-            return Err(format!("seam {s}: {r} starts and ends at one point"));
+            return Err(format!("{what}: {r} starts and ends at one point"));
         }
         let common = from.iter().find_map(|&(c, x)| to.iter().find(|t| t.0 == c).map(|&(_, y)| (c, x, y)));
         let Some((side, x, y)) = common else {
             let corner = |n: &str| o.corners.iter().any(|c| c == n);
             if corner(&r.from) && corner(&r.to) {
                 let edges: Vec<String> = (0..4).map(|c| o.side_name(c)).collect();
-                return Err(format!("seam {s}: {r} does not exist; its edges are {} (either way)", edges.join(", ")));
+                return Err(format!("{what}: {r} does not exist; its edges are {} (either way)", edges.join(", ")));
             }
             let (mark, other) = if corner(&r.from) { (&r.to, &r.from) } else { (&r.from, &r.to) };
             let on = o.places(mark).first().map_or(0, |m| m.0);
             return Err(format!(
-                "seam {s}: {r}: the mark `{mark}` is on the edge {}, not on an edge through `{other}`; a seam side \
-                 runs along one edge",
+                "{what}: {r}: the mark `{mark}` is on the edge {}, not on an edge through `{other}`; a seam side or \
+                 hold runs along one edge",
                 o.side_name(on)
             ));
         };
         Ok(Resolved { panel: p, side, along: x < y, arcs: [x.min(y), x.max(y)] })
     }
 
-    /// The segments of every side between the seams' ends, their cell counts ([`solve_counts`]) and each panel's
-    /// node counts; each seam side's node span.
+    /// The segments of every side between the seams' and holds' ends, their cell counts ([`solve_counts`]) and
+    /// each panel's node counts; each seam side's node span.
     fn layout(
         &self,
         outlines: &[Outline],
         seams: &[[Resolved; 2]],
+        holds: &[Resolved],
     ) -> Result<(Layout, Vec<[SeamSide; 2]>), PatternError> {
         // Segments: (panel, side, [start, end] arc length), side by side.
         let mut segments: Vec<(usize, usize, [f64; 2])> = Vec::new();
@@ -772,7 +790,7 @@ impl Pattern {
             for c in 0..4 {
                 first[p][c] = segments.len();
                 let mut cuts: Vec<f64> = vec![0.0, o.sides[c].length()];
-                let ends = seams.iter().flatten().filter(|r| r.panel == p && r.side == c);
+                let ends = seams.iter().flatten().chain(holds).filter(|r| r.panel == p && r.side == c);
                 cuts.extend(ends.flat_map(|r| r.arcs));
                 cuts.sort_by(f64::total_cmp);
                 cuts.dedup();

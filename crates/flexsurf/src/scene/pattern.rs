@@ -195,9 +195,9 @@ pub struct SeamEntry {
 pub struct HoldEntry {
     /// The panel's name.
     pub panel: String,
-    /// One end corner.
+    /// One end: a corner or a mark.
     pub from: String,
-    /// The other.
+    /// The other, on the same edge.
     pub to: String,
     /// Stiffness per node (N/m), default 80.
     #[serde(default = "default_hold")]
@@ -258,6 +258,11 @@ impl PatternSpec {
         Pattern {
             panels: self.panels.iter().map(PanelEntry::panel).collect(),
             seams: self.seams.iter().map(|s| SeamPattern { a: edge(&s.a), b: edge(&s.b) }).collect(),
+            holds: self
+                .holds
+                .iter()
+                .map(|h| EdgeRef { panel: h.panel.clone(), from: h.from.clone(), to: h.to.clone() })
+                .collect(),
             edge_length: self.edge_length,
             tolerance: self.seam_tolerance,
         }
@@ -284,22 +289,19 @@ impl PatternSpec {
         Ok(spec)
     }
 
-    /// Each hold's panel nodes (numbered panel after panel) and stiffness.
+    /// Each hold's panel nodes (numbered panel after panel) and stiffness: the nodes of its span, which the
+    /// built pattern resolved (between two corners or marks of one edge).
     pub fn holds(&self, built: &BuiltPattern, file: &Path) -> Result<Vec<(usize, f64)>, SceneError> {
         let mut out = Vec::new();
-        for (h, hold) in self.holds.iter().enumerate() {
-            let bad = |message: String| SceneError::invalid(file, format!("hold[{h}]"), message);
-            let p = built.panels.iter().position(|q| q.name == hold.panel);
-            let p = p.ok_or_else(|| bad(format!("there is no panel `{}`", hold.panel)))?;
-            let panel = &built.panels[p];
-            let nodes = panel.edge_nodes(&hold.from, &hold.to).ok_or_else(|| {
-                bad(format!("panel `{}` has no edge {} → {} (adjacent corners)", hold.panel, hold.from, hold.to))
-            })?;
+        for (h, (hold, side)) in self.holds.iter().zip(&built.holds).enumerate() {
             if !(hold.stiffness > 0.0 && hold.stiffness.is_finite()) {
-                return Err(bad(format!("{}: the stiffness must be positive", hold.stiffness)));
+                let message = format!("{}: the stiffness must be positive", hold.stiffness);
+                return Err(SceneError::invalid(file, format!("hold[{h}].stiffness"), message));
             }
-            let offset: usize = built.panels[..p].iter().map(|q| q.grid.len()).sum();
-            out.extend(nodes.into_iter().map(|k| (offset + k, hold.stiffness)));
+            let grid = &built.panels[side.panel].grid;
+            let offset: usize = built.panels[..side.panel].iter().map(|q| q.grid.len()).sum();
+            let len = side.len(grid);
+            out.extend((0..len).map(|t| (offset + side.node(grid, t, len, 0), hold.stiffness)));
         }
         Ok(out)
     }

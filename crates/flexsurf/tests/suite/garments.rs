@@ -657,6 +657,38 @@ fn marks_on_a_dxf_outline_are_vertices_where_they_are_put() {
     assert!(twice.contains("panel[0].dxf.marks[1]") && twice.contains("mark `x`"), "{twice}");
 }
 
+/// A hold may run between marks, as a seam side does: a 0.6 × 0.4 m panel whose top carries the mark `t` at
+/// x = 0.43 m, held from `t` to the corner `d` (0.43 m), gets a grid node at `t` (the top cut into 0.17 and
+/// 0.43 m, the second of 9 cells) and exactly the ten nodes from `t` to `d` held; without the hold the top is spread evenly (no node at 0.43). A hold between a mark and a corner of
+/// another edge is an error naming `hold[0]`.
+#[test]
+fn a_hold_runs_between_marks() {
+    let text = |hold: &str| {
+        format!(
+            "edge_length = 0.05\n[[panel]]\nname = \"p\"\ngrain = [1.0, 0.0]\noutline = [{{ at = [0.0, 0.0], corner = \"a\" }}, \
+             {{ at = [0.6, 0.0], corner = \"b\" }}, {{ at = [0.6, 0.4], corner = \"c\" }}, {{ at = [0.43, 0.4], mark = \"t\" }}, \
+             {{ at = [0.0, 0.4], corner = \"d\" }}]\nplacement = {{ flat = {{}} }}\n{hold}"
+        )
+    };
+    let file = Path::new("test.toml");
+    let spec = parse(&text("[[hold]]\npanel = \"p\"\nfrom = \"t\"\nto = \"d\"\n"));
+    let built = spec.build(file).unwrap();
+    let panel = &built.panels[0];
+    let held = spec.holds(&built, file).unwrap();
+    assert_eq!(held.len(), 10, "{held:?}");
+    let top: Vec<Vec3> = held.iter().map(|&(k, _)| panel.flat[k]).collect();
+    assert!(top.iter().all(|q| (q.y - 0.4).abs() < 1e-12 && q.x <= 0.43 + 1e-12), "{top:?}");
+    assert!(top.iter().any(|q| (q.x - 0.43).abs() < 1e-12) && top.iter().any(|q| q.x.abs() < 1e-12), "{top:?}");
+    let plain = build(&text(""));
+    let row = plain.panels[0].grid.count(1) - 1;
+    let xs: Vec<f64> = (0..plain.panels[0].grid.count(0))
+        .map(|i| plain.panels[0].flat[plain.panels[0].grid.index(i, row)].x)
+        .collect();
+    assert!(xs.iter().all(|x| (x - 0.43).abs() > 1e-3), "{xs:?}");
+    let e = parse(&text("[[hold]]\npanel = \"p\"\nfrom = \"t\"\nto = \"b\"\n")).build(file).unwrap_err().to_string();
+    assert!(e.contains("hold[0]") && e.contains("mark `t`") && !e.contains('\n'), "{e}");
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // A garment of two fabrics
 // ---------------------------------------------------------------------------------------------------------------
