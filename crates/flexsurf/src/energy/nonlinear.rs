@@ -430,8 +430,24 @@ impl NonlinearBending {
         warp: Warp,
         reference: &[Vec3],
     ) -> Option<Self> {
+        Self::hysteresis_selected(grid, rest, half_width, eps, warp, reference, |_| true, |_, _| true)
+    }
+
+    /// [`Self::hysteresis`] at the nodes `k` with `node(k)` and the cells with `cell(i, j)` only (as
+    /// [`Self::new`]'s selection: a panel without its seamed edges, or a seam's strip).
+    #[allow(clippy::too_many_arguments)]
+    pub fn hysteresis_selected(
+        grid: &Grid,
+        rest: &[Vec3],
+        half_width: [f64; 2],
+        eps: f64,
+        warp: Warp,
+        reference: &[Vec3],
+        node: impl Fn(usize) -> bool,
+        cell: impl Fn(usize, usize) -> bool,
+    ) -> Option<Self> {
         let set = LawSet::Hysteresis { h: half_width.to_vec(), eps };
-        let mut term = Self::build(grid, rest, set, warp, |_| true, |_, _| true)?;
+        let mut term = Self::build(grid, rest, set, warp, node, cell)?;
         term.set_reference(reference, eps);
         Some(term)
     }

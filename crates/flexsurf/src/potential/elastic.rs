@@ -120,19 +120,20 @@ pub fn nonlinear_terms(
         b.map_nodes(nodes);
         terms.push(Box::new(b));
     }
-    terms.extend(hysteresis_terms(grid, rest, laws, options, nodes));
+    terms.extend(hysteresis_terms(grid, rest, laws, options, nodes, &seamed));
     terms
 }
 
 /// The KES hysteresis terms of `laws` (2HB warp and weft, 2HG) for dynamic runs: the dissipation of
-/// docs/model.md §4.6 lagged at each step's start ([`BendingHysteresis`], [`ShearHysteresis`]); none without
-/// loop widths.
+/// docs/model.md §4.6 ([`BendingHysteresis`], [`ShearHysteresis`]); none without loop widths. The bending
+/// points on `seamed` edges are left to the seams ([`seam_hysteresis`]), as the elastic bending's.
 fn hysteresis_terms(
     grid: &Grid,
     rest: &[Vec3],
     laws: &Laws,
     options: &ElasticOptions,
     nodes: &[usize],
+    seamed: &SeamedEdges,
 ) -> Vec<Box<dyn Term>> {
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     let h = laws.hysteresis;
@@ -144,12 +145,41 @@ fn hysteresis_terms(
     }
     if h[0] > 0.0 || h[1] > 0.0 {
         let half = [0.5 * h[0], 0.5 * h[1]];
-        if let Some(mut t) = NonlinearBending::hysteresis(grid, rest, half, 1.0, options.warp(), rest) {
+        let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
+        let w = options.warp();
+        if let Some(mut t) = NonlinearBending::hysteresis_selected(grid, rest, half, 1.0, w, rest, node, cell) {
             t.map_nodes(nodes);
             terms.push(Box::new(BendingHysteresis(t)));
         }
     }
     terms
+}
+
+/// The bending hysteresis 2HB (`laws.hysteresis`) on the bending points the seams put back
+/// ([`crate::seam::seam_bending`]'s strips, side `a`'s frame `warp`), numbered as the model's nodes; none
+/// without a bending loop width.
+pub fn seam_hysteresis(
+    seams: &[crate::seam::Seam],
+    panels: &[crate::seam::PanelView<'_>],
+    laws: &Laws,
+    warp: impl Fn(usize) -> Warp,
+) -> Vec<Box<dyn Term>> {
+    let h = laws.hysteresis;
+    if !(h[0] > 0.0 || h[1] > 0.0) {
+        return Vec::new();
+    }
+    let half = [0.5 * h[0], 0.5 * h[1]];
+    crate::seam::seam_strips(seams, panels)
+        .into_iter()
+        .filter_map(|strip| {
+            let (grid, rest) = (&strip.grid, &strip.rest);
+            let (node, cell) = (|k| strip.holds_node(k), |i, j| strip.cells.contains(&(i, j)));
+            let w = warp(strip.panel);
+            let mut t = NonlinearBending::hysteresis_selected(grid, rest, half, 1.0, w, rest, node, cell)?;
+            t.map_nodes(&strip.map);
+            Some(Box::new(BendingHysteresis(t)) as Box<dyn Term>)
+        })
+        .collect()
 }
 
 /// The stick range `ε` of the bending hysteresis in a run (1/m of curvature): the reference of a quadrature
