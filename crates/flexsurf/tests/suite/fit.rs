@@ -167,6 +167,7 @@ fn problem_of(truth: &Fabric, quantities: &[Quantity], noise: [f64; 4], rel_sigm
         instrument: small(),
         max_iterations: 30,
         scan: Vec::new(),
+        cusick_nodes: None,
     }
 }
 
@@ -370,4 +371,48 @@ fn fit_round_trip_with_a_scanned_drape() {
     p.targets.push(Target { quantity: Quantity::Shape, value: 0.0, sigma: 1e-4 });
     p.scan = scan;
     check_fit(&p, &truth, 1e-3, false, "lengths + DC + W + shape, noiseless");
+}
+
+/// The Cusick node count is checked after a fit, not fitted (an integer has no derivative): a fit to the
+/// lengths and KES values of the truth, told the node count of the truth's drape as `flexsurf test cusick`
+/// counts it (its equilibrium tolerance 1e-5 nodal weights, the fit's 1e-9), reports the
+/// fitted drape's count equal to it; a wrong count is reported as differing, and the fit file's errors name the
+/// file and the key.
+#[test]
+fn cusick_node_count_is_checked_after_the_fit() {
+    let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
+    let ins = small();
+    let settle = flexsurf::lab::cusick::Settle::default();
+    let lab = flexsurf::lab::cusick::cusick_settled(&truth, Calibration::Kes, ins.specimen, ins.drape_grid, 0, &settle)
+        .unwrap();
+    let n = lab.report.nodes;
+    eprintln!("the truth's drape: {n} nodes, DC {:.2} %", lab.report.drape_coefficient);
+    assert!(n >= 3, "a drape of the medium woven has folds ({n})");
+    for (measured, agrees) in [(n, true), (n + 1, false)] {
+        let mut p = problem(&truth, [0.0; 4], 1e-3);
+        p.cusick_nodes = Some(measured);
+        let r = fit(&p).unwrap();
+        let c = r.cusick_nodes.expect("the node count check");
+        assert_eq!(c.measured, measured);
+        assert_eq!(c.model == measured, agrees, "fitted drape {} nodes, measured {measured}", c.model);
+        assert_eq!(r.residuals.len(), 4, "the node count is not a residual");
+    }
+    let d = flexsurf::testing::scratch("fit", "nodes");
+    let file = d.join("f.toml");
+    let material = flexsurf::testing::repo().join("materials/woven-medium.toml");
+    let text = |extra: &str| {
+        format!(
+            "material = {:?}\n[free.shear]\n[[target]]\nquantity = \"kes.shear\"\nvalue = 1.0\nsigma = 0.1\n\
+             [[target]]\nquantity = \"cusick.nodes\"\n{extra}\n",
+            material.to_str().unwrap()
+        )
+    };
+    std::fs::write(&file, text("value = 7")).unwrap();
+    assert_eq!(flexsurf::lab::fit::input::load_fit_file(&file).unwrap().cusick_nodes, Some(7));
+    for (extra, key) in [("value = 7.5", "value"), ("value = 7\nsigma = 1.0", "sigma"), ("", "value")] {
+        std::fs::write(&file, text(extra)).unwrap();
+        let e = flexsurf::lab::fit::input::load_fit_file(&file).unwrap_err().to_string();
+        assert!(e.contains("f.toml") && e.contains(&format!("target[1].{key}")), "{extra}: {e}");
+    }
+    std::fs::remove_dir_all(&d).ok();
 }

@@ -16,7 +16,8 @@
 //!
 //! [[target]]
 //! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
-//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%)
+//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%);
+//!                                    #   cusick.nodes: a whole count, no sigma, checked after the fit
 //! sigma = 0.02                       # the value's standard uncertainty
 //!
 //! [[target]]
@@ -78,7 +79,7 @@ struct FreeSpec {
 struct TargetSpec {
     quantity: String,
     value: Option<f64>,
-    sigma: f64,
+    sigma: Option<f64>,
     file: Option<PathBuf>,
 }
 
@@ -139,15 +140,39 @@ fn instrument(spec: &FitSpec) -> Instrument {
     ins
 }
 
-/// The targets of a fit file, and the scanned points of its shape target (if any).
-fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), SceneError> {
+/// The measured Cusick node count of a `cusick.nodes` target `t` (the `i`-th): a positive whole `value`, no
+/// `sigma` or `file` (it is checked after the fit, not fitted).
+fn node_count(t: &TargetSpec, i: usize, file: &Path) -> Result<usize, SceneError> {
+    let bad = |key: &str, message: &str| SceneError::invalid(file, format!("target[{i}].{key}"), message.into());
+    if t.sigma.is_some() || t.file.is_some() {
+        let key = if t.sigma.is_some() { "sigma" } else { "file" };
+        return Err(bad(key, "a node count is checked after the fit, not fitted: give its value alone"));
+    }
+    match t.value {
+        Some(v) if v.fract() == 0.0 && (1.0..=1000.0).contains(&v) => Ok(v as usize),
+        Some(_) => Err(bad("value", "must be a whole number of nodes, 1 to 1000")),
+        None => Err(bad("value", "missing")),
+    }
+}
+
+/// The targets of a fit file, the scanned points of its shape target (if any) and its Cusick node count (if
+/// any).
+fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>, Option<usize>), SceneError> {
     let bad = |key: String, message: String| SceneError::invalid(file, key, message);
-    let (mut targets, mut scan) = (Vec::new(), Vec::new());
+    let (mut targets, mut scan, mut nodes) = (Vec::new(), Vec::new(), None);
     for (i, t) in spec.target.iter().enumerate() {
+        if t.quantity == "cusick.nodes" {
+            if nodes.is_some() {
+                return Err(bad(format!("target[{i}].quantity"), "a fit takes one node count".into()));
+            }
+            nodes = Some(node_count(t, i, file)?);
+            continue;
+        }
         let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
             return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
         };
-        if !(t.sigma.is_finite() && t.sigma > 0.0) {
+        let sigma = t.sigma.ok_or_else(|| bad(format!("target[{i}].sigma"), "missing".into()))?;
+        if !(sigma.is_finite() && sigma > 0.0) {
             return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
         }
         if q == Quantity::Shape {
@@ -165,7 +190,7 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), S
             }
             scan = read_points(&crate::scene::material::relative_to(file, rel))
                 .map_err(|m| bad(format!("target[{i}].file"), m))?;
-            targets.push(Target { quantity: q, value: 0.0, sigma: t.sigma });
+            targets.push(Target { quantity: q, value: 0.0, sigma });
             continue;
         }
         if t.file.is_some() {
@@ -175,9 +200,9 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), S
         if !(value.is_finite() && value > 0.0) {
             return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
         }
-        targets.push(Target { quantity: q, value: conv(value), sigma: conv(t.sigma) });
+        targets.push(Target { quantity: q, value: conv(value), sigma: conv(sigma) });
     }
-    Ok((targets, scan))
+    Ok((targets, scan, nodes))
 }
 
 /// The points of a scan: `x y z` (m) per line; blank lines and lines starting with `#` are skipped.
@@ -257,7 +282,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         }
         free.push(Free { constant: c, lower, upper });
     }
-    let (targets, scan) = targets_of(&spec, file)?;
+    let (targets, scan, cusick_nodes) = targets_of(&spec, file)?;
     let problem = FitProblem {
         fabric,
         calibration: spec.calibration,
@@ -266,6 +291,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         instrument: instrument(&spec),
         max_iterations: spec.max_iterations.unwrap_or(30),
         scan,
+        cusick_nodes,
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
     Ok(problem)
