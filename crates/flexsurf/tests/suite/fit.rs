@@ -416,3 +416,43 @@ fn cusick_node_count_is_checked_after_the_fit() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A measured KES bending curve fitted pointwise (`kes_curve.bending_warp`, KES units): a loop of the linear law
+/// B = 0.08 gf·cm²/cm with half width HB = 0.01 gf·cm/cm, both branches `B K ± HB` at K = ±0.5 … ±2.5 cm⁻¹ (the
+/// zero point skipped), gives B back to 1e-9 (the branches' offsets cancel in the least squares, point for
+/// point); the curve file's errors name the file and the key.
+#[test]
+fn kes_bending_curve_is_fitted_pointwise() {
+    let d = flexsurf::testing::scratch("fit", "curve");
+    let (b, hb) = (0.08, 0.01);
+    let mut csv = String::from("# curvature (1/cm), moment (gf·cm/cm)\n");
+    for sign in [1.0, -1.0] {
+        for n in -5..=5 {
+            let k = 0.5 * n as f64;
+            csv += &format!("{k}, {}\n", b * k + sign * hb);
+        }
+    }
+    std::fs::write(d.join("b.csv"), csv).unwrap();
+    let material = flexsurf::testing::repo().join("materials/woven-medium.toml");
+    let text = |file: &str| {
+        format!(
+            "material = {:?}\nunits = \"kes\"\n[free.bending_warp]\nstart = 0.2\n[[target]]\n\
+             quantity = \"kes_curve.bending_warp\"\nfile = {file:?}\nsigma = 0.002\n",
+            material.to_str().unwrap()
+        )
+    };
+    let file = d.join("f.toml");
+    std::fs::write(&file, text("b.csv")).unwrap();
+    let p = flexsurf::lab::fit::input::load_fit_file(&file).unwrap();
+    assert_eq!(p.targets.len(), 20, "ten points per branch off zero");
+    let r = fit(&p).unwrap();
+    let si = b * 9.80665e-3 * 1e-4 / 1e-2; // gf·cm²/cm in N·m
+    let got = r.constants[0].value;
+    eprintln!("B = {got:e} N·m, truth {si:e}; χ² {}", r.chi_squared);
+    assert!((got / si - 1.0).abs() < 1e-9, "B {got} vs {si}");
+    std::fs::write(d.join("bad.csv"), "0.5, 0.05\n1.0 x\n").unwrap();
+    std::fs::write(&file, text("bad.csv")).unwrap();
+    let e = flexsurf::lab::fit::input::load_fit_file(&file).unwrap_err().to_string();
+    assert!(e.contains("f.toml") && e.contains("target[0].file") && e.contains("bad.csv:2"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}

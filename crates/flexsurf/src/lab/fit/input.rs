@@ -17,7 +17,9 @@
 //! [[target]]
 //! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
 //! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%);
-//!                                    #   cusick.nodes: a whole count, no sigma, checked after the fit
+//!                                    #   cusick.nodes: a whole count, no sigma, checked after the fit;
+//!                                    #   kes_curve.{bending_warp, ...}: `file` of `measure, resultant`
+//!                                    #   lines, `sigma` of the resultant, no value
 //! sigma = 0.02                       # the value's standard uncertainty
 //!
 //! [[target]]
@@ -168,6 +170,10 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>, Op
             nodes = Some(node_count(t, i, file)?);
             continue;
         }
+        if let Some(kind) = t.quantity.strip_prefix("kes_curve.") {
+            targets.extend(curve_targets(t, i, kind, spec.units, file)?);
+            continue;
+        }
         let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
             return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
         };
@@ -203,6 +209,60 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>, Op
         targets.push(Target { quantity: q, value: conv(value), sigma: conv(sigma) });
     }
     Ok((targets, scan, nodes))
+}
+
+/// The points of a measured KES curve target `t` (the `i`-th, `kes_curve.KIND`): one target of the KES value
+/// `kes.KIND` per point `(x, y)` with `x ≠ 0`, valued `y/x` with uncertainty `sigma/|x|`, so that its residual
+/// `(k x − y)/sigma` is the point's own for the linear resultant `y = k x` of the constant `k` (pointwise least
+/// squares on the curve, not on its characteristic value); a point at `x = 0` says nothing of the slope.
+fn curve_targets(t: &TargetSpec, i: usize, kind: &str, u: FitUnits, file: &Path) -> Result<Vec<Target>, SceneError> {
+    let bad = |key: &str, m: String| SceneError::invalid(file, format!("target[{i}].{key}"), m);
+    let weight = Quantity::Kes(KesValue::Weight);
+    let Some((q, conv)) = quantity(&format!("kes.{kind}"), u).filter(|(q, _)| *q != weight) else {
+        let known = "bending_warp, bending_weft, shear, tensile_warp, tensile_weft, tensile_bias";
+        return Err(bad("quantity", format!("unknown curve `{}` (kes_curve.{{{known}}})", t.quantity)));
+    };
+    if t.value.is_some() {
+        return Err(bad("value", "a curve target has no value: its points are in its file".into()));
+    }
+    let Some(rel) = &t.file else {
+        return Err(bad("file", "a curve target names its file of `measure, resultant` per line".into()));
+    };
+    let sigma = t.sigma.ok_or_else(|| bad("sigma", "missing".into()))?;
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Err(bad("sigma", "must be a positive number".into()));
+    }
+    let points = read_curve(&crate::scene::material::relative_to(file, rel)).map_err(|m| bad("file", m))?;
+    let targets: Vec<Target> = points
+        .iter()
+        .filter(|(x, _)| *x != 0.0)
+        .map(|&(x, y)| Target { quantity: q, value: conv(y / x), sigma: conv(sigma / x.abs()) })
+        .collect();
+    if targets.is_empty() {
+        return Err(bad("file", format!("the curve {} has no point off zero", rel.display())));
+    }
+    Ok(targets)
+}
+
+/// The points of a curve: `measure, resultant` per line (comma or blanks between); blank lines and lines
+/// starting with `#` are skipped.
+fn read_curve(path: &Path) -> Result<Vec<(f64, f64)>, String> {
+    let text =
+        crate::io::input::read_text(path).map_err(|e| format!("cannot read the curve {}: {e}", path.display()))?;
+    let mut points = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields = line.split(|c: char| c == ',' || c.is_whitespace()).filter(|f| !f.is_empty());
+        let v: Vec<f64> = fields.map(str::parse).collect::<Result<_, _>>().unwrap_or_default();
+        if v.len() != 2 || v.iter().any(|c| !c.is_finite()) {
+            return Err(format!("{}:{}: need two finite numbers `measure, resultant`", path.display(), n + 1));
+        }
+        points.push((v[0], v[1]));
+    }
+    Ok(points)
 }
 
 /// The points of a scan: `x y z` (m) per line; blank lines and lines starting with `#` are skipped.
