@@ -157,9 +157,12 @@ fn node_count(t: &TargetSpec, i: usize, file: &Path) -> Result<usize, SceneError
     }
 }
 
-/// The targets of a fit file, the scanned points of its shape target (if any) and its Cusick node count (if
-/// any).
-fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>, Option<usize>), SceneError> {
+/// What a fit file's targets give: the targets, the scanned points of its shape target (if any) and its
+/// Cusick node count (if any).
+type Targets = (Vec<Target>, Vec<Vec3>, Option<usize>);
+
+/// The targets of a fit file.
+fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
     let bad = |key: String, message: String| SceneError::invalid(file, key, message);
     let (mut targets, mut scan, mut nodes) = (Vec::new(), Vec::new(), None);
     for (i, t) in spec.target.iter().enumerate() {
