@@ -284,3 +284,35 @@ fn run_references_follow_the_jenkins_rule_and_resume() {
     let e = make(&g2, &g2.flat_positions(0.0)).restore(Some(&saved), &mut Scratch::default()).unwrap_err();
     assert!(e.contains("bending hysteresis") && e.contains("does not fit"), "{e}");
 }
+
+/// The shear hysteresis's lagged state follows the same rule: the sheet sheared simply, `x + γ y`, so that every
+/// cell's engineering shear `2E12` is exactly γ, holds `HG f₀(|γ − γ_ref|)` per unit area; from a flat start the
+/// reference is 0 (`f₀(0) = ε/3`); a start at γ = 0.01 drags it to `γ − ε` (`f₀(ε) = ε`); a start `ε/2` back
+/// sticks (`f₀(ε/2)`), with `ε = SHEAR_HYSTERESIS_SMOOTHING`.
+#[test]
+fn run_shear_references_follow_the_jenkins_rule() {
+    use flexsurf::energy::nonlinear::NonlinearMembrane;
+    use flexsurf::energy::Sink;
+    use flexsurf::potential::elastic::{ShearHysteresis, SHEAR_HYSTERESIS_SMOOTHING};
+    use flexsurf::potential::{Scratch, Term};
+    let g = Grid::sheet(5, 4, 0.2, 0.15).unwrap();
+    let rest = g.flat_positions(0.0);
+    let hg = 0.5;
+    let term =
+        ShearHysteresis(NonlinearMembrane::shear_hysteresis(&g, &rest, hg, 1.0, Warp::Angle(0.0), &rest).unwrap());
+    let p = flexsurf::testing::alone(g.len(), Box::new(term.clone()));
+    let (zero, ones) = (vec![Vec3::ZERO; g.len()], vec![1e-3; g.len()]);
+    let mut scratch = Scratch::default();
+    let mut value = |start: &[Vec3]| {
+        let cx = p.context(Some(motion(start, &zero, &ones)));
+        term.evaluate(start, &cx, &mut scratch, &mut Sink::none())
+    };
+    let sheared = |gamma: f64| -> Vec<Vec3> { rest.iter().map(|q| Vec3::new(q.x + gamma * q.y, q.y, 0.0)).collect() };
+    let eps = SHEAR_HYSTERESIS_SMOOTHING;
+    let f0 = |s: f64| if s < eps { -s * s * s / (3.0 * eps * eps) + s * s / eps + eps / 3.0 } else { s };
+    let area = 0.2 * 0.15;
+    for (start, s) in [(rest.clone(), 0.0), (sheared(0.01), eps), (sheared(0.01 - 0.5 * eps), 0.5 * eps)] {
+        let (got, expect) = (value(&start), hg * f0(s) * area);
+        assert!((got / expect - 1.0).abs() < 1e-9, "|γ − γ_ref| = {s}: {got} vs {expect}");
+    }
+}
