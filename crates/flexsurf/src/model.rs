@@ -384,6 +384,10 @@ impl ModelBuilder {
             let warp = |p: usize| (self.panels[p].options.warp(), self.panels[p].options.flat_pattern);
             let bending = seam::seam_bending(&self.seams, &views, &self.stiffness, warp);
             terms.push(elastic::bending_term(bending, self.kind));
+            if let Some(laws) = &self.laws {
+                let warp = |p: usize| self.panels[p].options.warp();
+                terms.extend(elastic::seam_hysteresis(&self.seams, &views, laws, warp));
+            }
         }
         terms
     }

@@ -335,23 +335,40 @@ fn aligned_rest<'a>(
     }
 }
 
-/// The bending points the seams put back: for each seam, the nodal points of its nodes and the cell points of
-/// the cells on either side, on the seam's strip with side `a`'s stiffness frame `warp` (`flat` sets the rest
-/// curvature to zero, as for a garment's flat pattern), numbered as the model's nodes. A cell on two seams is
-/// taken once.
-pub fn seam_bending(
-    seams: &[Seam],
-    panels: &[PanelView<'_>],
-    s: &Stiffness,
-    warp: impl Fn(usize) -> (Warp, bool),
-) -> Bending {
+/// One seam's strip of five node rows (two of each side and the seam, laid out in side `a`'s parametric
+/// directions) with what of it the seam puts back: the nodes of its middle row and the cells next to it that no
+/// earlier seam took.
+#[derive(Debug, Clone)]
+pub struct SeamStrip {
+    /// The strip's grid and rest positions.
+    pub grid: Grid,
+    /// Rest positions of the strip's nodes.
+    pub rest: Vec<Vec3>,
+    /// The model's node of each strip node.
+    pub map: Vec<usize>,
+    /// The cells the seam puts back.
+    pub cells: BTreeSet<(usize, usize)>,
+    /// Side `a`'s panel (whose frame the strip takes).
+    pub panel: usize,
+    across: usize,
+}
+
+impl SeamStrip {
+    /// Whether strip node `k` is on the seam (the strip's middle row).
+    pub fn holds_node(&self, k: usize) -> bool {
+        let (i, j) = self.grid.coords(k);
+        (if self.across == 0 { i } else { j }) == 2
+    }
+}
+
+/// The strips of `seams` in order; a cell on two seams is taken by the first.
+pub fn seam_strips(seams: &[Seam], panels: &[PanelView<'_>]) -> Vec<SeamStrip> {
     let mut taken = BTreeSet::new();
-    let parts = seams
+    seams
         .iter()
         .map(|seam| {
             let (grid, rest, map) = strip(seam, panels);
             let d = seam.a.edge.across();
-            let row = |k: usize| if d == 0 { grid.coords(k).0 } else { grid.coords(k).1 };
             let cell_row = |i: usize, j: usize| if d == 0 { i } else { j };
             let mut keep = |i: usize, j: usize| {
                 let mut corners = grid.cell(i, j).map(|k| map[k]);
@@ -359,12 +376,31 @@ pub fn seam_bending(
                 (1..=2).contains(&cell_row(i, j)) && taken.insert(corners)
             };
             let cells: BTreeSet<(usize, usize)> = grid.cells().filter(|&(i, j)| keep(i, j)).collect();
-            let (w, flat) = warp(seam.a.panel);
-            let mut b = Bending::selected(&grid, &rest, s, w, |k| row(k) == 2, |i, j| cells.contains(&(i, j)));
+            SeamStrip { grid, rest, map, cells, panel: seam.a.panel, across: d }
+        })
+        .collect()
+}
+
+/// The bending points the seams put back: for each seam, the nodal points of its nodes and the cell points of
+/// the cells on either side, on the seam's strip ([`seam_strips`]) with side `a`'s stiffness frame `warp`
+/// (`flat` sets the rest curvature to zero, as for a garment's flat pattern), numbered as the model's nodes. A
+/// cell on two seams is taken once.
+pub fn seam_bending(
+    seams: &[Seam],
+    panels: &[PanelView<'_>],
+    s: &Stiffness,
+    warp: impl Fn(usize) -> (Warp, bool),
+) -> Bending {
+    let parts = seam_strips(seams, panels)
+        .into_iter()
+        .map(|st| {
+            let (w, flat) = warp(st.panel);
+            let mut b =
+                Bending::selected(&st.grid, &st.rest, s, w, |k| st.holds_node(k), |i, j| st.cells.contains(&(i, j)));
             if flat {
                 b.flatten_rest_curvature();
             }
-            b.map_nodes(&map);
+            b.map_nodes(&st.map);
             b
         })
         .collect();

@@ -71,6 +71,13 @@ fn print_report(p: &FitProblem, r: &FitReport, file: &Path) {
     for t in &r.residuals {
         println!("{:<22} {:>13.6e} {:>13.6e} {:>11.3e} {:>9.3}", t.target, t.measured, t.model, t.sigma, t.normalised);
     }
+    if let Some(c) = r.cusick_nodes {
+        let verdict = if c.measured == c.model { "agrees" } else { "differs: the fold pattern is not explained" };
+        println!(
+            "cusick.nodes (checked, not fitted): measured {}, the fitted drape {} ({verdict})",
+            c.measured, c.model
+        );
+    }
     let sv: Vec<String> = r.singular_values.iter().map(|s| format!("{s:.3e}")).collect();
     println!(
         "χ² = {:.4e} with {} degrees of freedom; singular values {}",

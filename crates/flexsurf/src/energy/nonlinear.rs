@@ -89,6 +89,17 @@ impl LawSet {
     }
 }
 
+/// A hysteresis reference `m0` dragged by the measure `m`: to `m ∓ eps` when further than `eps` from it (the
+/// element slid; it sits at the edge of its stick range), else unchanged (it sticks).
+fn dragged(m0: f64, m: f64, eps: f64) -> f64 {
+    let d = m - m0;
+    if d.abs() > eps {
+        m - eps * d.signum()
+    } else {
+        m0
+    }
+}
+
 /// Which material strain a parametric strain of an aligned frame is, and its scale: the row `r ∈ {0, 1}` of
 /// the Voigt map with the larger entry in column `col`.
 fn aligned_row(t: &[[f64; 3]; 3], col: usize) -> (usize, f64) {
@@ -164,6 +175,40 @@ impl NonlinearMembrane {
                 u.m0 = (0..NS).map(|a| u.g[a] * s[a]).sum();
             }
         }
+    }
+
+    /// A hysteresis's lagged state dragged to `x` (the next step's start): each reference `m₀` further than
+    /// `eps` from its measure `m` at `x` moves to `m ∓ eps`, the edge of the stick range; one within `eps`
+    /// stays (docs/model.md §4.6). No effect on elastic laws.
+    pub fn drag_reference(&mut self, x: &[Vec3], eps: f64) {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return };
+        *e = eps;
+        for c in &mut self.cells {
+            let s = c.strains(x);
+            for u in &mut c.uses {
+                u.m0 = dragged(u.m0, (0..NS).map(|a| u.g[a] * s[a]).sum(), eps);
+            }
+        }
+    }
+
+    /// The references `m₀` of every use, in order (a hysteresis's lagged state, for a checkpoint).
+    pub fn references(&self) -> Vec<f64> {
+        self.cells.iter().flat_map(|c| c.uses.iter().map(|u| u.m0)).collect()
+    }
+
+    /// Sets the references of [`Self::references`] and the smoothing `eps`; false (and nothing set) when
+    /// `m0` has not one value per use.
+    pub fn set_references(&mut self, m0: &[f64], eps: f64) -> bool {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return false };
+        if m0.len() != self.cells.iter().map(|c| c.uses.len()).sum::<usize>() {
+            return false;
+        }
+        *e = eps;
+        let mut it = m0.iter();
+        for u in self.cells.iter_mut().flat_map(|c| c.uses.iter_mut()) {
+            u.m0 = it.next().copied().unwrap_or(u.m0);
+        }
+        true
     }
 
     fn build(grid: &Grid, rest: &[Vec3], set: LawSet, warp: Warp) -> Option<Self> {
@@ -385,8 +430,24 @@ impl NonlinearBending {
         warp: Warp,
         reference: &[Vec3],
     ) -> Option<Self> {
+        Self::hysteresis_selected(grid, rest, half_width, eps, warp, reference, |_| true, |_, _| true)
+    }
+
+    /// [`Self::hysteresis`] at the nodes `k` with `node(k)` and the cells with `cell(i, j)` only (as
+    /// [`Self::new`]'s selection: a panel without its seamed edges, or a seam's strip).
+    #[allow(clippy::too_many_arguments)]
+    pub fn hysteresis_selected(
+        grid: &Grid,
+        rest: &[Vec3],
+        half_width: [f64; 2],
+        eps: f64,
+        warp: Warp,
+        reference: &[Vec3],
+        node: impl Fn(usize) -> bool,
+        cell: impl Fn(usize, usize) -> bool,
+    ) -> Option<Self> {
         let set = LawSet::Hysteresis { h: half_width.to_vec(), eps };
-        let mut term = Self::build(grid, rest, set, warp, |_| true, |_, _| true)?;
+        let mut term = Self::build(grid, rest, set, warp, node, cell)?;
         term.set_reference(reference, eps);
         Some(term)
     }
@@ -402,6 +463,38 @@ impl NonlinearBending {
                 u.m0 = (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum();
             }
         }
+    }
+
+    /// A hysteresis's lagged state dragged to `x` (as [`NonlinearMembrane::drag_reference`]).
+    pub fn drag_reference(&mut self, x: &[Vec3], eps: f64) {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return };
+        *e = eps;
+        for (p, uses) in &mut self.points {
+            let kappa = p.kernels(x).4;
+            for u in uses {
+                u.m0 = dragged(u.m0, (0..MEASURES).map(|q| u.g[q] * kappa[q]).sum(), eps);
+            }
+        }
+    }
+
+    /// The references `m₀` of every use, in order (a hysteresis's lagged state, for a checkpoint).
+    pub fn references(&self) -> Vec<f64> {
+        self.points.iter().flat_map(|(_, uses)| uses.iter().map(|u| u.m0)).collect()
+    }
+
+    /// Sets the references of [`Self::references`] and the smoothing `eps`; false (and nothing set) when
+    /// `m0` has not one value per use.
+    pub fn set_references(&mut self, m0: &[f64], eps: f64) -> bool {
+        let LawSet::Hysteresis { eps: e, .. } = &mut self.laws else { return false };
+        if m0.len() != self.points.iter().map(|(_, uses)| uses.len()).sum::<usize>() {
+            return false;
+        }
+        *e = eps;
+        let mut it = m0.iter();
+        for u in self.points.iter_mut().flat_map(|(_, uses)| uses.iter_mut()) {
+            u.m0 = it.next().copied().unwrap_or(u.m0);
+        }
+        true
     }
 
     fn build(

@@ -512,7 +512,7 @@ fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usi
     let shadow = shadow_area(&model, &x, ring);
     let a_disc = PI * ring.rd * ring.rd;
     let dc = 100.0 * (shadow - a_disc) / (PI * ring.rs * ring.rs - a_disc);
-    let nodes = count_folds(&(0..angular).map(|j| x[grid.index(m - 1, j)].truncate().length()).collect::<Vec<_>>());
+    let nodes = hem_nodes(&model, &x);
     let residual = residual(&model, &x);
     let report = CusickReport {
         specimen,
@@ -527,6 +527,13 @@ fn measure(model: Model, x: Vec<Vec3>, ring: &Annulus, specimen: f64, steps: usi
         static_iterations: 0,
     };
     Drape { report, model, x }
+}
+
+/// The drape's node count: the folds of the hem (the outer ring of the specimen's polar grid, `x` its nodes)
+/// counted as [`count_folds`] counts them.
+pub fn hem_nodes(model: &Model, x: &[Vec3]) -> usize {
+    let grid = model.panels[0].grid;
+    count_folds(&(0..grid.n).map(|j| x[grid.index(grid.m - 1, j)].truncate().length()).collect::<Vec<_>>())
 }
 
 /// Local maxima of the (periodic) hem radius, after a 3-point smoothing, that stand out by more than 2% of the

@@ -120,19 +120,20 @@ pub fn nonlinear_terms(
         b.map_nodes(nodes);
         terms.push(Box::new(b));
     }
-    terms.extend(hysteresis_terms(grid, rest, laws, options, nodes));
+    terms.extend(hysteresis_terms(grid, rest, laws, options, nodes, &seamed));
     terms
 }
 
 /// The KES hysteresis terms of `laws` (2HB warp and weft, 2HG) for dynamic runs: the dissipation of
-/// docs/model.md §4.6 lagged at each step's start ([`BendingHysteresis`], [`ShearHysteresis`]); none without
-/// loop widths.
+/// docs/model.md §4.6 ([`BendingHysteresis`], [`ShearHysteresis`]); none without loop widths. The bending
+/// points on `seamed` edges are left to the seams ([`seam_hysteresis`]), as the elastic bending's.
 fn hysteresis_terms(
     grid: &Grid,
     rest: &[Vec3],
     laws: &Laws,
     options: &ElasticOptions,
     nodes: &[usize],
+    seamed: &SeamedEdges,
 ) -> Vec<Box<dyn Term>> {
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     let h = laws.hysteresis;
@@ -144,7 +145,9 @@ fn hysteresis_terms(
     }
     if h[0] > 0.0 || h[1] > 0.0 {
         let half = [0.5 * h[0], 0.5 * h[1]];
-        if let Some(mut t) = NonlinearBending::hysteresis(grid, rest, half, 1.0, options.warp(), rest) {
+        let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
+        let w = options.warp();
+        if let Some(mut t) = NonlinearBending::hysteresis_selected(grid, rest, half, 1.0, w, rest, node, cell) {
             t.map_nodes(nodes);
             terms.push(Box::new(BendingHysteresis(t)));
         }
@@ -152,18 +155,58 @@ fn hysteresis_terms(
     terms
 }
 
-/// The smoothing of the bending hysteresis in a run: `ε = rate · Δt` of curvature (1/m per second).
-pub const BENDING_HYSTERESIS_SMOOTHING: f64 = 1.0;
-/// The smoothing of the shear hysteresis in a run: `ε = rate · Δt` of shear (per second).
-pub const SHEAR_HYSTERESIS_SMOOTHING: f64 = 1e-2;
+/// The bending hysteresis 2HB (`laws.hysteresis`) on the bending points the seams put back
+/// ([`crate::seam::seam_bending`]'s strips, side `a`'s frame `warp`), numbered as the model's nodes; none
+/// without a bending loop width.
+pub fn seam_hysteresis(
+    seams: &[crate::seam::Seam],
+    panels: &[crate::seam::PanelView<'_>],
+    laws: &Laws,
+    warp: impl Fn(usize) -> Warp,
+) -> Vec<Box<dyn Term>> {
+    let h = laws.hysteresis;
+    if !(h[0] > 0.0 || h[1] > 0.0) {
+        return Vec::new();
+    }
+    let half = [0.5 * h[0], 0.5 * h[1]];
+    crate::seam::seam_strips(seams, panels)
+        .into_iter()
+        .filter_map(|strip| {
+            let (grid, rest) = (&strip.grid, &strip.rest);
+            let (node, cell) = (|k| strip.holds_node(k), |i, j| strip.cells.contains(&(i, j)));
+            let w = warp(strip.panel);
+            let mut t = NonlinearBending::hysteresis_selected(grid, rest, half, 1.0, w, rest, node, cell)?;
+            t.map_nodes(&strip.map);
+            Some(Box::new(BendingHysteresis(t)) as Box<dyn Term>)
+        })
+        .collect()
+}
 
-/// `impl Term` for a hysteresis kernel with inherent `pairs`, `bind`, `evaluate` and `set_reference(x, eps)`:
-/// in a dynamic step the dissipation `H f₀(|m − m_ref|)` with `m_ref` the measure at the step's start (the
-/// step's motion `x`, friction's anchor) and `ε = rate · Δt`; nothing in a static solve. The term with its
-/// references set is cached in the scratch and rebuilt when the step's start changes: it holds no state across
-/// steps that the positions do not, so a checkpoint resumes it bit for bit.
+/// The stick range `ε` of the bending hysteresis in a run (1/m of curvature): the reference of a quadrature
+/// point stays while its curvature is within `ε` of it and is dragged along at `ε` beyond (docs/model.md §4.6).
+pub const BENDING_HYSTERESIS_SMOOTHING: f64 = 0.05;
+/// The stick range `ε` of the shear hysteresis in a run (of the engineering shear γ).
+pub const SHEAR_HYSTERESIS_SMOOTHING: f64 = 1e-4;
+
+/// A hysteresis term's state in a run: the step start its references were last dragged to, the references
+/// (what a checkpoint saves), and the kernel with them set.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Lag {
+    start: Vec<Vec3>,
+    references: Vec<f64>,
+}
+
+/// `impl Term` for a hysteresis kernel with inherent `pairs`, `bind`, `evaluate`, `set_reference(x, eps)`,
+/// `drag_reference(x, eps)`, `references` and `set_references`: in a dynamic step the dissipation
+/// `H f₀(|m − m_ref|)` with a lagged reference `m_ref` per measure, fixed within the step (friction's lag) and
+/// carried across steps as a Jenkins element's slider: at the first step's start the references are the measures
+/// there; at each new step's start (the step motion's `x`) a reference further than `ε` from its measure is
+/// dragged to `ε` from it (the element slid), a nearer one stays (it sticks), so a point under a moment below
+/// the loop's half width holds its curvature however long, and the loop is rate-independent. `ε` is a fixed
+/// stick range (not a rate): the smoothing of `f₀`. The references are the term's scratch, saved into a
+/// checkpoint, so a run resumes them bit for bit; nothing acts in a static solve.
 macro_rules! hysteresis_term {
-    ($(#[$doc:meta])* $name:ident, $kernel:ty, $label:literal, $part:expr, $rate:expr) => {
+    ($(#[$doc:meta])* $name:ident, $kernel:ty, $label:literal, $part:expr, $eps:expr) => {
         $(#[$doc])*
         #[derive(Debug, Clone)]
         pub struct $name(pub $kernel);
@@ -180,21 +223,43 @@ macro_rules! hysteresis_term {
             }
             fn evaluate(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch, sink: &mut Sink) -> f64 {
                 let Some(m) = &cx.motion else { return 0.0 };
-                let eps = $rate * m.dt;
-                let cache = scratch.get_or(|| (Vec::<Vec3>::new(), f64::NAN, self.0.clone()));
-                if cache.0.as_slice() != m.x || cache.1 != eps {
-                    cache.2 = self.0.clone();
-                    cache.2.set_reference(m.x, eps);
-                    cache.0 = m.x.to_vec();
-                    cache.1 = eps;
+                let (lag, kernel) = scratch.get_or(|| (Lag { start: Vec::new(), references: Vec::new() }, self.0.clone()));
+                if lag.start.as_slice() != m.x {
+                    if lag.start.is_empty() {
+                        kernel.set_reference(m.x, $eps);
+                    } else {
+                        kernel.drag_reference(m.x, $eps);
+                    }
+                    lag.start = m.x.to_vec();
+                    lag.references = kernel.references();
                 }
-                let e = cache.2.evaluate(x, sink);
+                let e = kernel.evaluate(x, sink);
                 sink.energy += e;
                 e
             }
-            fn save(&self, _scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
-                // A cache of the step's start and Δt, rebuilt from them on resume: nothing to carry.
-                Ok(None)
+            fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
+                match scratch.get::<(Lag, $kernel)>() {
+                    Some((lag, _)) => postcard::to_stdvec(lag)
+                        .map(Some)
+                        .map_err(|e| format!("cannot encode the {} state: {e}", $label)),
+                    None if scratch.0.is_none() => Ok(None),
+                    None => Err(format!("the {} state is of another kind", $label)),
+                }
+            }
+            fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
+                let Some(bytes) = saved else {
+                    scratch.clear();
+                    return Ok(());
+                };
+                let lag: Lag =
+                    postcard::from_bytes(bytes).map_err(|e| format!("cannot decode the {} state: {e}", $label))?;
+                let mut kernel = self.0.clone();
+                if !lag.start.is_empty() && !kernel.set_references(&lag.references, $eps) {
+                    let n = lag.references.len();
+                    return Err(format!("the saved {} state ({n} references) does not fit the model", $label));
+                }
+                scratch.set((lag, kernel));
+                Ok(())
             }
         }
     };

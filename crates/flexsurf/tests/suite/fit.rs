@@ -167,6 +167,7 @@ fn problem_of(truth: &Fabric, quantities: &[Quantity], noise: [f64; 4], rel_sigm
         instrument: small(),
         max_iterations: 30,
         scan: Vec::new(),
+        cusick_nodes: None,
     }
 }
 
@@ -370,4 +371,88 @@ fn fit_round_trip_with_a_scanned_drape() {
     p.targets.push(Target { quantity: Quantity::Shape, value: 0.0, sigma: 1e-4 });
     p.scan = scan;
     check_fit(&p, &truth, 1e-3, false, "lengths + DC + W + shape, noiseless");
+}
+
+/// The Cusick node count is checked after a fit, not fitted (an integer has no derivative): a fit to the
+/// lengths and KES values of the truth, told the node count of the truth's drape as `flexsurf test cusick`
+/// counts it (its equilibrium tolerance 1e-5 nodal weights, the fit's 1e-9), reports the
+/// fitted drape's count equal to it; a wrong count is reported as differing, and the fit file's errors name the
+/// file and the key.
+#[test]
+fn cusick_node_count_is_checked_after_the_fit() {
+    let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
+    let ins = small();
+    let settle = flexsurf::lab::cusick::Settle::default();
+    let lab = flexsurf::lab::cusick::cusick_settled(&truth, Calibration::Kes, ins.specimen, ins.drape_grid, 0, &settle)
+        .unwrap();
+    let n = lab.report.nodes;
+    eprintln!("the truth's drape: {n} nodes, DC {:.2} %", lab.report.drape_coefficient);
+    assert!(n >= 3, "a drape of the medium woven has folds ({n})");
+    for (measured, agrees) in [(n, true), (n + 1, false)] {
+        let mut p = problem(&truth, [0.0; 4], 1e-3);
+        p.cusick_nodes = Some(measured);
+        let r = fit(&p).unwrap();
+        let c = r.cusick_nodes.expect("the node count check");
+        assert_eq!(c.measured, measured);
+        assert_eq!(c.model == measured, agrees, "fitted drape {} nodes, measured {measured}", c.model);
+        assert_eq!(r.residuals.len(), 4, "the node count is not a residual");
+    }
+    let d = flexsurf::testing::scratch("fit", "nodes");
+    let file = d.join("f.toml");
+    let material = flexsurf::testing::repo().join("materials/woven-medium.toml");
+    let text = |extra: &str| {
+        format!(
+            "material = {:?}\n[free.shear]\n[[target]]\nquantity = \"kes.shear\"\nvalue = 1.0\nsigma = 0.1\n\
+             [[target]]\nquantity = \"cusick.nodes\"\n{extra}\n",
+            material.to_str().unwrap()
+        )
+    };
+    std::fs::write(&file, text("value = 7")).unwrap();
+    assert_eq!(flexsurf::lab::fit::input::load_fit_file(&file).unwrap().cusick_nodes, Some(7));
+    for (extra, key) in [("value = 7.5", "value"), ("value = 7\nsigma = 1.0", "sigma"), ("", "value")] {
+        std::fs::write(&file, text(extra)).unwrap();
+        let e = flexsurf::lab::fit::input::load_fit_file(&file).unwrap_err().to_string();
+        assert!(e.contains("f.toml") && e.contains(&format!("target[1].{key}")), "{extra}: {e}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A measured KES bending curve fitted pointwise (`kes_curve.bending_warp`, KES units): a loop of the linear law
+/// B = 0.08 gf·cm²/cm with half width HB = 0.01 gf·cm/cm, both branches `B K ± HB` at K = ±0.5 … ±2.5 cm⁻¹ (the
+/// zero point skipped), gives B back to 1e-9 (the branches' offsets cancel in the least squares, point for
+/// point); the curve file's errors name the file and the key.
+#[test]
+fn kes_bending_curve_is_fitted_pointwise() {
+    let d = flexsurf::testing::scratch("fit", "curve");
+    let (b, hb) = (0.08, 0.01);
+    let mut csv = String::from("# curvature (1/cm), moment (gf·cm/cm)\n");
+    for sign in [1.0, -1.0] {
+        for n in -5..=5 {
+            let k = 0.5 * n as f64;
+            csv += &format!("{k}, {}\n", b * k + sign * hb);
+        }
+    }
+    std::fs::write(d.join("b.csv"), csv).unwrap();
+    let material = flexsurf::testing::repo().join("materials/woven-medium.toml");
+    let text = |file: &str| {
+        format!(
+            "material = {:?}\nunits = \"kes\"\n[free.bending_warp]\nstart = 0.2\n[[target]]\n\
+             quantity = \"kes_curve.bending_warp\"\nfile = {file:?}\nsigma = 0.002\n",
+            material.to_str().unwrap()
+        )
+    };
+    let file = d.join("f.toml");
+    std::fs::write(&file, text("b.csv")).unwrap();
+    let p = flexsurf::lab::fit::input::load_fit_file(&file).unwrap();
+    assert_eq!(p.targets.len(), 20, "ten points per branch off zero");
+    let r = fit(&p).unwrap();
+    let si = b * 9.80665e-3 * 1e-4 / 1e-2; // gf·cm²/cm in N·m
+    let got = r.constants[0].value;
+    eprintln!("B = {got:e} N·m, truth {si:e}; χ² {}", r.chi_squared);
+    assert!((got / si - 1.0).abs() < 1e-9, "B {got} vs {si}");
+    std::fs::write(d.join("bad.csv"), "0.5, 0.05\n1.0 x\n").unwrap();
+    std::fs::write(&file, text("bad.csv")).unwrap();
+    let e = flexsurf::lab::fit::input::load_fit_file(&file).unwrap_err().to_string();
+    assert!(e.contains("f.toml") && e.contains("target[0].file") && e.contains("bad.csv:2"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
 }

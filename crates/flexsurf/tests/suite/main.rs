@@ -13,6 +13,7 @@ mod fit;
 mod fuzz;
 mod garments;
 mod hardening;
+mod hysteresis;
 mod lab;
 mod model;
 mod nonlinear;

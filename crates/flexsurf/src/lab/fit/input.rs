@@ -16,7 +16,10 @@
 //!
 //! [[target]]
 //! quantity = "bending_length.warp"   # bending_length.{warp,weft,bias}, kes.{bending_warp, bending_weft,
-//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%)
+//! value = 2.1                        #   shear, tensile_warp, tensile_weft, tensile_bias, weight}, cusick.dc (%);
+//!                                    #   cusick.nodes: a whole count, no sigma, checked after the fit;
+//!                                    #   kes_curve.{bending_warp, ...}: `file` of `measure, resultant`
+//!                                    #   lines, `sigma` of the resultant, no value
 //! sigma = 0.02                       # the value's standard uncertainty
 //!
 //! [[target]]
@@ -78,7 +81,7 @@ struct FreeSpec {
 struct TargetSpec {
     quantity: String,
     value: Option<f64>,
-    sigma: f64,
+    sigma: Option<f64>,
     file: Option<PathBuf>,
 }
 
@@ -139,15 +142,46 @@ fn instrument(spec: &FitSpec) -> Instrument {
     ins
 }
 
-/// The targets of a fit file, and the scanned points of its shape target (if any).
-fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), SceneError> {
+/// The measured Cusick node count of a `cusick.nodes` target `t` (the `i`-th): a positive whole `value`, no
+/// `sigma` or `file` (it is checked after the fit, not fitted).
+fn node_count(t: &TargetSpec, i: usize, file: &Path) -> Result<usize, SceneError> {
+    let bad = |key: &str, message: &str| SceneError::invalid(file, format!("target[{i}].{key}"), message.into());
+    if t.sigma.is_some() || t.file.is_some() {
+        let key = if t.sigma.is_some() { "sigma" } else { "file" };
+        return Err(bad(key, "a node count is checked after the fit, not fitted: give its value alone"));
+    }
+    match t.value {
+        Some(v) if v.fract() == 0.0 && (1.0..=1000.0).contains(&v) => Ok(v as usize),
+        Some(_) => Err(bad("value", "must be a whole number of nodes, 1 to 1000")),
+        None => Err(bad("value", "missing")),
+    }
+}
+
+/// What a fit file's targets give: the targets, the scanned points of its shape target (if any) and its
+/// Cusick node count (if any).
+type Targets = (Vec<Target>, Vec<Vec3>, Option<usize>);
+
+/// The targets of a fit file.
+fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
     let bad = |key: String, message: String| SceneError::invalid(file, key, message);
-    let (mut targets, mut scan) = (Vec::new(), Vec::new());
+    let (mut targets, mut scan, mut nodes) = (Vec::new(), Vec::new(), None);
     for (i, t) in spec.target.iter().enumerate() {
+        if t.quantity == "cusick.nodes" {
+            if nodes.is_some() {
+                return Err(bad(format!("target[{i}].quantity"), "a fit takes one node count".into()));
+            }
+            nodes = Some(node_count(t, i, file)?);
+            continue;
+        }
+        if let Some(kind) = t.quantity.strip_prefix("kes_curve.") {
+            targets.extend(curve_targets(t, i, kind, spec.units, file)?);
+            continue;
+        }
         let Some((q, conv)) = quantity(&t.quantity, spec.units) else {
             return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
         };
-        if !(t.sigma.is_finite() && t.sigma > 0.0) {
+        let sigma = t.sigma.ok_or_else(|| bad(format!("target[{i}].sigma"), "missing".into()))?;
+        if !(sigma.is_finite() && sigma > 0.0) {
             return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
         }
         if q == Quantity::Shape {
@@ -165,7 +199,7 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), S
             }
             scan = read_points(&crate::scene::material::relative_to(file, rel))
                 .map_err(|m| bad(format!("target[{i}].file"), m))?;
-            targets.push(Target { quantity: q, value: 0.0, sigma: t.sigma });
+            targets.push(Target { quantity: q, value: 0.0, sigma });
             continue;
         }
         if t.file.is_some() {
@@ -175,9 +209,63 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<(Vec<Target>, Vec<Vec3>), S
         if !(value.is_finite() && value > 0.0) {
             return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
         }
-        targets.push(Target { quantity: q, value: conv(value), sigma: conv(t.sigma) });
+        targets.push(Target { quantity: q, value: conv(value), sigma: conv(sigma) });
     }
-    Ok((targets, scan))
+    Ok((targets, scan, nodes))
+}
+
+/// The points of a measured KES curve target `t` (the `i`-th, `kes_curve.KIND`): one target of the KES value
+/// `kes.KIND` per point `(x, y)` with `x ≠ 0`, valued `y/x` with uncertainty `sigma/|x|`, so that its residual
+/// `(k x − y)/sigma` is the point's own for the linear resultant `y = k x` of the constant `k` (pointwise least
+/// squares on the curve, not on its characteristic value); a point at `x = 0` says nothing of the slope.
+fn curve_targets(t: &TargetSpec, i: usize, kind: &str, u: FitUnits, file: &Path) -> Result<Vec<Target>, SceneError> {
+    let bad = |key: &str, m: String| SceneError::invalid(file, format!("target[{i}].{key}"), m);
+    let weight = Quantity::Kes(KesValue::Weight);
+    let Some((q, conv)) = quantity(&format!("kes.{kind}"), u).filter(|(q, _)| *q != weight) else {
+        let known = "bending_warp, bending_weft, shear, tensile_warp, tensile_weft, tensile_bias";
+        return Err(bad("quantity", format!("unknown curve `{}` (kes_curve.{{{known}}})", t.quantity)));
+    };
+    if t.value.is_some() {
+        return Err(bad("value", "a curve target has no value: its points are in its file".into()));
+    }
+    let Some(rel) = &t.file else {
+        return Err(bad("file", "a curve target names its file of `measure, resultant` per line".into()));
+    };
+    let sigma = t.sigma.ok_or_else(|| bad("sigma", "missing".into()))?;
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Err(bad("sigma", "must be a positive number".into()));
+    }
+    let points = read_curve(&crate::scene::material::relative_to(file, rel)).map_err(|m| bad("file", m))?;
+    let targets: Vec<Target> = points
+        .iter()
+        .filter(|(x, _)| *x != 0.0)
+        .map(|&(x, y)| Target { quantity: q, value: conv(y / x), sigma: conv(sigma / x.abs()) })
+        .collect();
+    if targets.is_empty() {
+        return Err(bad("file", format!("the curve {} has no point off zero", rel.display())));
+    }
+    Ok(targets)
+}
+
+/// The points of a curve: `measure, resultant` per line (comma or blanks between); blank lines and lines
+/// starting with `#` are skipped.
+fn read_curve(path: &Path) -> Result<Vec<(f64, f64)>, String> {
+    let text =
+        crate::io::input::read_text(path).map_err(|e| format!("cannot read the curve {}: {e}", path.display()))?;
+    let mut points = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields = line.split(|c: char| c == ',' || c.is_whitespace()).filter(|f| !f.is_empty());
+        let v: Vec<f64> = fields.map(str::parse).collect::<Result<_, _>>().unwrap_or_default();
+        if v.len() != 2 || v.iter().any(|c| !c.is_finite()) {
+            return Err(format!("{}:{}: need two finite numbers `measure, resultant`", path.display(), n + 1));
+        }
+        points.push((v[0], v[1]));
+    }
+    Ok(points)
 }
 
 /// The points of a scan: `x y z` (m) per line; blank lines and lines starting with `#` are skipped.
@@ -257,7 +345,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         }
         free.push(Free { constant: c, lower, upper });
     }
-    let (targets, scan) = targets_of(&spec, file)?;
+    let (targets, scan, cusick_nodes) = targets_of(&spec, file)?;
     let problem = FitProblem {
         fabric,
         calibration: spec.calibration,
@@ -266,6 +354,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         instrument: instrument(&spec),
         max_iterations: spec.max_iterations.unwrap_or(30),
         scan,
+        cusick_nodes,
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
     Ok(problem)

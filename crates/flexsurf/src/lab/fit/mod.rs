@@ -46,6 +46,21 @@ pub struct FitProblem {
     /// The scanned drape of a [`Quantity::Shape`] target (m, in the drape meter's frame; empty without one).
     #[serde(skip)]
     pub scan: Vec<crate::math::Vec3>,
+    /// A measured Cusick node count, checked after the fit against the drape of the fitted constants (not a
+    /// least-squares target: an integer has no derivative; see [`NodeCheck`]).
+    pub cusick_nodes: Option<usize>,
+}
+
+/// The Cusick node count after a fit: the measured count against the fitted constants' drape. A count is an
+/// integer, piecewise constant in the constants with jumps where a fold appears, so it has no gradient for
+/// Levenberg–Marquardt and no Gaussian uncertainty; it is reported beside the fit (a disagreement says the
+/// drape's fold pattern is not explained, whatever the DC's residual) rather than fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct NodeCheck {
+    /// The measured node count.
+    pub measured: usize,
+    /// The fitted constants' drape's node count.
+    pub model: usize,
 }
 
 /// A standard error above this (in the constant's logarithm: the data fix it to no better than a factor of
@@ -118,6 +133,8 @@ pub struct FitReport {
     pub seconds: f64,
     /// The fitted material.
     pub fabric: Fabric,
+    /// The Cusick node count check, when the fit file gives a count.
+    pub cusick_nodes: Option<NodeCheck>,
 }
 
 /// Checks the problem: free constants distinct with `0 < lower ≤ upper`, targets with finite values and positive
@@ -192,7 +209,13 @@ pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
     };
     let opts = lm::Options { max_iterations: p.max_iterations, step_tolerance: 1e-10 };
     let out = lm::minimise(&start, (&lower, &upper), opts, residuals)?;
-    Ok(report(p, &out, t0.elapsed().as_secs_f64()))
+    let mut r = report(p, &out, t0.elapsed().as_secs_f64());
+    if let Some(measured) = p.cusick_nodes {
+        let model = targets::drape_nodes(&r.fabric, p.calibration, &p.instrument)?;
+        r.cusick_nodes = Some(NodeCheck { measured, model });
+        r.seconds = t0.elapsed().as_secs_f64();
+    }
+    Ok(r)
 }
 
 fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
@@ -255,5 +278,6 @@ fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
         converged: out.converged,
         seconds,
         fabric: with_theta(&p.fabric, &p.free, &out.theta),
+        cusick_nodes: None,
     }
 }

@@ -370,6 +370,13 @@ fn drape(
     Ok((builder, model, x))
 }
 
+/// The node count of the drape of `f` ([`crate::lab::cusick::hem_nodes`]), relaxed from the flat specimen and
+/// solved statically as for a DC: an integer, so a check after a fit rather than a least-squares target.
+pub fn drape_nodes(f: &Fabric, calibration: Calibration, ins: &Instrument) -> Result<usize, LabError> {
+    let (_, model, x) = drape(f, calibration, ins, &mut Warm::default())?;
+    Ok(crate::lab::cusick::hem_nodes(&model, &x))
+}
+
 /// The index of the point of `cloud` nearest `p` (`cloud` not empty).
 fn nearest(cloud: &[Vec3], p: Vec3) -> usize {
     let mut best = (f64::INFINITY, 0);
