@@ -122,6 +122,27 @@ fn curved(p: Vec3) -> Vec3 {
 /// Two halves of the square, 13 × 7 nodes each, joined along the square's middle column of nodes (the
 /// left half's `u1` end to the right half's `u1` start), equal the square: the right half given in place, or
 /// cut out elsewhere (moved and turned in its plane), which the seam lays back flat.
+/// Two halves (`half`, 7 columns each) of the square `grid` sewn along the middle column, started from the whole
+/// sheet's start `x0` and run 40 steps of 5 ms: the largest distance of a node from the whole sheet's `reference`
+/// (panel nodes onto the model's: the left half's, then the right half's own, its first column joined).
+fn sewn_apart_from_whole(sewn: &Model, (grid, half): (Grid, Grid), x0: &[Vec3], reference: &State) -> f64 {
+    let order: Vec<usize> = (0..2 * half.len())
+        .map(|k| {
+            let (p, k) = (k / half.len(), k % half.len());
+            let (i, j) = half.coords(k);
+            grid.index(6 * p + i, j)
+        })
+        .collect();
+    let start: Vec<Vec3> = sewn.from_panel_nodes(&order.iter().map(|&k| x0[k]).collect::<Vec<_>>());
+    let state = run(sewn, start, 0.005, 40);
+    (0..2 * half.len())
+        .map(|k| {
+            let (p, l) = (k / half.len(), k % half.len());
+            (state.x[sewn.panels[p].global(l)] - reference.x[order[k]]).length()
+        })
+        .fold(0.0, f64::max)
+}
+
 #[test]
 fn two_sewn_halves_equal_the_whole_sheet() {
     let (fabric, stiffness) = cotton();
@@ -152,22 +173,7 @@ fn two_sewn_halves_equal_the_whole_sheet() {
         over_ball(&mut sewn);
         let sewn = sewn.build().unwrap();
         assert_eq!(sewn.nodes(), whole.nodes());
-        // Panel nodes onto the model's: the left half's, then the right half's own (its first column joined).
-        let order: Vec<usize> = (0..2 * half.len())
-            .map(|k| {
-                let (p, k) = (k / half.len(), k % half.len());
-                let (i, j) = half.coords(k);
-                grid.index(6 * p + i, j)
-            })
-            .collect();
-        let start: Vec<Vec3> = sewn.from_panel_nodes(&order.iter().map(|&k| x0[k]).collect::<Vec<_>>());
-        let state = run(&sewn, start, 0.005, 40);
-        let apart = (0..2 * half.len())
-            .map(|k| {
-                let (p, l) = (k / half.len(), k % half.len());
-                (state.x[sewn.panels[p].global(l)] - reference.x[order[k]]).length()
-            })
-            .fold(0.0, f64::max);
+        let apart = sewn_apart_from_whole(&sewn, (grid, half), &x0, &reference);
         let moved = largest_difference(&reference.x, &x0);
         assert!(moved > 0.01, "the sheet should fall onto the ball (moved {moved} m)");
         assert!(apart < 1e-10, "the sewn halves are {apart} m from the whole sheet");
@@ -260,21 +266,7 @@ fn sewn_halves_carry_the_bending_hysteresis_of_the_whole_sheet() {
     let x0: Vec<Vec3> = rest.iter().map(|p| curved(*p)).collect();
     let reference = run(&whole, x0.clone(), 0.005, 40);
     let without = run(&plain, x0.clone(), 0.005, 40);
-    let order: Vec<usize> = (0..2 * half.len())
-        .map(|k| {
-            let (p, k) = (k / half.len(), k % half.len());
-            let (i, j) = half.coords(k);
-            grid.index(6 * p + i, j)
-        })
-        .collect();
-    let start: Vec<Vec3> = sewn.from_panel_nodes(&order.iter().map(|&k| x0[k]).collect::<Vec<_>>());
-    let state = run(&sewn, start, 0.005, 40);
-    let apart = (0..2 * half.len())
-        .map(|k| {
-            let (p, l) = (k / half.len(), k % half.len());
-            (state.x[sewn.panels[p].global(l)] - reference.x[order[k]]).length()
-        })
-        .fold(0.0, f64::max);
+    let apart = sewn_apart_from_whole(&sewn, (grid, half), &x0, &reference);
     let acts = largest_difference(&reference.x, &without.x);
     eprintln!("sewn vs whole {apart:e} m; with vs without hysteresis {acts:e} m");
     assert!(acts > 1e-5, "the hysteresis should act (with and without: {acts} m apart)");
