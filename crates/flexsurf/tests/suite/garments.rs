@@ -177,7 +177,7 @@ fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
         .options(l.options)
         .panel(r.grid, r.flat.clone(), r.options);
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).map(|p| curved(*p)).collect();
-    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     assert_eq!(sewn.report.steps, 0);
     assert!(sewn.report.largest_gap() < 1e-15, "gap {}", sewn.report.largest_gap());
@@ -392,7 +392,7 @@ fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
         .panel(r.grid, r.flat.clone(), r.options);
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
     assert!((x0[l.grid.index(6, 0)] - x0[91 + r.grid.index(0, 0)]).length() > 0.039);
-    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4 };
+    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4, closing: None };
     let sewn = sew(&builder, &built.seams, x0.clone(), &[], &params).unwrap();
     let centre = |x: &[Vec3]| x.iter().copied().sum::<Vec3>() / x.len() as f64;
     // Equal masses per panel node on both panels: the open model's centre of mass is the mean position; the
@@ -626,7 +626,7 @@ fn panels_of_two_fabrics_weigh_their_own_and_stretch_in_series() {
         builder.loads[l.grid.len() + r.grid.index(r.grid.m - 1, j)] = Vec3::new(force * share, 0.0, 0.0);
     }
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
-    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     let model = &sewn.model;
     let weight: f64 = model.mass.iter().sum();

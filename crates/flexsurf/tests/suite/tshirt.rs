@@ -337,3 +337,47 @@ fn the_draped_tshirt_is_outside_the_body() {
     let (closest, at) = closest_to_body(&scene, &state.x);
     assert!(closest > 0.0, "a node is {closest} m inside the body at {at:?}");
 }
+
+/// EXPLORATION (temporary): sewing frames of the scene named by `FLEXSURF_SCENE`.
+#[test]
+#[ignore = "exploration"]
+fn explore_sewing_frames() {
+    let path = std::path::PathBuf::from(std::env::var("FLEXSURF_SCENE").unwrap());
+    let spec = flexsurf::scene::SceneSpec::load(&path).unwrap();
+    let mut frame = 0;
+    let mut worst: f64 = f64::INFINITY;
+    let mut observe = |model: &Model, x: &[Vec3]| {
+        let body = &model.obstacles()[0];
+        let (d, at) = x
+            .iter()
+            .filter_map(|p| body.distance_hinted(*p, &mut None, 0.1).map(|(d, _)| (d, *p)))
+            .fold((f64::INFINITY, Vec3::ZERO), |a, b| if b.0 < a.0 { b } else { a });
+        worst = worst.min(d);
+        let sc = model.potential.find::<flexsurf::potential::self_contact::SelfContact>();
+        let crossing = match sc {
+            Some(sc) => {
+                let f = sc.faces();
+                flexsurf::testing::intersecting_triangles_joined(&f.triangles, x, |k| f.representative(k))
+            }
+            None => intersecting_triangles(&model.faces().triangles, x),
+        };
+        eprintln!("sew frame {frame}: closest {d:.4} at {at:?}, crossing {crossing:?}");
+        frame += 1;
+    };
+    let t = std::time::Instant::now();
+    let scene = spec.build_observed(&path, &flexsurf::scene::Limits::default(), &mut observe).unwrap();
+    let report = &scene.sewing.as_ref().unwrap().report;
+    eprintln!("sewn: {} steps {:.2} s gap {:.5} worst body {worst:.4} build {:.2} s", report.steps, report.seconds, report.largest_gap(), t.elapsed().as_secs_f64());
+    let mut state = scene.state.clone();
+    let mut stepper = Stepper::new(&scene.model, &scene.step_params()).unwrap();
+    let steps: usize = std::env::var("DRAPE").map_or(30, |s| s.parse().unwrap());
+    let t = std::time::Instant::now();
+    for s in 0..steps {
+        stepper.step(&scene.model, &mut state).unwrap();
+        if s % 10 == 9 || s + 1 == steps {
+            let (closest, at) = closest_to_body(&scene, &state.x);
+            let crossing = intersecting_triangles(&scene.model.faces().triangles, &state.x);
+            eprintln!("drape {}: closest {closest:.4} at {at:?} crossing {crossing:?} t {:.2}", s + 1, t.elapsed().as_secs_f64());
+        }
+    }
+}
