@@ -285,10 +285,12 @@ impl SceneSpec {
             return Err(v.bad("pin", "a pin's `motion` is not supported in a [pattern] scene (yet)".into()));
         }
         let built = &pattern.built;
-        let sewn = sew_observed(&model, &built.seams, initial, &pattern.holds, &pattern.sewing, observe).map_err(|e| match e {
-            SewError::Model(e) => v.bad(e.field, e.message),
-            SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
-        })?;
+        let sewn = sew_observed(&model, &built.seams, initial, &pattern.holds, &pattern.sewing, observe).map_err(
+            |e| match e {
+                SewError::Model(e) => v.bad(e.field, e.message),
+                SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
+            },
+        )?;
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }

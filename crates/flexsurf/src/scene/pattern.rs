@@ -443,7 +443,9 @@ impl PatternUse {
             format!("{}: must be a positive length", self.sewing_gap)
         })?;
         if let Some(c) = self.sewing_closing {
-            v.require("pattern.sewing_closing", c > 0.0 && c.is_finite(), || format!("{c}: must be a positive length"))?;
+            v.require("pattern.sewing_closing", c > 0.0 && c.is_finite(), || {
+                format!("{c}: must be a positive length")
+            })?;
         }
         let sewing = SewingParams {
             stiffness: self.sewing_stiffness,

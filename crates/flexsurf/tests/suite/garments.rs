@@ -11,10 +11,10 @@ use flexsurf::integrate::{StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind};
-use flexsurf::scene::PatternSpec;
-use flexsurf::state::State;
 use flexsurf::potential::self_contact::SelfContactParams;
 use flexsurf::potential::sewing::Sewing;
+use flexsurf::scene::PatternSpec;
+use flexsurf::state::State;
 use flexsurf::testing::{intersecting_triangles_joined, repo};
 use std::path::Path;
 
