@@ -399,11 +399,11 @@ fn the_draped_tshirt_is_outside_the_body() {
     assert!(depth > 0.0, "after {DRAPE_STEPS} steps of drape a node is {depth} m inside the body at {at:?}");
 }
 
-/// No node is inside the body on any step of the drape either. Fails today on the first two steps: joining the
-/// seams adds their bending (flat at rest across each seam, which the sewing phase does not have), and under
-/// the left arm, where sleeve and body meet at a sharp angle, that kick takes a node 1.35 cm inside the torso
-/// in the first step (−2.1 mm in the second; outside from the third on) before the penalty contact
-/// (1e5 N/m³) pushes it back. Run with `--ignored`.
+/// No node is inside the body on any step of the drape either. Fails today on the first two steps after joining:
+/// under the left arm, where sleeve and body meet at a sharp angle, a node goes 1.35 cm inside the torso in the
+/// first step (−2.1 mm in the second; outside from the third on) before the penalty contact (1e5 N/m³) pushes
+/// it back; not the sewing springs' residual pull nor the seams' bending (measured, docs/garments.md). Run
+/// with `--ignored`.
 #[test]
 #[ignore = "the first drape step after joining takes an armpit node 1.35 cm inside (docs/garments.md, T-shirt)"]
 fn no_drape_step_of_the_tshirt_is_inside_the_body() {
