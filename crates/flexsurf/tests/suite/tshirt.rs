@@ -402,8 +402,8 @@ fn the_draped_tshirt_is_outside_the_body() {
 /// No node is inside the body on any step of the drape either. Fails today on the first two steps after joining:
 /// under the left arm, where sleeve and body meet at a sharp angle, a node goes 1.35 cm inside the torso in the
 /// first step (−2.1 mm in the second; outside from the third on) before the penalty contact (1e5 N/m³) pushes
-/// it back; not the sewing springs' residual pull nor the seams' bending (measured, docs/garments.md). Run
-/// with `--ignored`.
+/// it back; not the sewing springs' residual pull, the seams' bending nor gravity (measured, docs/garments.md).
+/// Run with `--ignored`.
 #[test]
 #[ignore = "the first drape step after joining takes an armpit node 1.35 cm inside (docs/garments.md, T-shirt)"]
 fn no_drape_step_of_the_tshirt_is_inside_the_body() {
