@@ -121,6 +121,9 @@ pub struct ModelBuilder {
     pub seams: Vec<Seam>,
     /// Contact of the sheet with itself and between panels (`None`: off).
     pub self_contact: Option<SelfContactParams>,
+    /// Panel-node pairs that self-contact takes as one node (a sewing phase's pairs, about to be joined:
+    /// [`Faces::with_joined`]); empty outside sewing.
+    pub self_contact_joined: Vec<(usize, usize)>,
     /// Obstacle contact also at points of the faces between the nodes ([`crate::potential::face_samples`]).
     pub contact_faces: bool,
     /// Nonlinear laws of the fabric (`None`: linear). The stiffness must carry their quadratic parts
@@ -154,6 +157,7 @@ impl ModelBuilder {
             extra_terms: Vec::new(),
             seams: Vec::new(),
             self_contact: None,
+            self_contact_joined: Vec::new(),
             contact_faces: false,
             laws: None,
         }
@@ -338,7 +342,11 @@ impl ModelBuilder {
             }));
         }
         if let Some(params) = self.self_contact {
-            terms.push(Box::new(SelfContact::new(faces(&panels, n), params, area.clone())));
+            let joined: Vec<(usize, usize)> = (self.self_contact_joined.iter())
+                .filter(|&&(a, b)| a < all.len() && b < all.len())
+                .map(|&(a, b)| (node(a), node(b)))
+                .collect();
+            terms.push(Box::new(SelfContact::new(faces(&panels, n).with_joined(&joined), params, area.clone())));
         }
         terms.extend(self.extra_terms);
         let mut pinned = vec![false; n];

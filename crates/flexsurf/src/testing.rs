@@ -278,6 +278,17 @@ pub fn scratch(suite: &str, tag: &str) -> std::path::PathBuf {
 /// meets the other; touching and degenerate configurations count as intersecting. Candidate pairs come from
 /// sweeping the triangles' boxes along `x`.
 pub fn intersecting_triangles(triangles: &[[usize; 3]], x: &[Vec3]) -> Option<(usize, usize)> {
+    intersecting_triangles_joined(triangles, x, |k| k)
+}
+
+/// [`intersecting_triangles`] where nodes about to be joined count as one: two triangles share a vertex when
+/// `same(k) == same(l)` for a vertex `k` of one and `l` of the other (a sewing phase's pairs, whose triangles
+/// meet along the seam as it closes).
+pub fn intersecting_triangles_joined(
+    triangles: &[[usize; 3]],
+    x: &[Vec3],
+    same: impl Fn(usize) -> usize,
+) -> Option<(usize, usize)> {
     let lo_hi = |t: &[usize; 3]| {
         let p = t.map(|k| x[k]);
         (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]))
@@ -291,7 +302,7 @@ pub fn intersecting_triangles(triangles: &[[usize; 3]], x: &[Vec3]) -> Option<(u
                 break;
             }
             let overlap = boxes[a].0.cmple(boxes[b].1).all() && boxes[b].0.cmple(boxes[a].1).all();
-            let shared = triangles[a].iter().any(|k| triangles[b].contains(k));
+            let shared = triangles[a].iter().any(|&k| triangles[b].iter().any(|&l| same(k) == same(l)));
             if overlap && !shared && triangles_meet(triangles[a].map(|k| x[k]), triangles[b].map(|k| x[k])) {
                 return Some((a.min(b), a.max(b)));
             }

@@ -31,6 +31,9 @@ pub struct Faces {
     pub edges: Vec<[usize; 2]>,
     /// Number of model nodes.
     nodes: usize,
+    /// Each node's representative under the identification of nodes about to be joined (a sewing phase's
+    /// pairs, [`Faces::with_joined`]); empty: every node is its own.
+    joined: Vec<usize>,
 }
 
 /// Two elements of the surface that are close: a node and a triangle, or two edges.
@@ -70,7 +73,7 @@ fn v(p: Vec3) -> Vector {
 impl Faces {
     /// The faces of grids given as their cells' corners (model nodes), over `nodes` model nodes.
     pub fn new(nodes: usize, cells: impl Iterator<Item = [usize; 4]>) -> Self {
-        let mut faces = Faces { triangles: Vec::new(), edges: Vec::new(), nodes };
+        let mut faces = Faces { triangles: Vec::new(), edges: Vec::new(), nodes, joined: Vec::new() };
         for c in cells {
             faces.triangles.push([c[0], c[1], c[3]]);
             faces.triangles.push([c[0], c[3], c[2]]);
@@ -88,12 +91,43 @@ impl Faces {
         self.nodes
     }
 
-    /// True for a pair of elements that share a node (never a contact).
+    /// The same faces with the nodes of each pair of `pairs` taken as one node (and so, transitively, every
+    /// chain of pairs): elements that would share a node once the pairs are joined are neighbours and never a
+    /// contact. A sewing phase's self-contact uses it, so the pairs being pulled together and the faces around
+    /// them are not held apart, while every other element pair is. Pairs naming a node out of range are skipped.
+    pub fn with_joined(mut self, pairs: &[(usize, usize)]) -> Self {
+        let mut rep: Vec<usize> = (0..self.nodes).collect();
+        fn root(rep: &mut [usize], mut k: usize) -> usize {
+            while rep[k] != k {
+                rep[k] = rep[rep[k]];
+                k = rep[k];
+            }
+            k
+        }
+        for &(a, b) in pairs.iter().filter(|&&(a, b)| a < self.nodes && b < self.nodes) {
+            let (ra, rb) = (root(&mut rep, a), root(&mut rep, b));
+            rep[ra.max(rb)] = ra.min(rb);
+        }
+        for k in 0..self.nodes {
+            rep[k] = root(&mut rep, k);
+        }
+        self.joined = rep;
+        self
+    }
+
+    /// Node `k`'s representative: the smallest node it is joined with ([`Faces::with_joined`]), else `k`.
+    pub fn representative(&self, k: usize) -> usize {
+        self.joined.get(k).copied().unwrap_or(k)
+    }
+
+    /// True for a pair of elements that share a node, or would once the joined pairs are joined (never a
+    /// contact).
     pub fn excluded(&self, pair: Pair) -> bool {
+        let r = |k: usize| self.representative(k);
         match pair {
-            Pair::PointFace(p, t) => self.triangles[t].contains(&p),
+            Pair::PointFace(p, t) => self.triangles[t].iter().any(|&k| r(k) == r(p)),
             Pair::EdgeEdge(e, f) => {
-                let ([a, b], [c, d]) = (self.edges[e], self.edges[f]);
+                let ([a, b], [c, d]) = (self.edges[e].map(r), self.edges[f].map(r));
                 a == c || a == d || b == c || b == d
             }
         }
@@ -239,7 +273,8 @@ impl Faces {
         let size = tris.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(f64::MIN_POSITIVE, f64::max);
         overlaps(&edges, &tris, size, false).into_iter().find(|&(e, t)| {
             let ([a, b], tri) = (self.edges[e], self.triangles[t]);
-            if tri.contains(&a) || tri.contains(&b) {
+            let r = |k: usize| self.representative(k);
+            if tri.iter().any(|&k| r(k) == r(a) || r(k) == r(b)) {
                 return false;
             }
             segment_crosses(x[a], x[b], tri.map(|k| x[k]))

@@ -3,8 +3,12 @@
 //! the seams joined ([`crate::model::ModelBuilder::seams`]) and the sewn positions mapped onto its nodes (a
 //! joined node at the midpoint of its panel nodes). Gravity is off while sewing, so the garment closes where it
 //! was placed; holds (a waistband) are springs added after sewing that keep their nodes where sewing left them.
-//! Self-contact is off while sewing (it would hold apart the pairs being sewn, which are not yet neighbours),
-//! so panels may pass through each other during the phase; the joined model has it when the builder asks.
+//! With a gradual closing ([`SewingParams::closing`]) each pair's spring has a rest length that shrinks from
+//! its placed gap to 0 over the phase, so no node moves more than about half the closing per step, and the
+//! builder's self-contact and body contact stay on: self-contact takes the two nodes of each pair as one node
+//! ([`crate::contact::proximity::Faces::with_joined`]), so only the elements that the joining makes
+//! neighbours are left out. Without it the springs are zero-length from the start, the seams close in a few
+//! large steps, and self-contact is off while sewing (panels may pass through each other).
 
 use crate::integrate::{StepError, StepParams, Stepper};
 use crate::math::Vec3;
@@ -24,6 +28,10 @@ pub struct SewingParams {
     pub steps: usize,
     /// The phase ends once every pair is closer than this (m).
     pub gap: f64,
+    /// How much the widest pair's rest length shrinks per step (m): the seams close gradually, every pair's rest
+    /// length from its placed gap to 0 over the same steps, with self-contact on (the pairs about to be joined
+    /// excluded). `None`: zero-length springs from the first step, self-contact off while sewing.
+    pub closing: Option<f64>,
 }
 
 /// What the sewing phase did.
@@ -98,25 +106,67 @@ pub fn sew(
     holds: &[(usize, f64)],
     params: &SewingParams,
 ) -> Result<Sewn, SewError> {
-    let clock = Instant::now();
-    let pairs = seam_pairs(builder, seams);
+    sew_observed(builder, seams, x, holds, params, &mut |_, _| {})
+}
+
+/// The open model of the sewing phase: gravity off, the sewing springs added; with a gradual closing the
+/// builder's self-contact with the pairs about to be joined taken as one node, else no self-contact.
+fn open_model(
+    builder: &ModelBuilder,
+    pairs: Vec<(usize, usize)>,
+    x: &[Vec3],
+    params: &SewingParams,
+) -> Result<Model, ModelError> {
     let mut open = builder.clone();
     open.gravity = Vec3::ZERO;
-    // Self-contact would push apart the very pairs the sewing pulls together (they are no grid neighbours
-    // until joined): it is off while sewing and on again for the joined model.
-    open.self_contact = None;
-    open.extra_terms.push(Box::new(Sewing::new(pairs.concat(), params.stiffness)));
-    let open = open.build()?;
+    let sewing = match params.closing {
+        Some(_) => {
+            open.self_contact_joined = pairs.clone();
+            Sewing::closing(pairs, params.stiffness, x)
+        }
+        None => {
+            // Zero-length springs close the seams in a few steps; self-contact would hold the pairs apart.
+            open.self_contact = None;
+            Sewing::new(pairs, params.stiffness)
+        }
+    };
+    open.extra_terms.push(Box::new(sewing));
+    open.build()
+}
+
+/// [`sew`], calling `observe` with the open model and its positions at the phase's start and after each step.
+pub fn sew_observed(
+    builder: &ModelBuilder,
+    seams: &[Seam],
+    x: Vec<Vec3>,
+    holds: &[(usize, f64)],
+    params: &SewingParams,
+    observe: &mut dyn FnMut(&Model, &[Vec3]),
+) -> Result<Sewn, SewError> {
+    let clock = Instant::now();
+    let pairs = seam_pairs(builder, seams);
+    let mut open = open_model(builder, pairs.concat(), &x, params)?;
+    // Steps over which the rest lengths shrink to 0: the widest pair closes by at most `closing` per step.
+    let widest = open.potential.find::<Sewing>().map_or(0.0, Sewing::largest_rest);
+    let ramp = match params.closing {
+        Some(c) if c > 0.0 && widest > 0.0 => (widest / c).ceil().max(1.0),
+        _ => 1.0,
+    };
     let gap = |x: &[Vec3]| -> Vec<f64> {
         pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect()
     };
     let v = vec![Vec3::ZERO; x.len()];
     let mut state = crate::integrate::start(&open, x, v, params.dt)?;
     let mut stepper = Stepper::new(&open, &StepParams::with_dt(params.dt))?;
+    observe(&open, &state.x);
     let mut steps = 0;
     while steps < params.steps && gap(&state.x).iter().any(|&g| g >= params.gap) {
+        if let Some(sewing) = open.potential.find_mut::<Sewing>() {
+            sewing.set_fraction(1.0 - (steps + 1) as f64 / ramp);
+        }
         stepper.step(&open, &mut state)?;
         steps += 1;
+        observe(&open, &state.x);
     }
     let gaps = gap(&state.x);
     let mut sewn = builder.clone();

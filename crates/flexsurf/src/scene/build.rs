@@ -13,7 +13,7 @@ use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
 use super::values::{Body, Checked, Parts, SpringSet};
 use super::SceneError;
-use crate::garment::sewing::{sew, SewError, SewReport};
+use crate::garment::sewing::{sew_observed, SewError, SewReport};
 use crate::integrate::{linsolve::SolverKind, Method, StepParams};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
@@ -129,11 +129,22 @@ impl SceneSpec {
 
     /// As [`SceneSpec::build`], with the resource `limits` (`--max-memory`) checked before anything is built.
     pub fn build_with(&self, scene_path: &Path, limits: &Limits) -> Result<Scene, SceneError> {
+        self.build_observed(scene_path, limits, &mut |_, _| {})
+    }
+
+    /// As [`SceneSpec::build_with`], calling `observe` with the open model and its positions at the start of a
+    /// `[pattern]` scene's sewing phase and after each of its steps (never for other scenes).
+    pub fn build_observed(
+        &self,
+        scene_path: &Path,
+        limits: &Limits,
+        observe: &mut dyn FnMut(&crate::model::Model, &[crate::math::Vec3]),
+    ) -> Result<Scene, SceneError> {
         let file = scene_path;
         let warnings = Warnings::default();
         let v = Validator::new(file, &warnings);
         let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
-        let (model, initial, garment, motions, sewing) = self.assemble(&v, parts)?;
+        let (model, initial, garment, motions, sewing) = self.assemble(&v, parts, observe)?;
         let integrator = self.integrator;
         let state = match integrator.kind.method(dt, integrator.solver) {
             Method::Static(_) => State::at_rest(initial),
@@ -204,7 +215,12 @@ impl SceneSpec {
     /// The model and its initial positions from checked parts: the one place a scene constructs a [`Model`]
     /// (the garment's waist springs first, then obstacles, contact, pins and the `[[spring]]` tables; a
     /// pattern's garment is sewn last).
-    fn assemble(&self, v: &Validator<'_>, parts: Parts<'_>) -> Result<Assembled, SceneError> {
+    fn assemble(
+        &self,
+        v: &Validator<'_>,
+        parts: Parts<'_>,
+        observe: &mut dyn FnMut(&crate::model::Model, &[Vec3]),
+    ) -> Result<Assembled, SceneError> {
         let Parts {
             body,
             fabric,
@@ -269,10 +285,12 @@ impl SceneSpec {
             return Err(v.bad("pin", "a pin's `motion` is not supported in a [pattern] scene (yet)".into()));
         }
         let built = &pattern.built;
-        let sewn = sew(&model, &built.seams, initial, &pattern.holds, &pattern.sewing).map_err(|e| match e {
-            SewError::Model(e) => v.bad(e.field, e.message),
-            SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
-        })?;
+        let sewn = sew_observed(&model, &built.seams, initial, &pattern.holds, &pattern.sewing, observe).map_err(
+            |e| match e {
+                SewError::Model(e) => v.bad(e.field, e.message),
+                SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
+            },
+        )?;
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }

@@ -223,6 +223,11 @@ pub struct PatternUse {
     /// The sewing phase ends once every sewn node pair is closer than this (m), default 0.0005.
     #[serde(default = "default_sewing_gap")]
     pub sewing_gap: f64,
+    /// How much the widest sewn pair's spring rest length shrinks per step (m): the seams close gradually
+    /// (every pair's rest length from its placed gap to 0 over the same steps) with self-contact and contact on.
+    /// None (the default): zero-length springs from the first step, self-contact off while sewing.
+    #[serde(default)]
+    pub sewing_closing: Option<f64>,
 }
 
 fn default_sewing_stiffness() -> f64 {
@@ -493,8 +498,18 @@ impl PatternUse {
         v.require("pattern.sewing_gap", self.sewing_gap > 0.0 && self.sewing_gap.is_finite(), || {
             format!("{}: must be a positive length", self.sewing_gap)
         })?;
-        let sewing =
-            SewingParams { stiffness: self.sewing_stiffness, dt, steps: self.sewing_steps, gap: self.sewing_gap };
+        if let Some(c) = self.sewing_closing {
+            v.require("pattern.sewing_closing", c > 0.0 && c.is_finite(), || {
+                format!("{c}: must be a positive length")
+            })?;
+        }
+        let sewing = SewingParams {
+            stiffness: self.sewing_stiffness,
+            dt,
+            steps: self.sewing_steps,
+            gap: self.sewing_gap,
+            closing: self.sewing_closing,
+        };
         let name = spec
             .name
             .clone()

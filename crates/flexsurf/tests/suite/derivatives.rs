@@ -99,7 +99,13 @@ fn gravity_loads_and_springs_match_finite_differences() {
     exact("springs", n, Box::new(Springs::new(springs)), &x);
     // The sewing phase's zero-length springs, a node in two pairs (a corner on two seams) and one pair reversed.
     let pairs = vec![(0, 11), (3, 8), (8, 5), (10, 1)];
-    exact("sewing", n, Box::new(flexsurf::potential::sewing::Sewing::new(pairs, 100.0)), &x);
+    exact("sewing", n, Box::new(flexsurf::potential::sewing::Sewing::new(pairs.clone(), 100.0)), &x);
+    // Gradual sewing: rest lengths from another configuration, 0.6 of them in force (every pair stretched at x,
+    // so the Hessian is the stretched spring's, exact).
+    let placed: Vec<Vec3> = x.iter().map(|p| *p * 1.3).collect();
+    let mut closing = flexsurf::potential::sewing::Sewing::closing(pairs, 100.0, &placed);
+    closing.set_fraction(0.6);
+    exact("sewing (closing)", n, Box::new(closing), &x);
 }
 
 fn contact_term(obstacle: Obstacle, n: usize, offset: f64) -> PenaltyContact {

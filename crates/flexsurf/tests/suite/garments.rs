@@ -5,15 +5,17 @@
 //! arcs on their circles, and its errors name the key.
 
 use flexsurf::garment::pattern::{BuiltPattern, Pattern, Placement};
-use flexsurf::garment::sewing::{sew, SewingParams};
+use flexsurf::garment::sewing::{sew, sew_observed, SewingParams};
 use flexsurf::grid::Grid;
 use flexsurf::integrate::{StepParams, Stepper};
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind};
+use flexsurf::potential::self_contact::SelfContactParams;
+use flexsurf::potential::sewing::Sewing;
 use flexsurf::scene::PatternSpec;
 use flexsurf::state::State;
-use flexsurf::testing::repo;
+use flexsurf::testing::{intersecting_triangles_joined, repo};
 use std::path::Path;
 
 const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
@@ -177,7 +179,7 @@ fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
         .options(l.options)
         .panel(r.grid, r.flat.clone(), r.options);
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).map(|p| curved(*p)).collect();
-    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     assert_eq!(sewn.report.steps, 0);
     assert!(sewn.report.largest_gap() < 1e-15, "gap {}", sewn.report.largest_gap());
@@ -392,7 +394,7 @@ fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
         .panel(r.grid, r.flat.clone(), r.options);
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
     assert!((x0[l.grid.index(6, 0)] - x0[91 + r.grid.index(0, 0)]).length() > 0.039);
-    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4 };
+    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4, closing: None };
     let sewn = sew(&builder, &built.seams, x0.clone(), &[], &params).unwrap();
     let centre = |x: &[Vec3]| x.iter().copied().sum::<Vec3>() / x.len() as f64;
     // Equal masses per panel node on both panels: the open model's centre of mass is the mean position; the
@@ -406,6 +408,67 @@ fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
     );
     assert!(sewn.report.largest_gap() < 5e-4 && sewn.report.steps < 200, "{:?}", sewn.report);
     assert!(drift < 1e-12, "the centre moved {drift} m");
+    assert_eq!(sewn.model.nodes(), 169);
+}
+
+/// The nodes of the open model taken as one where a sewing pair joins them: each node's smallest partner
+/// through the pairs (a union–find of the test's own, from the sewing term's pairs).
+pub fn identified(n: usize, pairs: &[(usize, usize)]) -> Vec<usize> {
+    let mut rep: Vec<usize> = (0..n).collect();
+    fn root(rep: &[usize], mut k: usize) -> usize {
+        while rep[k] != k {
+            k = rep[k];
+        }
+        k
+    }
+    for &(a, b) in pairs {
+        let (ra, rb) = (root(&rep, a), root(&rep, b));
+        rep[ra.max(rb)] = ra.min(rb);
+    }
+    (0..n).map(|k| root(&rep, k)).collect()
+}
+
+/// Gradual sewing with self-contact on: two 0.3 × 0.6 m rectangles placed flat 4 cm apart, closing 5 mm per
+/// step. The rest lengths reach 0 after ⌈0.04 / 0.005⌉ = 8 steps, so the gap cannot fall below 0.5 mm sooner;
+/// no node moves more than the closing in a step (the old zero-length springs moved them 2 cm in the first);
+/// on every frame no two triangles intersect (the independent checker, a pair's two nodes counting as one);
+/// the joined model is the square's 169 nodes.
+#[test]
+fn gradual_sewing_closes_a_gap_no_faster_than_its_rest_lengths_shrink() {
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    let built = build(&text);
+    let (fabric, stiffness) = cotton();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let mut builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    builder.self_contact = Some(SelfContactParams::frictionless(2e4, 0.004));
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4, closing: Some(0.005) };
+    let (mut last, mut moved, mut frames): (Vec<Vec3>, f64, usize) = (x0.clone(), 0.0, 0);
+    let mut observe = |model: &Model, x: &[Vec3]| {
+        let sewing = model.potential.find::<Sewing>().unwrap();
+        let same = identified(x.len(), sewing.node_pairs());
+        let crossing = intersecting_triangles_joined(&model.faces().triangles, x, |k| same[k]);
+        assert!(crossing.is_none(), "frame {frames}: triangles {crossing:?} intersect");
+        moved = last.iter().zip(x).map(|(a, b)| (*a - *b).length()).fold(moved, f64::max);
+        last = x.to_vec();
+        frames += 1;
+    };
+    let sewn = sew_observed(&builder, &built.seams, x0, &[], &params, &mut observe).unwrap();
+    eprintln!(
+        "gradual sewing of a 4 cm gap: {} steps, gap {:e} m, largest node move in a step {moved:e} m",
+        sewn.report.steps,
+        sewn.report.largest_gap()
+    );
+    assert!(sewn.report.largest_gap() < 5e-4 && sewn.report.steps >= 8, "{:?}", sewn.report);
+    assert!(moved <= 0.005, "a node moved {moved} m in one step");
+    assert_eq!(frames, sewn.report.steps + 1);
     assert_eq!(sewn.model.nodes(), 169);
 }
 
@@ -724,7 +787,7 @@ fn panels_of_two_fabrics_weigh_their_own_and_stretch_in_series() {
         builder.loads[l.grid.len() + r.grid.index(r.grid.m - 1, j)] = Vec3::new(force * share, 0.0, 0.0);
     }
     let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
-    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9 };
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     let model = &sewn.model;
     let weight: f64 = model.mass.iter().sum();

@@ -10,7 +10,7 @@ use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind};
 use flexsurf::scene::PatternSpec;
-use flexsurf::testing::{cotton, intersecting_triangles, repo};
+use flexsurf::testing::{cotton, intersecting_triangles, intersecting_triangles_joined, repo};
 use std::path::Path;
 
 fn parse(text: &str) -> PatternSpec {
@@ -281,59 +281,132 @@ fn render_upper(body: &NurbsBody) {
 // The shipped T-shirt
 // ---------------------------------------------------------------------------------------------------------------
 
-/// The shipped T-shirt (`scenes/tshirt.toml`, `garments/tshirt.toml`: a 3 cm grid, 1108 nodes), sewn on the
-/// upper-body mannequin, and its state after `steps` steps of drape.
-fn shipped_tshirt(steps: usize) -> (flexsurf::scene::Scene, flexsurf::state::State) {
-    let scene = flexsurf::scene::load(&repo().join("scenes/tshirt.toml")).unwrap();
-    let mut state = scene.state.clone();
-    let mut stepper = Stepper::new(&scene.model, &scene.step_params()).unwrap();
-    for _ in 0..steps {
-        stepper.step(&scene.model, &mut state).unwrap();
-    }
-    (scene, state)
-}
-
-/// The smallest signed distance of the nodes `x` from the scene's body, and where.
-fn closest_to_body(scene: &flexsurf::scene::Scene, x: &[Vec3]) -> (f64, Vec3) {
-    let body = &scene.model.obstacles()[0];
+/// The smallest signed distance of the nodes `x` from `body`, and where.
+fn closest_to(body: &flexsurf::contact::Obstacle, x: &[Vec3]) -> (f64, Vec3) {
     x.iter()
         .filter_map(|p| body.distance_hinted(*p, &mut None, 0.1).map(|(d, _)| (d, *p)))
         .fold((f64::INFINITY, Vec3::ZERO), |a, b| if b.0 < a.0 { b } else { a })
 }
 
-/// The T-shirt sews closed: every sewn node pair within 1 mm after the sewing phase (the ten seams: two side,
-/// two shoulder, two underarm and four armhole seams, joined into one model of the panels' nodes less the sewn
-/// ones); after 0.3 s of drape no two triangles intersect (the independent checker).
-#[test]
-fn the_tshirt_sews_closed_on_the_upper_mannequin() {
-    let (scene, state) = shipped_tshirt(30);
-    let report = &scene.sewing.as_ref().unwrap().report;
-    let model = &scene.model;
-    let (closest, at) = closest_to_body(&scene, &scene.state.x);
-    eprintln!(
-        "T-shirt (3 cm grid): {} nodes, sewn in {} steps ({:.2} s), gaps {:?} m, closest to the body {closest:.4} m \
-         at {at:?}",
-        model.nodes(),
-        report.steps,
-        report.seconds,
-        report.gaps
-    );
-    assert_eq!(model.seams.len(), 10);
-    assert!(report.largest_gap() < 1e-3, "gaps {:?}", report.gaps);
-    let crossing = intersecting_triangles(&model.faces().triangles, &state.x);
-    assert!(crossing.is_none(), "after 0.3 s of drape triangles {crossing:?} intersect");
-    let (closest, at) = closest_to_body(&scene, &state.x);
-    eprintln!("after 0.3 s of drape: closest to the body {closest:.4} m at {at:?}");
+/// Steps of drape the shipped T-shirt's tests follow (0.3 s).
+const DRAPE_STEPS: usize = 30;
+
+/// What the shipped T-shirt's run measured, frame by frame.
+struct ShirtRun {
+    nodes: usize,
+    seams: usize,
+    report: flexsurf::garment::sewing::SewReport,
+    /// Frames of the sewing phase seen (its start and each step).
+    sewing_frames: usize,
+    /// The first intersecting triangle pair on a sewing frame, and the frame.
+    sewing_crossing: Option<(usize, (usize, usize))>,
+    /// The first intersecting triangle pair on a drape step, and the step.
+    drape_crossing: Option<(usize, (usize, usize))>,
+    /// The deepest node below the body's surface (smallest signed distance, m) over every sewing frame, where,
+    /// and on which frame.
+    deepest_sewing: (f64, Vec3, usize),
+    /// The same over every drape step, and the step.
+    deepest_drape: (f64, Vec3, usize),
+    /// The smallest signed distance after the last drape step, and where.
+    draped: (f64, Vec3),
 }
 
-/// No node of the draped T-shirt is inside the body. Fails today: where the sleeve's underarm meets the body
-/// panels, under the arm's crease with the torso, the seams' tension holds a few nodes 1.5–2.2 cm inside the
-/// torso (after sewing 2.2 cm at (0.142, 0.020, 1.270); after 1 s of drape still 1.5 cm at (0.135, −0.045,
-/// 1.249)), more than the penalty contact (1e4 N/m³) pushes back. Run with `--ignored`.
+/// The shipped T-shirt (`scenes/tshirt.toml`, `garments/tshirt.toml`: a 3 cm grid, 1138 nodes), sewn on the
+/// upper-body mannequin with every sewing frame checked, then [`DRAPE_STEPS`] steps of drape with every step
+/// checked: by the independent triangle–triangle checker (on a sewing frame a sewing pair's two nodes count as
+/// one, from the test's own identification of the pairs) and by the body's signed distance. Run once and
+/// shared by the tests (it takes most of their time).
+fn shirt_run() -> &'static ShirtRun {
+    static RUN: std::sync::OnceLock<ShirtRun> = std::sync::OnceLock::new();
+    RUN.get_or_init(|| {
+        let path = repo().join("scenes/tshirt.toml");
+        let spec = flexsurf::scene::SceneSpec::load(&path).unwrap();
+        let (mut frames, mut sewing_crossing) = (0, None);
+        let mut deepest_sewing = (f64::INFINITY, Vec3::ZERO, 0);
+        let mut observe = |model: &Model, x: &[Vec3]| {
+            let sewing = model.potential.find::<flexsurf::potential::sewing::Sewing>().unwrap();
+            let same = crate::garments::identified(x.len(), sewing.node_pairs());
+            let crossing = intersecting_triangles_joined(&model.faces().triangles, x, |k| same[k]);
+            sewing_crossing = sewing_crossing.or(crossing.map(|c| (frames, c)));
+            let (d, at) = closest_to(&model.obstacles()[0], x);
+            if d < deepest_sewing.0 {
+                deepest_sewing = (d, at, frames);
+            }
+            frames += 1;
+        };
+        let scene = spec.build_observed(&path, &flexsurf::scene::Limits::default(), &mut observe).unwrap();
+        let model = &scene.model;
+        let mut state = scene.state.clone();
+        let mut stepper = Stepper::new(model, &scene.step_params()).unwrap();
+        let (mut drape_crossing, mut deepest_drape) = (None, (f64::INFINITY, Vec3::ZERO, 0));
+        for step in 1..=DRAPE_STEPS {
+            stepper.step(model, &mut state).unwrap();
+            let crossing = intersecting_triangles(&model.faces().triangles, &state.x);
+            drape_crossing = drape_crossing.or(crossing.map(|c| (step, c)));
+            let (d, at) = closest_to(&model.obstacles()[0], &state.x);
+            if d < deepest_drape.0 {
+                deepest_drape = (d, at, step);
+            }
+        }
+        let report = scene.sewing.as_ref().unwrap().report.clone();
+        let draped = closest_to(&model.obstacles()[0], &state.x);
+        eprintln!(
+            "T-shirt (3 cm grid): {} nodes, sewn in {} steps ({:.2} s), gaps {:?} m; closest to the body while \
+             sewing {deepest_sewing:?}, while draping {deepest_drape:?}, after {DRAPE_STEPS} steps {draped:?}",
+            model.nodes(),
+            report.steps,
+            report.seconds,
+            report.gaps,
+        );
+        ShirtRun {
+            nodes: model.nodes(),
+            seams: model.seams.len(),
+            report,
+            sewing_frames: frames,
+            sewing_crossing,
+            drape_crossing,
+            deepest_sewing,
+            deepest_drape,
+            draped,
+        }
+    })
+}
+
+/// The T-shirt sews closed with body contact and self-contact on (the seams closed gradually, `sewing_closing`):
+/// every sewn pair within 1 mm at the end (the ten seams: two side, two shoulder, two underarm and four armhole
+/// seams, joined into one model of the panels' nodes less the sewn ones); on every frame of the sewing phase and
+/// every step of 0.3 s of drape no two triangles intersect (the independent checker).
 #[test]
-#[ignore = "the armpit crease holds nodes 1.5 cm inside the torso (docs/garments.md, T-shirt)"]
+fn the_tshirt_sews_closed_on_the_upper_mannequin() {
+    let run = shirt_run();
+    assert_eq!(run.seams, 10);
+    assert_eq!(run.nodes, 1138);
+    assert_eq!(run.sewing_frames, run.report.steps + 1);
+    assert!(run.report.largest_gap() < 1e-3, "gaps {:?}", run.report.gaps);
+    assert!(run.sewing_crossing.is_none(), "sewing frame, triangles: {:?} intersect", run.sewing_crossing);
+    assert!(run.drape_crossing.is_none(), "drape step, triangles: {:?} intersect", run.drape_crossing);
+}
+
+/// No node of the T-shirt is inside the body on any frame of the sewing phase, nor after 0.3 s of drape (the
+/// body's own signed distance, of every node; measured: at least 0.7 mm outside at the end of sewing and
+/// 1.0 mm after the drape).
+#[test]
 fn the_draped_tshirt_is_outside_the_body() {
-    let (scene, state) = shipped_tshirt(30);
-    let (closest, at) = closest_to_body(&scene, &state.x);
-    assert!(closest > 0.0, "a node is {closest} m inside the body at {at:?}");
+    let run = shirt_run();
+    let (depth, at, frame) = run.deepest_sewing;
+    assert!(depth > 0.0, "sewing frame {frame}: a node is {depth} m inside the body at {at:?}");
+    let (depth, at) = run.draped;
+    assert!(depth > 0.0, "after {DRAPE_STEPS} steps of drape a node is {depth} m inside the body at {at:?}");
+}
+
+/// No node is inside the body on any step of the drape either. Fails today on the first two steps after joining:
+/// under the left arm, where sleeve and body meet at a sharp angle, a node goes 1.35 cm inside the torso in the
+/// first step (−2.1 mm in the second; outside from the third on) before the penalty contact (1e5 N/m³) pushes
+/// it back; not the sewing springs' residual pull, the seams' bending nor gravity (measured, docs/garments.md).
+/// Run with `--ignored`.
+#[test]
+#[ignore = "the first drape step after joining takes an armpit node 1.35 cm inside (docs/garments.md, T-shirt)"]
+fn no_drape_step_of_the_tshirt_is_inside_the_body() {
+    let (depth, at, step) = shirt_run().deepest_drape;
+    assert!(depth > 0.0, "drape step {step}: a node is {depth} m inside the body at {at:?}");
 }
