@@ -78,6 +78,20 @@ fn print_report(p: &FitProblem, r: &FitReport, file: &Path) {
             c.measured, c.model
         );
     }
+    if let Some(a) = &r.alignment {
+        let se: Vec<String> = a.standard_errors.iter().map(|e| format!("{e:.1e}")).collect();
+        println!(
+            "scan placed in the meter's frame (from {:?}): axis tilted {:.3}° in the scan, offset ({:.4}, {:.4}, {:.4}) m; \
+             turns and shifts {:.2e} rad / m from the seed, standard errors {}",
+            a.seed,
+            a.tilt_degrees,
+            a.offset[0],
+            a.offset[1],
+            a.offset[2],
+            a.parameters.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+            se.join(", ")
+        );
+    }
     let sv: Vec<String> = r.singular_values.iter().map(|s| format!("{s:.3e}")).collect();
     println!(
         "χ² = {:.4e} with {} degrees of freedom; singular values {}",

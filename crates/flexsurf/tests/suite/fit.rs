@@ -167,13 +167,14 @@ fn problem_of(truth: &Fabric, quantities: &[Quantity], noise: [f64; 4], rel_sigm
         instrument: small(),
         max_iterations: 30,
         scan: Vec::new(),
+        align: flexsurf::lab::fit::Align::None,
         cusick_nodes: None,
     }
 }
 
 /// Fits `p` and checks every constant against `truth` to `tol` (relative) and, with `cover`, the truth within
-/// three standard errors.
-fn check_fit(p: &FitProblem, truth: &Fabric, tol: f64, cover: bool, what: &str) {
+/// three standard errors; the report.
+fn check_fit(p: &FitProblem, truth: &Fabric, tol: f64, cover: bool, what: &str) -> flexsurf::lab::fit::FitReport {
     let r = fit(p).unwrap();
     eprintln!("{what}: {} iterations, {:.2} s, χ² {:.2e}", r.iterations, r.seconds, r.chi_squared);
     assert!(r.converged && r.not_identifiable.is_empty(), "{what}: {r:#?}");
@@ -189,6 +190,7 @@ fn check_fit(p: &FitProblem, truth: &Fabric, tol: f64, cover: bool, what: &str) 
         assert!((c.value / t - 1.0).abs() < tol, "{what}: {}: {} vs {t}", c.name, c.value);
         assert!(!cover || z.abs() < 3.0, "{what}: {}: the truth lies {z:.2} standard errors off", c.name);
     }
+    r
 }
 
 /// Round trips: the constants that made synthetic bending lengths and KES values come back to 0.1 % without
@@ -251,6 +253,7 @@ fn fit_file_errors_name_the_file_and_the_key() {
         (format!("{good}colour = 1\n"), "colour"),
         (format!("{good}[[target]]\nquantity = \"shape\"\nsigma = 0.001\n"), "target[1].file"),
         (format!("{good}[[target]]\nquantity = \"shape\"\nfile = \"none.xyz\"\nsigma = 0.001\n"), "target[1].file"),
+        (good.replace("sigma = 0.02", "sigma = 0.02\nalign = \"rigid\""), "target[0].align"),
     ] {
         let e = problem_from_toml(&text, &file).unwrap_err();
         let m = e.to_string();
@@ -264,6 +267,11 @@ fn fit_file_errors_name_the_file_and_the_key() {
     std::fs::write(dir.join("scan.xyz"), "# a scan\n0.1 0 -0.02\n\n0 0.1 -0.03\n").unwrap();
     let p = problem_from_toml(&shape, &fit_file).unwrap();
     assert_eq!((p.scan.len(), p.targets[1].quantity), (2, Quantity::Shape));
+    assert_eq!(p.align, flexsurf::lab::fit::Align::Rigid, "a scan's placement is fitted unless told otherwise");
+    let given = format!("{shape}align = \"none\"\n");
+    assert_eq!(problem_from_toml(&given, &fit_file).unwrap().align, flexsurf::lab::fit::Align::None);
+    let m = problem_from_toml(&format!("{shape}align = \"sideways\"\n"), &fit_file).unwrap_err().to_string();
+    assert!(m.contains("target[1].align") && m.contains("rigid"), "{m}");
     std::fs::write(dir.join("scan.xyz"), "0.1 0 -0.02\n0 0.1\n").unwrap();
     let m = problem_from_toml(&shape, &fit_file).unwrap_err().to_string();
     assert!(m.contains("target[1].file") && m.contains("scan.xyz:2"), "{m}");
@@ -349,18 +357,31 @@ fn drape_displacements_agree_with_central_differences() {
 }
 
 /// The round trip with a shape: the constants that made synthetic bending lengths, a DC, the weight and
-/// a scanned drape (the drape's free nodes) come back to 0.1 % from the shape's symmetric Chamfer distance and
-/// the rest together.
+/// a scanned drape come back to 0.1 % from the shape's symmetric Chamfer distance and the rest together. The
+/// scan is the truth's drape sampled as a scanner would, denser than the grid (its free nodes and the centroids
+/// of the triangles between them), in a scanner's frame: turned by 27.3° about z, tilted by 3.1° about x and
+/// 1.7° about y, and shifted by (2, −1.5, 4) cm. The fit places it back: the placed scan lies on the truth's
+/// samples (symmetric Chamfer distance, RMS) to 1e-6 m, and the reported tilt is that motion's.
 #[test]
 fn fit_round_trip_with_a_scanned_drape() {
+    use flexsurf::lab::fit::align::chamfer;
     use flexsurf::lab::fit::targets::drape_coefficient;
+    use flexsurf::math::{Mat3, Vec3};
     let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
     let mut warm = Warm::default();
     drape_coefficient(&truth, Calibration::Kes, &[], &small(), &mut warm).unwrap();
     let x = warm.drape.unwrap();
     let s = Stiffness::calibrate(&truth, Calibration::Kes).unwrap();
     let builder = flexsurf::lab::cusick::specimen_builder(&truth, s, small().specimen, small().drape_grid).unwrap();
-    let scan: Vec<_> = x.iter().zip(&builder.pinned).filter(|(_, &p)| !p).map(|(x, _)| *x).collect();
+    let mut nodes: Vec<Vec3> = x.iter().zip(&builder.pinned).filter(|(_, &p)| !p).map(|(x, _)| *x).collect();
+    let free_triangles = builder.clone().build().unwrap().faces().triangles;
+    let free_triangles = free_triangles.iter().filter(|t| t.iter().all(|&k| !builder.pinned[k]));
+    nodes.extend(free_triangles.map(|t| (x[t[0]] + x[t[1]] + x[t[2]]) / 3.0));
+    let turn = Mat3::from_rotation_z(27.3f64.to_radians())
+        * Mat3::from_rotation_x(3.1f64.to_radians())
+        * Mat3::from_rotation_y(1.7f64.to_radians());
+    let shift = Vec3::new(0.02, -0.015, 0.04);
+    let scan: Vec<Vec3> = nodes.iter().map(|p| turn * *p + shift).collect();
     let quantities = [
         Quantity::BendingLength(Direction::Warp),
         Quantity::BendingLength(Direction::Weft),
@@ -369,8 +390,45 @@ fn fit_round_trip_with_a_scanned_drape() {
     ];
     let mut p = problem_of(&truth, &quantities, [0.0; 4], 1e-3, [1.1, 0.92, 1.1, 0.95]);
     p.targets.push(Target { quantity: Quantity::Shape, value: 0.0, sigma: 1e-4 });
-    p.scan = scan;
-    check_fit(&p, &truth, 1e-3, false, "lengths + DC + W + shape, noiseless");
+    p.scan = scan.clone();
+    p.align = flexsurf::lab::fit::Align::Rigid;
+    let r = check_fit(&p, &truth, 1e-3, false, "lengths + DC + W + shape in a scanner's frame, noiseless");
+    let a = r.alignment.expect("an aligned scan's placement is reported");
+    let m = Mat3::from_cols_array_2d(&a.matrix).transpose();
+    let placed: Vec<Vec3> = scan.iter().map(|s| m * *s + Vec3::from_array(a.offset)).collect();
+    let rms = chamfer(&placed, &nodes).sqrt();
+    let tilt = (turn * Vec3::Z).dot(Vec3::Z).acos().to_degrees();
+    eprintln!(
+        "placed from {:?}: RMS {rms:.2e} m from the truth, tilt {:.4}° (the motion's {tilt:.4}°)",
+        a.seed, a.tilt_degrees
+    );
+    assert!(rms < 1e-6, "the placed scan is {rms:.2e} m off the truth's drape");
+    assert!((a.tilt_degrees - tilt).abs() < 1e-3, "{} vs {tilt}", a.tilt_degrees);
+}
+
+/// A scan's placement: its derivatives in the six parameters against central differences of the placed point.
+#[test]
+fn scan_placement_derivatives_agree_with_central_differences() {
+    use flexsurf::lab::fit::align::{Placement, PARAMETERS};
+    use flexsurf::math::{Mat3, Vec3};
+    let scan = [Vec3::new(0.1, -0.05, 0.02), Vec3::new(-0.07, 0.12, -0.04), Vec3::new(0.0, 0.03, 0.3)];
+    let base =
+        Placement { base: Mat3::from_rotation_x(0.4) * Mat3::from_rotation_z(-1.1), ..Placement::as_given(&scan) };
+    let p = [0.3, -0.2, 0.15, 0.01, -0.02, 0.03];
+    let h = 1e-6;
+    let mut worst = 0.0f64;
+    for s in scan {
+        let d = base.derivatives(&p, s);
+        for k in 0..PARAMETERS {
+            let (mut pp, mut pm) = (p, p);
+            pp[k] += h;
+            pm[k] -= h;
+            let fd = (base.placed(&pp, &[s])[0] - base.placed(&pm, &[s])[0]) / (2.0 * h);
+            worst = worst.max((fd - d[k]).length() / d[k].length().max(1.0));
+        }
+    }
+    eprintln!("placement derivatives: worst relative error {worst:.1e}");
+    assert!(worst < 1e-8, "{worst:.1e}");
 }
 
 /// The Cusick node count is checked after a fit, not fitted (an integer has no derivative): a fit to the

@@ -23,16 +23,19 @@
 //! sigma = 0.02                       # the value's standard uncertainty
 //!
 //! [[target]]
-//! quantity = "shape"     # a scanned drape: `x y z` (m) per line, in the drape meter's frame (disc centre at
-//! file = "scan.xyz"      # the origin, axis z, disc top at z = 0); symmetric Chamfer distance to the drape
+//! quantity = "shape"     # a scanned drape: `x y z` (m) per line; symmetric Chamfer distance to the drape
+//! file = "scan.xyz"
 //! sigma = 0.002          # the scan's uncertainty per coordinate (m); no value (the distance's is 0)
+//! align = "rigid"        # "rigid" (default): the scan's placement in the meter's frame is fitted too (any
+//!                        # frame: started from its principal axis); "none": the scan is in the meter's frame
+//!                        # (disc centre at the origin, axis z, disc top at z = 0)
 //! ```
 //!
 //! `units = "kes"`: constants and KES values in KES-F units (weight mg/cm², tensile gf/cm, shear gf/(cm·deg),
 //! bending and twist gf·cm²/cm), bending lengths in cm; `"si"`: kg/m², N/m, N/m per rad, N·m and m.
 
 use super::targets::{Instrument, KesValue, Quantity, Target};
-use super::{Constant, FitProblem, Free};
+use super::{Align, Constant, FitProblem, Free};
 use crate::lab::cantilever::Direction;
 use crate::material::{units, Calibration};
 use crate::math::Vec3;
@@ -83,6 +86,7 @@ struct TargetSpec {
     value: Option<f64>,
     sigma: Option<f64>,
     file: Option<PathBuf>,
+    align: Option<String>,
 }
 
 /// SI value of constant `c` given in `u`.
@@ -157,15 +161,34 @@ fn node_count(t: &TargetSpec, i: usize, file: &Path) -> Result<usize, SceneError
     }
 }
 
-/// What a fit file's targets give: the targets, the scanned points of its shape target (if any) and its
-/// Cusick node count (if any).
-type Targets = (Vec<Target>, Vec<Vec3>, Option<usize>);
+/// What a fit file's targets give: the targets, the scanned points of its shape target (if any) and their
+/// placement, and its Cusick node count (if any).
+type Targets = (Vec<Target>, (Vec<Vec3>, Align), Option<usize>);
+
+/// The `align` of the `i`-th target `t`: only a shape target's, `"rigid"` (the default) or `"none"`.
+fn align_of(t: &TargetSpec, i: usize, shape: bool, file: &Path) -> Result<Align, SceneError> {
+    let bad = |m: &str| Err(SceneError::invalid(file, format!("target[{i}].align"), m.into()));
+    match (t.align.as_deref(), shape) {
+        (None, _) => Ok(Align::Rigid),
+        (Some(_), false) => bad("only a shape target's scan is aligned"),
+        (Some("rigid"), true) => Ok(Align::Rigid),
+        (Some("none"), true) => Ok(Align::None),
+        (Some(_), true) => {
+            bad("must be \"rigid\" (the scan's placement fitted) or \"none\" (the scan in the meter's frame)")
+        }
+    }
+}
 
 /// The targets of a fit file.
 fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
     let bad = |key: String, message: String| SceneError::invalid(file, key, message);
-    let (mut targets, mut scan, mut nodes) = (Vec::new(), Vec::new(), None);
+    let (mut targets, mut scan, mut nodes, mut align) = (Vec::new(), Vec::new(), None, Align::Rigid);
     for (i, t) in spec.target.iter().enumerate() {
+        let shape = t.quantity == "shape";
+        let a = align_of(t, i, shape, file)?;
+        if shape {
+            align = a;
+        }
         if t.quantity == "cusick.nodes" {
             if nodes.is_some() {
                 return Err(bad(format!("target[{i}].quantity"), "a fit takes one node count".into()));
@@ -211,7 +234,7 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
         }
         targets.push(Target { quantity: q, value: conv(value), sigma: conv(sigma) });
     }
-    Ok((targets, scan, nodes))
+    Ok((targets, (scan, align), nodes))
 }
 
 /// The points of a measured KES curve target `t` (the `i`-th, `kes_curve.KIND`): one target of the KES value
@@ -345,7 +368,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         }
         free.push(Free { constant: c, lower, upper });
     }
-    let (targets, scan, cusick_nodes) = targets_of(&spec, file)?;
+    let (targets, (scan, align), cusick_nodes) = targets_of(&spec, file)?;
     let problem = FitProblem {
         fabric,
         calibration: spec.calibration,
@@ -354,6 +377,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         instrument: instrument(&spec),
         max_iterations: spec.max_iterations.unwrap_or(30),
         scan,
+        align,
         cusick_nodes,
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;

@@ -5,16 +5,20 @@
 //! standard errors from the Jacobian, and which of them the targets do not determine.
 
 pub mod adjoint;
+pub mod align;
 pub mod calib;
 pub mod input;
 mod lm;
 pub mod targets;
 
+pub use align::Align;
 pub use calib::Constant;
 pub use targets::{evaluate, Instrument, KesValue, Quantity, Target, Warm};
 
 use super::LabError;
 use crate::material::{Calibration, Fabric};
+use crate::math::Vec3;
+use align::{Placement, PARAMETERS};
 use serde::Serialize;
 
 /// A constant the fit may change, within bounds (SI, `0 < lower ≤ upper`).
@@ -45,7 +49,9 @@ pub struct FitProblem {
     pub max_iterations: usize,
     /// The scanned drape of a [`Quantity::Shape`] target (m, in the drape meter's frame; empty without one).
     #[serde(skip)]
-    pub scan: Vec<crate::math::Vec3>,
+    pub scan: Vec<Vec3>,
+    /// How the scan is placed in the meter's frame (as given, or a rigid motion fitted; [`align`]).
+    pub align: Align,
     /// A measured Cusick node count, checked after the fit against the drape of the fitted constants (not a
     /// least-squares target: an integer has no derivative; see [`NodeCheck`]).
     pub cusick_nodes: Option<usize>,
@@ -115,12 +121,13 @@ pub struct FitReport {
     pub chi_squared: f64,
     /// Targets minus free constants.
     pub degrees_of_freedom: i64,
-    /// Singular values of the Jacobian of the normalised residuals in the constants' logarithms.
+    /// Singular values of the Jacobian of the normalised residuals in the constants' logarithms (and the scan's
+    /// placement parameters, [`align::NAMES`], when it is fitted).
     pub singular_values: Vec<f64>,
     /// The constants the targets do not determine.
     pub not_identifiable: Vec<&'static str>,
     /// The combinations the targets do not determine at all: each a unit direction in the constants'
-    /// logarithms (`(key, weight)`), along which the targets do not change to first order (e.g. bending, shear
+    /// logarithms and the placement's parameters (`(key, weight)`), along which the targets do not change to first order (e.g. bending, shear
     /// and weight scaled together leave bending lengths and drape unchanged).
     pub null_directions: Vec<Vec<(&'static str, f64)>>,
     /// Levenberg–Marquardt iterations.
@@ -135,6 +142,26 @@ pub struct FitReport {
     pub fabric: Fabric,
     /// The Cusick node count check, when the fit file gives a count.
     pub cusick_nodes: Option<NodeCheck>,
+    /// The scan's fitted placement, when a shape target's scan is aligned ([`Align::Rigid`]).
+    pub alignment: Option<Alignment>,
+}
+
+/// A scan's fitted placement in the drape meter's frame: `s ↦ matrix · s + offset` (scan frame to meter frame).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Alignment {
+    /// The rotation (rows).
+    pub matrix: [[f64; 3]; 3],
+    /// The translation (m).
+    pub offset: [f64; 3],
+    /// The angle between the scan's z axis and the meter's axis (degrees).
+    pub tilt_degrees: f64,
+    /// Where the fit started: the scan as given, or its principal axis turned about the axis.
+    pub seed: align::Seed,
+    /// The fitted parameters ([`align::NAMES`]: turns in rad, shifts in m, from the seed).
+    pub parameters: [f64; PARAMETERS],
+    /// Their standard errors (infinite where the targets do not determine them, e.g. the turn of a drape
+    /// without folds).
+    pub standard_errors: [f64; PARAMETERS],
 }
 
 /// Checks the problem: free constants distinct with `0 < lower ≤ upper`, targets with finite values and positive
@@ -178,49 +205,110 @@ fn with_theta(f: &Fabric, free: &[Free], theta: &[f64]) -> Fabric {
     f
 }
 
-/// Fits the free constants of `p` to its targets.
+/// The placement of a shape target's scan to fit (`None`: the scan as given, nothing fitted), estimated against
+/// the starting constants' drape.
+fn placement(p: &FitProblem) -> Result<Option<Placement>, LabError> {
+    if p.align == Align::None || !p.targets.iter().any(|t| t.quantity == Quantity::Shape) {
+        return Ok(None);
+    }
+    let drape = targets::drape_surface(&p.fabric, p.calibration, &p.instrument)?;
+    Ok(Some(align::estimate(&p.scan, &drape)))
+}
+
+/// The normalised residuals of `p` and their Jacobian at `theta` (the free constants' logarithms, then the
+/// placement's parameters when `placement` is given).
+fn residuals_at(
+    p: &FitProblem,
+    placement: Option<&Placement>,
+    theta: &[f64],
+    warm: &mut Warm,
+) -> Result<lm::Evaluation, LabError> {
+    let n = p.free.len();
+    let extra = if placement.is_some() { PARAMETERS } else { 0 };
+    let f = with_theta(&p.fabric, &p.free, &theta[..n]);
+    let consts: Vec<Constant> = p.free.iter().map(|f| f.constant).collect();
+    let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, warm)?;
+    let scale = |row: &[f64], sigma: f64| -> Vec<f64> {
+        let mut r: Vec<f64> = row.iter().zip(theta).map(|(d, th)| d * th.exp() / sigma).collect();
+        r.resize(n + extra, 0.0);
+        r
+    };
+    let (mut r, mut j) = (Vec::new(), Vec::new());
+    for ((v, row), t) in values.iter().zip(&rows).zip(&p.targets) {
+        if t.quantity != Quantity::Shape {
+            r.push((v - t.value) / t.sigma);
+            j.push(scale(row, t.sigma));
+        }
+    }
+    if let Some(t) = p.targets.iter().find(|t| t.quantity == Quantity::Shape) {
+        let pose = &theta[n..];
+        let scan = placement.map_or_else(|| p.scan.clone(), |pl| pl.placed(pose, &p.scan));
+        let sr = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, warm, &scan)?;
+        r.extend(sr.values.iter().map(|v| v / t.sigma));
+        for (row, &(i, g)) in sr.rows.iter().zip(&sr.scan_terms) {
+            let mut row = scale(row, t.sigma);
+            if let Some(pl) = placement {
+                for (k, ds) in pl.derivatives(pose, p.scan[i]).iter().enumerate() {
+                    row[n + k] = g.dot(*ds) / t.sigma;
+                }
+            }
+            j.push(row);
+        }
+    }
+    Ok((r, j))
+}
+
+/// Fits the free constants of `p` to its targets (and the scan's placement, [`Align::Rigid`]).
 pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
     check(p)?;
     let t0 = std::time::Instant::now();
-    let consts: Vec<Constant> = p.free.iter().map(|f| f.constant).collect();
-    let start: Vec<f64> = p.free.iter().map(|f| f.constant.get(&p.fabric).unwrap_or(f64::NAN).ln()).collect();
-    let lower: Vec<f64> = p.free.iter().map(|f| f.lower.ln()).collect();
-    let upper: Vec<f64> = p.free.iter().map(|f| f.upper.ln()).collect();
+    let placement = placement(p)?;
+    let mut start: Vec<f64> = p.free.iter().map(|f| f.constant.get(&p.fabric).unwrap_or(f64::NAN).ln()).collect();
+    let mut lower: Vec<f64> = p.free.iter().map(|f| f.lower.ln()).collect();
+    let mut upper: Vec<f64> = p.free.iter().map(|f| f.upper.ln()).collect();
+    if placement.is_some() {
+        // Turns within a quarter turn of the estimate, shifts within a specimen's diameter.
+        let (turn, shift) = (std::f64::consts::FRAC_PI_2, p.instrument.specimen);
+        start.extend([0.0; PARAMETERS]);
+        lower.extend([-turn, -turn, -turn, -shift, -shift, -shift]);
+        upper.extend([turn, turn, turn, shift, shift, shift]);
+    }
     let mut warm = Warm::default();
-    let residuals = |theta: &[f64]| -> Result<lm::Evaluation, LabError> {
-        let f = with_theta(&p.fabric, &p.free, theta);
-        let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, &mut warm)?;
-        let scale = |row: &[f64], sigma: f64| -> Vec<f64> {
-            row.iter().zip(theta).map(|(d, th)| d * th.exp() / sigma).collect()
-        };
-        let (mut r, mut j) = (Vec::new(), Vec::new());
-        for ((v, row), t) in values.iter().zip(&rows).zip(&p.targets) {
-            if t.quantity != Quantity::Shape {
-                r.push((v - t.value) / t.sigma);
-                j.push(scale(row, t.sigma));
-            }
-        }
-        if let Some(t) = p.targets.iter().find(|t| t.quantity == Quantity::Shape) {
-            let (sr, rows) = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, &mut warm, &p.scan)?;
-            r.extend(sr.iter().map(|v| v / t.sigma));
-            j.extend(rows.iter().map(|row| scale(row, t.sigma)));
-        }
-        Ok((r, j))
-    };
+    let residuals = |theta: &[f64]| residuals_at(p, placement.as_ref(), theta, &mut warm);
     let opts = lm::Options { max_iterations: p.max_iterations, step_tolerance: 1e-10 };
     let out = lm::minimise(&start, (&lower, &upper), opts, residuals)?;
-    let mut r = report(p, &out, t0.elapsed().as_secs_f64());
+    let mut r = report(p, &out, placement.as_ref());
     if let Some(measured) = p.cusick_nodes {
         let model = targets::drape_nodes(&r.fabric, p.calibration, &p.instrument)?;
         r.cusick_nodes = Some(NodeCheck { measured, model });
-        r.seconds = t0.elapsed().as_secs_f64();
     }
+    r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
 }
 
-fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
+/// The fitted placement of the report.
+fn alignment(pl: &Placement, out: &lm::Outcome, stats: &lm::Statistics, n: usize) -> Alignment {
+    let pose = &out.theta[n..];
+    let (m, v) = pl.affine(pose);
+    let mut parameters = [0.0; PARAMETERS];
+    parameters.copy_from_slice(pose);
+    let mut standard_errors = [0.0; PARAMETERS];
+    standard_errors.copy_from_slice(&stats.standard_errors[n..]);
+    Alignment {
+        matrix: [0, 1, 2].map(|r| [0, 1, 2].map(|c| m.col(c)[r])),
+        offset: v.to_array(),
+        tilt_degrees: (m * Vec3::Z).dot(Vec3::Z).clamp(-1.0, 1.0).acos().to_degrees(),
+        seed: pl.seed,
+        parameters,
+        standard_errors,
+    }
+}
+
+/// The report of a fit ended at `out` (its time is set by the caller); the statistics over every fitted
+/// parameter, the placement's included, so that the constants' standard errors allow for it.
+fn report(p: &FitProblem, out: &lm::Outcome, placement: Option<&Placement>) -> FitReport {
     let n = p.free.len();
-    let stats = lm::statistics(&out.at.1, n, RANK_TOLERANCE);
+    let stats = lm::statistics(&out.at.1, out.theta.len(), RANK_TOLERANCE);
     let constants: Vec<FittedConstant> = p
         .free
         .iter()
@@ -260,10 +348,14 @@ fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
             }
         })
         .collect();
+    let alignment = placement.map(|pl| alignment(pl, out, &stats, n));
     let null_directions = stats
         .null_directions
         .iter()
-        .map(|d| p.free.iter().zip(d).map(|(f, w)| (f.constant.key(), *w)).collect())
+        .map(|d: &Vec<f64>| {
+            let names = p.free.iter().map(|f| f.constant.key()).chain(align::NAMES);
+            names.zip(d).map(|(k, w)| (k, *w)).collect()
+        })
         .collect();
     FitReport {
         null_directions,
@@ -276,8 +368,9 @@ fn report(p: &FitProblem, out: &lm::Outcome, seconds: f64) -> FitReport {
         iterations: out.iterations,
         evaluations: out.evaluations,
         converged: out.converged,
-        seconds,
+        seconds: 0.0,
         fabric: with_theta(&p.fabric, &p.free, &out.theta),
         cusick_nodes: None,
+        alignment,
     }
 }

@@ -389,12 +389,74 @@ fn nearest(cloud: &[Vec3], p: Vec3) -> usize {
     best.1
 }
 
+/// A drape's surface: the model's triangulated grid at the drape's positions, for the nearest points of a scan.
+pub struct DrapeSurface {
+    /// The triangles (model nodes).
+    triangles: Vec<[usize; 3]>,
+    /// The same, with a bounding-volume hierarchy for the nearest-point queries.
+    mesh: parry3d_f64::shape::TriMesh,
+    /// The drape's positions (every model node).
+    pub x: Vec<Vec3>,
+    /// The nodes that are not clamped.
+    pub free: Vec<usize>,
+}
+
+impl DrapeSurface {
+    /// The surface of `model` at `x`.
+    pub fn new(model: &Model, x: Vec<Vec3>) -> Result<Self, LabError> {
+        let triangles = model.faces().triangles;
+        let vertices = x.iter().map(|p| parry3d_f64::math::Vector::new(p.x, p.y, p.z)).collect();
+        let indices = triangles.iter().map(|t| t.map(|k| k as u32)).collect();
+        let mesh = parry3d_f64::shape::TriMesh::new(vertices, indices)
+            .map_err(|e| LabError::Input(format!("shape: the drape's surface: {e}")))?;
+        let free = (0..x.len()).filter(|&k| !model.pinned()[k]).collect();
+        Ok(Self { triangles, mesh, x, free })
+    }
+
+    /// The point of the surface nearest `p`: its triangle's nodes and their weights (which sum to 1), and the
+    /// point.
+    pub fn closest(&self, p: Vec3) -> ([usize; 3], [f64; 3], Vec3) {
+        use parry3d_f64::query::PointQueryWithLocation;
+        let q = parry3d_f64::math::Vector::new(p.x, p.y, p.z);
+        let (_, (face, location)) = self.mesh.project_local_point_and_get_location(q, false);
+        let nodes = self.triangles[face as usize];
+        let w = location.barycentric_coordinates().unwrap_or([1.0, 0.0, 0.0]);
+        let at = (0..3).fold(Vec3::ZERO, |a, j| a + self.x[nodes[j]] * w[j]);
+        (nodes, w, at)
+    }
+
+    /// The free nodes' positions.
+    pub fn free_points(&self) -> Vec<Vec3> {
+        self.free.iter().map(|&k| self.x[k]).collect()
+    }
+}
+
+/// The surface of the drape of `f` on the drape meter of `ins` (meter frame), relaxed as for a DC.
+pub fn drape_surface(f: &Fabric, calibration: Calibration, ins: &Instrument) -> Result<DrapeSurface, LabError> {
+    let (_, model, x) = drape(f, calibration, ins, &mut Warm::default())?;
+    DrapeSurface::new(&model, x)
+}
+
+/// A shape target's residuals ([`shape_residuals`]).
+#[derive(Debug, Clone, Default)]
+pub struct ShapeResiduals {
+    /// The residuals (m, weighted; not yet divided by the target's `sigma`).
+    pub values: Vec<f64>,
+    /// Their derivatives in the free constants (row per residual).
+    pub rows: Vec<Vec<f64>>,
+    /// For each residual, the scan point it involves and the residual's gradient in that point.
+    pub scan_terms: Vec<(usize, Vec3)>,
+}
+
 /// The symmetric Chamfer residuals of the drape of `f` against the scanned points `scan` (in the drape meter's
-/// frame: the disc's centre at the origin, its axis along z, its top at z = 0): for each scan point the
-/// coordinates of (its nearest free node − it) over `√N_scan`, and for each free node those of (it − its
-/// nearest scan point) over `√N_nodes`, so that their sum of squares is the symmetric Chamfer distance
-/// `mean_s min_k |s − x_k|² + mean_k min_s |x_k − s|²`; with (rows per residual) their derivatives in `free`
-/// for the nearest points held (the equilibrium's displacements [`Equilibrium::displacements`]).
+/// frame: the disc's centre at the origin, its axis along z, its top at z = 0). For each scan point `s`, its
+/// distance to the drape's surface (not to its nodes: a dense scan between two nodes is on the drape), signed
+/// along the normal of the nearest triangle, `n · (y − s)` with `y` the nearest point, over `√N_scan`; for each
+/// free node `x_k`, the coordinates of `x_k − s` (its nearest scan point) over `√N_nodes`. Their sum of squares is
+/// the symmetric distance `mean_s min_y∈S |s − y|² + mean_k min_s |x_k − s|²` (exactly where the nearest point is
+/// inside a triangle). The derivatives hold the nearest points, their weights and the normals (the first term
+/// is then the point-to-plane distance, whose derivative along the surface is zero, as the distance's is): in
+/// `free` by the equilibrium's displacements [`Equilibrium::displacements`], and in the scan's points.
 pub fn shape_residuals(
     f: &Fabric,
     calibration: Calibration,
@@ -402,30 +464,37 @@ pub fn shape_residuals(
     ins: &Instrument,
     warm: &mut Warm,
     scan: &[Vec3],
-) -> Result<(Vec<f64>, Vec<Vec<f64>>), LabError> {
+) -> Result<ShapeResiduals, LabError> {
     if scan.is_empty() {
         return Err(LabError::Input("shape: the scan has no points".into()));
     }
     let (builder, model, x) = drape(f, calibration, ins, warm)?;
-    let nodes: Vec<usize> = (0..x.len()).filter(|&k| !model.pinned()[k]).collect();
-    let pts: Vec<Vec3> = nodes.iter().map(|&k| x[k]).collect();
     let dx = if free.is_empty() {
         Vec::new()
     } else {
         Equilibrium::new(&builder, &model, &x)?.displacements(free, calibration)?
     };
-    let (ws, wn) = (1.0 / (scan.len() as f64).sqrt(), 1.0 / (nodes.len() as f64).sqrt());
-    let pairs = scan
-        .iter()
-        .map(|s| (nodes[nearest(&pts, *s)], *s, ws))
-        .chain(nodes.iter().map(|&k| (k, scan[nearest(scan, x[k])], wn)));
-    let (mut r, mut rows) = (Vec::new(), Vec::new());
-    for (k, s, w) in pairs {
-        let d = (x[k] - s) * w;
+    let surface = DrapeSurface::new(&model, x)?;
+    let (ws, wn) = (1.0 / (scan.len() as f64).sqrt(), 1.0 / (surface.free.len() as f64).sqrt());
+    let mut out = ShapeResiduals::default();
+    for (i, s) in scan.iter().enumerate() {
+        let (nodes, w, y) = surface.closest(*s);
+        let [a, b, c] = nodes.map(|k| surface.x[k]);
+        let n = (b - a).cross(c - a).try_normalize().or((y - *s).try_normalize()).unwrap_or(Vec3::Z);
+        out.values.push(n.dot(y - *s) * ws);
+        out.rows.push(dx.iter().map(|u| (0..3).map(|j| n.dot(u[nodes[j]]) * w[j]).sum::<f64>() * ws).collect());
+        out.scan_terms.push((i, -n * ws));
+    }
+    for &k in &surface.free {
+        let i = nearest(scan, surface.x[k]);
+        let d = (surface.x[k] - scan[i]) * wn;
         for c in 0..3 {
-            r.push(d[c]);
-            rows.push(dx.iter().map(|u| u[k][c] * w).collect());
+            out.values.push(d[c]);
+            out.rows.push(dx.iter().map(|u| u[k][c] * wn).collect());
+            let mut e = Vec3::ZERO;
+            e[c] = -wn;
+            out.scan_terms.push((i, e));
         }
     }
-    Ok((r, rows))
+    Ok(out)
 }
