@@ -475,6 +475,41 @@ fn cusick_node_count_is_checked_after_the_fit() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// A measured KES curve of `kind` (KES units) along the straight line `y = slope · x` at `xs`, fitted for the
+/// constant `free` from `start`: the constant in SI.
+fn fitted_from_curve(kind: &str, free: &str, start: f64, slope: f64, xs: &[f64]) -> f64 {
+    let d = flexsurf::testing::scratch("fit", kind);
+    let csv: String = xs.iter().map(|x| format!("{x}, {}\n", slope * x)).collect();
+    std::fs::write(d.join("c.csv"), csv).unwrap();
+    let material = flexsurf::testing::repo().join("materials/woven-medium.toml");
+    let text = format!(
+        "material = {:?}\nunits = \"kes\"\n[free.{free}]\nstart = {start}\n[[target]]\n\
+         quantity = \"kes_curve.{kind}\"\nfile = \"c.csv\"\nsigma = 0.01\n",
+        material.to_str().unwrap()
+    );
+    std::fs::write(d.join("f.toml"), text).unwrap();
+    let p = flexsurf::lab::fit::input::load_fit_file(&d.join("f.toml")).unwrap();
+    assert_eq!(p.targets.len(), xs.iter().filter(|x| **x != 0.0).count(), "{kind}: a target per point off zero");
+    let r = fit(&p).unwrap();
+    std::fs::remove_dir_all(&d).ok();
+    r.constants[0].value
+}
+
+/// Measured tensile and shear curves (KES units: strain and gf/cm, degrees and gf/cm) fitted pointwise give the
+/// slope back in SI, converted independently: 450 gf/cm per unit strain is 450 · 9.80665e-3 / 1e-2 N/m, and
+/// 1.7 gf/cm per degree is 1.7 · 9.80665e-3 / 1e-2 · 180/π N/m per radian.
+#[test]
+fn kes_tensile_and_shear_curves_are_fitted_pointwise() {
+    let gf_per_cm = 9.80665e-3 / 1e-2;
+    let strains = [0.005, 0.01, 0.02, 0.03, 0.04, 0.05];
+    let e = fitted_from_curve("tensile_warp", "tensile_warp", 900.0, 450.0, &strains);
+    assert!((e / (450.0 * gf_per_cm) - 1.0).abs() < 1e-9, "tensile {e}");
+    let angles = [-8.0, -4.0, -1.0, 0.0, 1.0, 4.0, 8.0];
+    let g = fitted_from_curve("shear", "shear", 3.0, 1.7, &angles);
+    let g_si = 1.7 * gf_per_cm * 180.0 / std::f64::consts::PI;
+    assert!((g / g_si - 1.0).abs() < 1e-9, "shear {g} vs {g_si}");
+}
+
 /// A measured KES bending curve fitted pointwise (`kes_curve.bending_warp`, KES units): a loop of the linear law
 /// B = 0.08 gf·cm²/cm with half width HB = 0.01 gf·cm/cm, both branches `B K ± HB` at K = ±0.5 … ±2.5 cm⁻¹ (the
 /// zero point skipped), gives B back to 1e-9 (the branches' offsets cancel in the least squares, point for
