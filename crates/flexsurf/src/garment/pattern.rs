@@ -87,6 +87,29 @@ pub enum Placement {
         /// The pattern point placed at `angle` at `origin`'s place along the axis (m).
         center: [f64; 2],
     },
+    /// Wrapped onto the cone about the vertical axis through `axis` that opens downward with the half-angle
+    /// `half_angle` (between the axis and a generatrix), by its development: the pattern point `apex` goes to the
+    /// cone's apex, a pattern point at distance `s` from `apex` to slant distance `s` down the cone, and the
+    /// pattern angle `ψ` about `apex` (from the direction of `center`, counter-clockwise) to the angle
+    /// `angle + ψ / sin(half_angle)` around the axis; `center` itself goes to `angle` at `height`. Lengths and
+    /// angles of the pattern are kept (a cone is developable). With `apex` above the panel in the pattern
+    /// (`y` towards it), pattern `x` runs around counter-clockwise seen from above and the right side faces out,
+    /// as on [`Placement::Cylinder`]. An annular sector of angle `2π sin(half_angle)` about `apex` closes
+    /// exactly into the cone (a one-panel skirt whose two straight edges meet).
+    Cone {
+        /// The axis `[x, y]` (m).
+        axis: [f64; 2],
+        /// Half-angle (radians), in (0, π/2].
+        half_angle: f64,
+        /// Angle of `center` around the axis (radians, from `+x`).
+        angle: f64,
+        /// Height of `center` (m).
+        height: f64,
+        /// The pattern point placed at `angle`, `height` (m).
+        center: [f64; 2],
+        /// The pattern point placed at the cone's apex (m).
+        apex: [f64; 2],
+    },
 }
 
 impl Placement {
@@ -102,6 +125,13 @@ impl Placement {
                 let [e1, e2, e3] = tilted_frame(direction);
                 let theta = angle + (p[0] - center[0]) / radius;
                 origin + radius * (theta.cos() * e1 + theta.sin() * e2) + (p[1] - center[1]) * e3
+            }
+            Placement::Cone { axis, half_angle, angle, height, center, apex } => {
+                let (c, a) = ([center[0] - apex[0], center[1] - apex[1]], [p[0] - apex[0], p[1] - apex[1]]);
+                let psi = (c[0] * a[1] - c[1] * a[0]).atan2(c[0] * a[0] + c[1] * a[1]);
+                let (s, top) = (a[0].hypot(a[1]), height + c[0].hypot(c[1]) * half_angle.cos());
+                let (theta, r) = (angle + psi / half_angle.sin(), s * half_angle.sin());
+                Vec3::new(axis[0] + r * theta.cos(), axis[1] + r * theta.sin(), top - s * half_angle.cos())
             }
         }
     }
@@ -898,15 +928,32 @@ fn build_panel(
     })
 }
 
-/// A cylinder's radius is a positive length, a tilted one's direction a non-zero vector.
+/// A cylinder's radius is a positive length, a tilted one's direction a non-zero vector; a cone's half-angle is
+/// in (0°, 90°] and its apex is not its centre point.
 fn check_placement(p: usize, panel: &PanelPattern) -> Result<(), PatternError> {
+    let bad =
+        |message: String| Err(error(format!("panel[{p}].placement"), format!("panel `{}`: {message}", panel.name)));
     let (radius, direction) = match panel.placement {
         Placement::Flat { .. } => return Ok(()),
         Placement::Cylinder { radius, .. } => (radius, Vec3::Z),
         Placement::Tilted { radius, direction, .. } => (radius, direction),
+        Placement::Cone { axis, half_angle, angle, height, center, apex } => {
+            let numbers = [axis[0], axis[1], angle, height, center[0], center[1], apex[0], apex[1]];
+            if !numbers.iter().all(|v| v.is_finite()) {
+                return bad("the cone's axis, angle, height, center and apex must be finite numbers".into());
+            }
+            let degrees = half_angle.to_degrees();
+            if !(half_angle > 0.0 && half_angle <= std::f64::consts::FRAC_PI_2) {
+                return bad(format!("the cone's half-angle {degrees}° is not in (0°, 90°]"));
+            }
+            if center == apex {
+                return bad(format!(
+                    "the cone's `apex` {apex:?} is its `center`; the apex must be off the panel's centre"
+                ));
+            }
+            return Ok(());
+        }
     };
-    let bad =
-        |message: String| Err(error(format!("panel[{p}].placement"), format!("panel `{}`: {message}", panel.name)));
     if !(radius > 0.0 && radius.is_finite()) {
         return bad(format!("the cylinder's radius {radius} m is not a positive length"));
     }

@@ -838,18 +838,7 @@ impl Stepper {
 /// (docs/model.md §8.4). Non-finite forces are an error naming the node.
 pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
     let n = x.len();
-    if let Some(faces) = model.potential.find::<SelfContact>().map(SelfContact::faces) {
-        if let Some((e, t)) = faces.crossing(&x) {
-            let [a, b] = faces.edges[e];
-            let name = |k: usize| model.describe_node(k);
-            let [p, q, r] = faces.triangles[t].map(name);
-            return Err(StepError::Intersecting {
-                edge_from: name(a),
-                edge_to: name(b),
-                triangle: format!("{p}, {q} and {r}"),
-            });
-        }
-    }
+    not_crossing(model, &x)?;
     let fixed = model.pinned();
     let mut grad = vec![Vec3::ZERO; n];
     model.potential.evaluate(&x, &mut crate::energy::Sink::grad(&mut grad));
@@ -884,6 +873,35 @@ pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State
         }
     }
     Ok(State::start(x, v, &a, dt))
+}
+
+/// A start at positions `x` with velocities `v` (zero on fixed nodes) whose history is uniform motion
+/// (`x − Δt v`, no acceleration): for a configuration that no motion has just passed through, such as a sewn
+/// garment whose seams were joined at the midpoints of their pairs ([`crate::garment::sewing`]). There the
+/// forces are far from balance at the stiff cells beside the seams (the T-shirt's: up to 84 N on a node of
+/// 13 mg at the neckline, 6.6e6 m/s²), a motion a step cannot resolve: [`start`]'s Taylor history `x + ½Δt² a` would move the
+/// step's inertial target by `½Δt² a` (metres), and the first step would throw the cloth (docs/garments.md,
+/// Sewing). The crossing check and the finiteness check are [`start`]'s.
+pub fn start_unaccelerated(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
+    not_crossing(model, &x)?;
+    let fixed = model.pinned();
+    let v: Vec<Vec3> = v.iter().zip(fixed).map(|(&v, &f)| if f { Vec3::ZERO } else { v }).collect();
+    if let Some(k) = (0..x.len()).find(|&k| !finite(x[k]) || !finite(v[k])) {
+        let what = format!("non-finite initial position or velocity at node {k}");
+        return Err(StepError::Diverged { step: 0, what, hint: "check the initial positions and velocities" });
+    }
+    let still = vec![Vec3::ZERO; x.len()];
+    Ok(State::start(x, v, &still, dt))
+}
+
+/// An error naming the first edge of `x` through a triangle, when the model has self-contact.
+fn not_crossing(model: &Model, x: &[Vec3]) -> Result<(), StepError> {
+    let Some(faces) = model.potential.find::<SelfContact>().map(SelfContact::faces) else { return Ok(()) };
+    let Some((e, t)) = faces.crossing(x) else { return Ok(()) };
+    let [a, b] = faces.edges[e];
+    let name = |k: usize| model.describe_node(k);
+    let [p, q, r] = faces.triangles[t].map(name);
+    Err(StepError::Intersecting { edge_from: name(a), edge_to: name(b), triangle: format!("{p}, {q} and {r}") })
 }
 
 /// With obstacles, the distance of the sheet's centre from the nearest one when it exceeds 100 sheet lengths.

@@ -14,7 +14,7 @@ use super::validate::{Validator, Warnings};
 use super::values::{Body, Checked, Parts, SpringSet};
 use super::SceneError;
 use crate::garment::sewing::{sew_observed, SewError, SewReport};
-use crate::integrate::{linsolve::SolverKind, Method, StepParams};
+use crate::integrate::{self, linsolve::SolverKind, Method, StepParams};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind, Spring};
@@ -150,8 +150,10 @@ impl SceneSpec {
             Method::Static(_) => State::at_rest(initial),
             Method::Dynamic(p) => {
                 let velocities = initial::velocities(&initial, &model.mass, model.pinned(), &condition);
-                crate::integrate::start(&model, initial, velocities, p.dt)
-                    .map_err(|e| v.bad("initial", e.to_string()))?
+                // A sewn garment starts without the accelerations of its joined state (the join leaves the
+                // cells at the seams out of balance): `start_unaccelerated`.
+                let start = if sewing.is_some() { integrate::start_unaccelerated } else { integrate::start };
+                start(&model, initial, velocities, p.dt).map_err(|e| v.bad("initial", e.to_string()))?
             }
         };
         Ok(Scene {

@@ -124,7 +124,8 @@ pub struct VertexEntry {
     pub curve: Option<[[f64; 2]; 2]>,
 }
 
-/// Placement, written `placement = { cylinder = { ... } }` or `placement = { flat = { ... } }`.
+/// Placement, written `placement = { cylinder = { ... } }`, `placement = { cone = { ... } }` or
+/// `placement = { flat = { ... } }`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum PlacementEntry {
@@ -132,6 +133,33 @@ pub enum PlacementEntry {
     Flat(FlatEntry),
     /// Wrapped onto a vertical cylinder around the body.
     Cylinder(CylinderEntry),
+    /// Wrapped onto a cone about a vertical axis, opening downward (a skirt cut as an annular sector).
+    Cone(ConeEntry),
+}
+
+/// A wrap onto the cone about the vertical axis through `axis` that opens downward with `half_angle_deg`
+/// (between the axis and a generatrix), by its development (lengths kept): the pattern point `apex` goes to the
+/// cone's apex, `center` to `angle_deg` around (from `+x`, counter-clockwise seen from above) at `height`, a
+/// pattern point at distance `s` from `apex` to slant distance `s` down the cone and the pattern angle `ψ`
+/// about `apex` to `ψ / sin(half_angle)` around the axis. With `apex` above the panel in the pattern, pattern
+/// `x` runs around and the right side faces out; an annular sector of angle `360° sin(half_angle)` about
+/// `apex` closes exactly into the cone (a one-panel skirt).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ConeEntry {
+    /// The axis `[x, y]` (m), default `[0, 0]`.
+    #[serde(default)]
+    pub axis: [f64; 2],
+    /// Half-angle between the axis and a generatrix (degrees, in (0, 90]).
+    pub half_angle_deg: f64,
+    /// Angle of `center` around the axis (degrees).
+    pub angle_deg: f64,
+    /// Height of `center` (m).
+    pub height: f64,
+    /// The pattern point placed at `angle_deg`, `height` (m).
+    pub center: [f64; 2],
+    /// The pattern point placed at the cone's apex (m).
+    pub apex: [f64; 2],
 }
 
 /// A flat placement.
@@ -429,6 +457,14 @@ impl PanelEntry {
                     angle: c.angle_deg.to_radians(),
                     center: c.center,
                 },
+            },
+            PlacementEntry::Cone(c) => Placement::Cone {
+                axis: c.axis,
+                half_angle: c.half_angle_deg.to_radians(),
+                angle: c.angle_deg.to_radians(),
+                height: c.height,
+                center: c.center,
+                apex: c.apex,
             },
         };
         PanelPattern { name: self.name.clone(), outline, grain: self.grain, placement }

@@ -827,3 +827,63 @@ fn a_pattern_panel_takes_its_own_material_file() {
     let weight: f64 = mixed.model.mass.iter().sum();
     assert!((weight / expected - 1.0).abs() < 1e-9, "mass {weight} kg against {expected} kg");
 }
+
+/// A panel on a cone is the cone's development (`placement = { cone = ... }`): the shipped one-panel skirt, an
+/// annular sector of 360° sin α about the pattern point [0, 0.88] (waist 0.90 m, hem 2.4 m, 0.55 m long, so
+/// sin α = 1.5 / (2π 0.55) and the waist and hem arcs at slant 0.33 and 0.88 m), wrapped on its cone with the
+/// waist's middle at z = 1.04 m: every node on the cone at its pattern distance from the apex, the hem row a
+/// closed regular polygon on the circle of radius 0.88 sin α (its perimeter `2 n r sin(π/n)`), the two
+/// straight edges meeting, the right side facing out.
+#[test]
+fn a_panel_wrapped_on_a_cone_is_its_development() {
+    use std::f64::consts::PI;
+    let spec = PatternSpec::load(&repo().join("garments/one_panel_skirt.toml")).unwrap();
+    assert!(matches!(spec.pattern().panels[0].placement, Placement::Cone { .. }));
+    let built = spec.pattern().build().unwrap();
+    let p = &built.panels[0];
+    let sin = 1.5 / (2.0 * PI * 0.55);
+    let cos = (1.0 - sin * sin).sqrt();
+    let (apex_flat, apex) = (Vec3::new(0.0, 0.88, 0.0), Vec3::new(0.0, 0.0, 1.04 + 0.33 * cos));
+    for (f, x) in p.flat.iter().zip(&p.placed) {
+        let s = (*f - apex_flat).length();
+        assert!(((*x - apex).length() - s).abs() < 1e-12, "{x:?}: slant {} against {s}", (*x - apex).length());
+        let (r, depth) = (x.x.hypot(x.y), apex.z - x.z);
+        assert!((r - depth * sin / cos).abs() < 1e-12, "{x:?} is off the cone");
+    }
+    let hem = p.edge_nodes("hem_left", "hem_right").unwrap();
+    let n = hem.len() - 1;
+    let (first, last) = (p.placed[hem[0]], p.placed[hem[n]]);
+    assert!((first - last).length() < 2e-6, "the straight edges do not meet: {first:?}, {last:?}");
+    let perimeter: f64 = hem.windows(2).map(|w| (p.placed[w[1]] - p.placed[w[0]]).length()).sum();
+    let r = 0.88 * sin;
+    assert!((perimeter - 2.0 * n as f64 * r * (PI / n as f64).sin()).abs() < 2e-5, "hem perimeter {perimeter}");
+    // Right side out: the grid's (u1 × u2) normal points away from the axis at the hem's middle.
+    let (i, j) = (p.grid.m / 2, 0);
+    let at = |i: usize, j: usize| p.placed[p.grid.index(i, j)];
+    let normal = (at(i + 1, j) - at(i, j)).cross(at(i, j + 1) - at(i, j));
+    let outward = Vec3::new(at(i, j).x, at(i, j).y, 0.0);
+    assert!(normal.dot(outward) > 0.0, "the normal {normal:?} points inward at {:?}", at(i, j));
+}
+
+/// A cone's half-angle outside (0°, 90°] or its apex on its centre point is an error naming the panel's
+/// placement.
+#[test]
+fn a_cone_placement_out_of_range_is_an_error() {
+    let text = |half: f64, apex: f64| {
+        let placement = format!(
+            "placement = {{ cone = {{ half_angle_deg = {half}, angle_deg = 0.0, height = 1.0, center = [0.1, 0.1], \
+             apex = [0.1, {apex}] }} }}"
+        );
+        format!(
+            "edge_length = 0.05\n{}",
+            rectangle("r", [0.0, 0.0, 0.2, 0.1]).replace("placement = { flat = {} }", &placement)
+        )
+    };
+    for half in [0.0, 95.0] {
+        let e = failure(&text(half, 0.5));
+        assert!(e.contains("`panel[0].placement`") && e.contains("panel `r`") && e.contains("half-angle"), "{e}");
+    }
+    let e = failure(&text(30.0, 0.1));
+    assert!(e.contains("`panel[0].placement`") && e.contains("is its `center`"), "{e}");
+    assert_eq!(build(&text(30.0, 0.5)).panels.len(), 1);
+}
