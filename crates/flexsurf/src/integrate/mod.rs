@@ -302,6 +302,11 @@ impl History {
     }
 }
 
+/// The floor of a panel's force scale, as a fraction of its size moved in one step ([`Stepper::force_scale`]):
+/// with the Newton tolerance 1e-6, a sheet whose forces are all round-off is converged when what is left could
+/// move it by 1e-12 of its size.
+pub const STILL: f64 = 1e-6;
+
 impl Stepper {
     /// Workspace for `model` with `params`; the symbolic factorisation happens here, once.
     pub fn new(model: &Model, params: &StepParams) -> Result<Self, StepError> {
@@ -734,13 +739,18 @@ impl Stepper {
     /// `‖f‖ = √(Σ |f_k|²/m_k)` over the panel's free nodes: the largest of the inertial force
     /// `m α (x_t − ŷ) + c β (x_t − z)` at the start of the step, the other forces of the first assembly there
     /// (elastic, loads, springs, contact, friction) and the panel's weight `|g| √(Σ m)` (the floor for a sheet at
-    /// rest). Called right after [`Stepper::assemble`].
+    /// rest), at least [`STILL`] `· √(Σ m) · L / Δt²` with `L` the panel's size (the diagonal of its nodes' box):
+    /// the force that would move the panel by `STILL · L` in a step, so that a sheet at rest without gravity or
+    /// load, whose forces are round-off, has a scale a residual can be measured against. Called right after
+    /// [`Stepper::assemble`].
     fn force_scale(&mut self, model: &Model, state: &State) {
         let h = &self.history;
         let panels = self.scales.len();
         let (mut inertial, mut others, mut mass) = (vec![0.0; panels], vec![0.0; panels], vec![0.0; panels]);
+        let mut boxes = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); panels];
         for k in (0..state.x.len()).filter(|&k| !model.pinned()[k] && model.mass[k] > 0.0) {
             let (m, p) = (model.mass[k], self.panel_of[k] as usize);
+            boxes[p] = (boxes[p].0.min(state.x[k]), boxes[p].1.max(state.x[k]));
             let f =
                 (state.x[k] - h.target[k]) * (m * h.alpha) + (state.x[k] - h.center[k]) * (model.damping[k] * h.beta);
             inertial[p] += f.length_squared() / m;
@@ -750,7 +760,9 @@ impl Stepper {
         let g = model.gravity.length();
         for (p, scale) in self.scales.iter_mut().enumerate() {
             let weight = g * f64::sqrt(mass[p]);
-            *scale = inertial[p].sqrt().max(others[p].sqrt()).max(weight).max(f64::MIN_POSITIVE);
+            let size = if mass[p] > 0.0 { (boxes[p].1 - boxes[p].0).length() } else { 0.0 };
+            let still = STILL * f64::sqrt(mass[p]) * size / (self.h * self.h);
+            *scale = inertial[p].sqrt().max(others[p].sqrt()).max(weight).max(still).max(f64::MIN_POSITIVE);
         }
     }
 

@@ -423,3 +423,25 @@ fn a_suddenly_loaded_strip_held_by_the_capstan_creeps_below_the_slip_speed_linea
     println!("held capstan, linearised: creep {creep:.3e} m/s after 0.5 s (sank {sank:.3e} m in all)");
     assert!(creep.abs() <= 1e-4, "creeps at {creep} m/s, above the slip speed 1e-4 m/s");
 }
+
+/// A sheet at rest without gravity or any load: every step is converged (its residual is round-off of forces
+/// that are zero) and makes no Newton correction, with either scheme; the sheet stays where it is. (The force
+/// scale had no floor but the weight: at zero gravity the residual's round-off was divided by the smallest
+/// positive number and every step reported unconverged after its corrections.)
+#[test]
+fn regression_a_sheet_at_rest_without_gravity_converged_no_step() {
+    for scheme in [Scheme::Bdf2, Scheme::Linearized] {
+        let (model, rest) = sheet(Vec3::ZERO);
+        let dt = 0.01;
+        let mut state = integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], dt).unwrap();
+        let params = StepParams { scheme, ..StepParams::with_dt(dt) };
+        let mut stepper = Stepper::new(&model, &params).unwrap();
+        for step in 0..20 {
+            let info = stepper.step(&model, &mut state).unwrap();
+            assert!(info.newton.converged, "{scheme:?}, step {step}: {:?}", info.newton);
+            assert!(info.newton.iterations <= 1, "{scheme:?}, step {step}: a correction: {:?}", info.newton);
+        }
+        let moved = state.x.iter().zip(&rest).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        assert!(moved < 1e-12, "{scheme:?}: moved {moved:e} m");
+    }
+}
