@@ -6,12 +6,14 @@
 //! resource estimate should have refused) ends the process, and the campaign is reproducible from the seed and
 //! the input number it printed last.
 //!
-//! The corpus: the shipped scenes, materials and NURBS body, plus `fuzz/corpus/` in the repository (a small OBJ
+//! The corpus: the shipped scenes, materials, NURBS body, garment patterns and fit files, plus `fuzz/corpus/` in
+//! the repository (a small OBJ
 //! mesh and scenes around each bug class the fuzzer found: non-ASCII keys, byte-order marks, huge counts,
 //! extreme numbers). Each input is one of them mutated 1–6 times (bytes flipped, inserted, deleted, ranges
 //! duplicated or spliced from another corpus file, numbers replaced by extreme ones, tokens inserted); a
-//! mutated material, body or mesh file is checked through a scene that references it, so errors inside
-//! referenced files are exercised too.
+//! mutated material, body, mesh or pattern file is checked through a scene that references it (a pattern's
+//! with two sewing steps), so errors inside referenced files are exercised too; a fit file is read and checked,
+//! not fitted. `FLEXSURF_FUZZ_DUMP=1` writes every input to the temporary folder as `fuzz-input-N`.
 //!
 //! A plain `cargo test` runs it for 10 s, CI (`.ci/run`) for 60 s more. A long campaign (docs/testing.md):
 //!
@@ -44,6 +46,10 @@ enum Role {
     Material,
     Body,
     Mesh,
+    /// A garment pattern file, through a scene that sews it (no body).
+    Pattern,
+    /// A fit file, read and checked (not fitted: a fit takes seconds to minutes).
+    Fit,
 }
 
 struct Seed {
@@ -70,6 +76,8 @@ fn corpus() -> Vec<Seed> {
             }
             let bytes = std::fs::read(&p).unwrap();
             let heavy = String::from_utf8_lossy(&bytes).contains("mannequin") || bytes.len() > 16 * 1024;
+            // Patterns build several panels, their seams and sewing (10–100 ms): as the mannequin's inputs.
+            let heavy = heavy || role == Role::Pattern;
             seeds.push(Seed { name: p.display().to_string(), role, bytes, weight: if heavy { 1 } else { 8 } });
         }
     };
@@ -79,6 +87,14 @@ fn corpus() -> Vec<Seed> {
     add(&root.join("fuzz/corpus/scenes"), Role::Scene, "toml");
     add(&root.join("fuzz/corpus/materials"), Role::Material, "toml");
     add(&root.join("fuzz/corpus/meshes"), Role::Mesh, "obj");
+    add(&root.join("garments"), Role::Pattern, "toml");
+    add(&root.join("examples/fit"), Role::Fit, "toml");
+    // A fit file names its material relative to itself: the mutated copy is written elsewhere.
+    let materials = format!("{:?}", root.join("materials").display().to_string());
+    for seed in seeds.iter_mut().filter(|s| s.role == Role::Fit) {
+        let text = String::from_utf8_lossy(&seed.bytes).replace("\"../../materials", &materials[..materials.len() - 1]);
+        seed.bytes = text.into_bytes();
+    }
     assert!(seeds.len() >= 12, "the fuzz corpus is missing files: {} found", seeds.len());
     seeds
 }
@@ -266,6 +282,7 @@ const MATERIAL_SCENE: &str =
     "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\n[material]\nfile = \"material.toml\"\n[time]\nsteps = 2\n";
 const BODY_SCENE: &str = "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\ncenter = [0, 0, 1.5]\n[time]\nsteps = 2\n[[obstacle]]\nnurbs = { file = \"body.toml\" }\n";
 const MESH_SCENE: &str = "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\ncenter = [0, 0, 1.5]\n[time]\nsteps = 2\n[[obstacle]]\nmesh = { file = \"mesh.obj\" }\n";
+const PATTERN_SCENE: &str = "[pattern]\nfile = \"pattern.toml\"\nsewing_steps = 2\n[time]\nsteps = 2\n";
 
 struct Findings {
     dir: PathBuf,
@@ -292,6 +309,8 @@ fn check_one(dir: &Path, role: Role, input: &[u8], run: bool) -> Result<bool, St
         Role::Material => ("material.toml", MATERIAL_SCENE, "material-scene.toml"),
         Role::Body => ("body.toml", BODY_SCENE, "body-scene.toml"),
         Role::Mesh => ("mesh.obj", MESH_SCENE, "mesh-scene.toml"),
+        Role::Pattern => ("pattern.toml", PATTERN_SCENE, "pattern-scene.toml"),
+        Role::Fit => return check_fit_file(dir, input),
     };
     std::fs::write(dir.join(file), input).map_err(|e| e.to_string())?;
     let scene_path = dir.join(scene_name);
@@ -333,6 +352,18 @@ fn check_one(dir: &Path, role: Role, input: &[u8], run: bool) -> Result<bool, St
             Err(format!("panic: {msg}"))
         }
     }
+}
+
+/// Checks a mutated fit file: read and checked without a panic, an error naming the file.
+fn check_fit_file(dir: &Path, input: &[u8]) -> Result<bool, String> {
+    let path = dir.join("fit.toml");
+    std::fs::write(&path, input).map_err(|e| e.to_string())?;
+    let outcome = std::panic::catch_unwind(|| match flexsurf::lab::fit::input::load_fit_file(&path) {
+        Ok(_) => Ok(true),
+        Err(e) if e.to_string().contains("fit.toml") => Ok(false),
+        Err(e) => Err(format!("an error names no file: {e}")),
+    });
+    outcome.unwrap_or_else(|_| Err("panic while reading a fit file".into()))
 }
 
 fn env_u64(name: &str) -> Option<u64> {
@@ -383,7 +414,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
 
     let deadline = Instant::now() + Duration::from_secs(seconds);
     let (mut inputs, mut built, mut runs) = (0u64, 0u64, 0u64);
-    let mut slowest = (0.0f64, 0u64);
+    let mut slowest = (0.0f64, 0u64, String::new());
     let mut n = start_at;
     while Instant::now() < deadline && inputs < max_inputs {
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ n);
@@ -408,6 +439,9 @@ fn mutation_fuzz_of_the_shipped_inputs() {
         let run = rng.random_range(0..RUN_EVERY) == 0;
         let t = Instant::now();
         busy_since.store(t0.elapsed().as_millis() as u64, Ordering::SeqCst);
+        if std::env::var("FLEXSURF_FUZZ_DUMP").is_ok() {
+            let _ = std::fs::write(std::env::temp_dir().join(format!("fuzz-input-{n}")), &input);
+        }
         match check_one(&dir, s.role, &input, run) {
             Ok(true) => {
                 built += 1;
@@ -419,7 +453,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
         busy_since.store(u64::MAX, Ordering::SeqCst);
         let secs = t.elapsed().as_secs_f64();
         if secs > slowest.0 {
-            slowest = (secs, n);
+            slowest = (secs, n, s.name.clone());
         }
         if secs > SLOW_SECONDS {
             findings.add(format!("input {n} (from {}) took {secs:.1} s", s.name), s.role, &input);
@@ -438,10 +472,11 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let _ = std::fs::remove_dir_all(&dir);
     eprintln!(
         "fuzz: seed {seed}, inputs {start_at}..{n}: {inputs} inputs in {elapsed:.1} s ({:.0}/s), {built} built, {runs} \
-         run for 2 steps, slowest {:.3} s (input {}), {} finding(s)",
+         run for 2 steps, slowest {:.3} s (input {}, from {}), {} finding(s)",
         inputs as f64 / elapsed.max(1e-9),
         slowest.0,
         slowest.1,
+        slowest.2,
         findings.list.len()
     );
     assert!(inputs > 0, "the fuzzer ran no input");
