@@ -225,6 +225,18 @@ impl Faces {
     /// grown by half the radius, overlap are measured, the others skipped as the broad phase would), in their
     /// order.
     pub fn close_among(&self, candidates: &[Pair], x: &[Vec3], radius: f64, boxes: bool) -> Vec<Closest> {
+        self.close_among_except(candidates, &[], x, radius, boxes)
+    }
+
+    /// [`Faces::close_among`] without the pairs of `held` (sorted), which are not measured.
+    pub fn close_among_except(
+        &self,
+        candidates: &[Pair],
+        held: &[Pair],
+        x: &[Vec3],
+        radius: f64,
+        boxes: bool,
+    ) -> Vec<Closest> {
         let near = |pair: Pair| -> bool {
             let nodes = self.pair_nodes(pair);
             let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
@@ -239,7 +251,7 @@ impl Faces {
         candidates
             .par_iter()
             .with_min_len(256)
-            .filter(|&&pair| !boxes || near(pair))
+            .filter(|&&pair| (!boxes || near(pair)) && held.binary_search(&pair).is_err())
             .map(|&pair| self.closest(pair, x))
             .filter(|c| c.distance() < radius)
             .collect()
@@ -337,7 +349,7 @@ impl Faces {
     /// falls to `tolerance`, or `None`.
     fn advance(&self, pair: Pair, from: &[Vec3], to: &[Vec3], tolerance: f64) -> Option<f64> {
         let nodes = self.pair_nodes(pair);
-        let motion: Vec<Vec3> = nodes.iter().map(|&k| to[k] - from[k]).collect();
+        let motion: [Vec3; 4] = nodes.map(|k| to[k] - from[k]);
         // The distance changes no faster than the largest motion of one side plus the other side's.
         let (one, other) = match pair {
             Pair::PointFace(..) => (motion[0].length(), motion[1..].iter().map(|m| m.length()).fold(0.0, f64::max)),

@@ -142,17 +142,17 @@ impl SelfContact {
         }
     }
 
-    /// The pairs closer than the thickness at `x`: among the step's candidates ([`SelfContact::cover`]) during a
-    /// step, else (a static solve) from the broad phase at `x`.
+    /// The pairs closer than the thickness at `x` and not yet held: among the step's candidates
+    /// ([`SelfContact::cover`]) during a step, else (a static solve) from the broad phase at `x`.
     fn close(&self, s: &mut SelfScratch, x: &[Vec3]) -> Vec<Closest> {
         let thickness = self.params.thickness;
         if self.cover(s, x) {
             if let Some((pairs, _)) = &s.candidates {
-                return self.faces.close_among(pairs, x, thickness, true);
+                return self.faces.close_among_except(pairs, &s.pairs, x, thickness, true);
             }
         }
         let candidates = self.faces.candidates_in(&mut s.broad, x, None, thickness);
-        self.faces.close_among(&candidates, x, thickness, false)
+        self.faces.close_among_except(&candidates, &s.pairs, x, thickness, false)
     }
 
     /// Whether the step's candidates hold every pair close at `x`: true when a step's candidates are held and
@@ -181,8 +181,7 @@ impl SelfContact {
     /// `at` (the proposal a solve missed them at).
     fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
         let mut missed: f64 = 0.0;
-        let fresh: Vec<Closest> =
-            self.close(s, x).into_iter().filter(|c| s.pairs.binary_search(&c.pair).is_err()).collect();
+        let fresh = self.close(s, x);
         for c in &fresh {
             let contact = self.record(c, &s.start);
             missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));

@@ -5,6 +5,7 @@
 //! and 0.1 s); sheets stacked on the floor rest a thickness apart; two sheets thrown at each other in free
 //! flight keep their linear momentum; the term through the shared finite-difference checker.
 
+use flexsurf::contact::proximity::{Broad, Faces, Pair};
 use flexsurf::contact::Obstacle;
 use flexsurf::energy::Operator;
 use flexsurf::grid::Grid;
@@ -392,4 +393,93 @@ fn self_contact_that_never_engages_leaves_the_ball_drop_as_it_was() {
     // The drop did reach the ball: its centre lies on it.
     let centre = on.last().unwrap()[grid.index(10, 10)];
     assert!((centre.z - 0.3).abs() < 0.01, "centre at {centre:?}");
+}
+
+/// A 16 × 16 sheet of spacing `h` folded like an accordion into layers `0.3 h` apart, jittered by up to
+/// `amplitude` in each coordinate (seeded), and its faces.
+fn crumpled(seed: u64, amplitude: f64) -> (Faces, Vec<Vec3>) {
+    use rand::{Rng, SeedableRng};
+    let (n, h) = (16, 0.05);
+    let idx = |i: usize, j: usize| i + n * j;
+    let cells =
+        (0..n - 1).flat_map(|j| (0..n - 1).map(move |i| [idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1)]));
+    let faces = Faces::new(n * n, cells);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    // Layers of four cells, turning back and forth along i.
+    let x = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k % n, k / n);
+            let (layer, along) = (i / 4, i % 4);
+            let u = if layer % 2 == 0 { along } else { 4 - along };
+            let mut jitter = || amplitude * (2.0 * rng.random::<f64>() - 1.0);
+            Vec3::new(u as f64 * h + jitter(), j as f64 * h + jitter(), layer as f64 * 0.3 * h + jitter())
+        })
+        .collect();
+    (faces, x)
+}
+
+/// The broad phase (bounding volume hierarchies refit from one search to the next, `Broad`) against a brute
+/// force over every pair of elements, on crumpled random sheets searched one after the other through the
+/// same trees: its candidates are exactly the pairs (not neighbours) whose boxes overlap, checked pair by
+/// pair, and so hold every pair whose closest points lie within the radius (hundreds on each sheet); the same
+/// on one and on two threads.
+#[test]
+fn the_refit_broad_phase_finds_every_pair_a_brute_force_search_finds() {
+    let radius = 0.02;
+    let mut broad = Broad::default();
+    let grow = |(lo, hi): (Vec3, Vec3)| (lo - Vec3::splat(0.5 * radius), hi + Vec3::splat(0.5 * radius));
+    for seed in 0..6 {
+        let (faces, x) = crumpled(seed, 0.004 * seed as f64);
+        // Every other search swept to a second crumpled configuration.
+        let (_, y) = crumpled(100 + seed, 0.01);
+        let to = (seed % 2 == 1).then_some(y.as_slice());
+        let candidates = faces.candidates_in(&mut broad, &x, to, radius);
+        let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        assert_eq!(single.install(|| faces.candidates(&x, to, radius)), candidates, "seed {seed}: one thread");
+        let boxes = Faces::node_boxes(&x, to);
+        let bound = |ks: &[usize]| {
+            grow(ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
+                (lo.min(boxes[k].0), hi.max(boxes[k].1))
+            }))
+        };
+        let overlap = |a: (Vec3, Vec3), b: (Vec3, Vec3)| a.0.cmple(b.1).all() && b.0.cmple(a.1).all();
+        let mut brute = Vec::new();
+        let mut close = 0;
+        for p in 0..faces.nodes() {
+            for t in 0..faces.triangles.len() {
+                let pair = Pair::PointFace(p, t);
+                if faces.excluded(pair) {
+                    continue;
+                }
+                if overlap(bound(&[p]), bound(&faces.triangles[t])) {
+                    brute.push(pair);
+                }
+                if faces.closest(pair, &x).distance() < radius {
+                    close += 1;
+                    assert!(candidates.binary_search(&pair).is_ok(), "seed {seed}: {pair:?} is close but no candidate");
+                }
+            }
+        }
+        for e in 0..faces.edges.len() {
+            for f in e + 1..faces.edges.len() {
+                let pair = Pair::EdgeEdge(e, f);
+                if faces.excluded(pair) {
+                    continue;
+                }
+                if overlap(bound(&faces.edges[e]), bound(&faces.edges[f])) {
+                    brute.push(pair);
+                }
+                if faces.closest(pair, &x).distance() < radius {
+                    close += 1;
+                    assert!(candidates.binary_search(&pair).is_ok(), "seed {seed}: {pair:?} is close but no candidate");
+                }
+            }
+        }
+        assert_eq!(candidates, brute, "seed {seed}");
+        assert!(close > 300, "seed {seed}: only {close} close pairs");
+        eprintln!("seed {seed}: {close} close pairs, {} candidates", candidates.len());
+    }
+    let (tris, edges) = (&broad.triangles, &broad.edges);
+    assert!(tris.refits > 0 && edges.refits > 0, "{tris:?} {edges:?}: the trees were never refit");
+    eprintln!("{tris:?}\n{edges:?}");
 }
