@@ -237,21 +237,11 @@ impl Faces {
         radius: f64,
         boxes: bool,
     ) -> Vec<Closest> {
-        let near = |pair: Pair| -> bool {
-            let nodes = self.pair_nodes(pair);
-            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
-            let bound = |ks: &[usize]| {
-                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
-                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
-                (lo, hi)
-            };
-            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
-            lo1.cmple(hi2 + Vec3::splat(radius)).all() && lo2.cmple(hi1 + Vec3::splat(radius)).all()
-        };
+        let near = if boxes { Some(Near::new(self, Self::node_boxes(x, None), radius)) } else { None };
         candidates
             .par_iter()
             .with_min_len(256)
-            .filter(|&&pair| (!boxes || near(pair)) && held.binary_search(&pair).is_err())
+            .filter(|&&pair| near.as_ref().is_none_or(|n| n.near(pair)) && held.binary_search(&pair).is_err())
             .map(|&pair| self.closest(pair, x))
             .filter(|c| c.distance() < radius)
             .collect()
@@ -297,21 +287,11 @@ impl Faces {
         to: &[Vec3],
         tolerance: f64,
     ) -> Option<(Pair, f64)> {
-        let swept_near = |pair: Pair| -> bool {
-            let nodes = self.pair_nodes(pair);
-            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
-            let bound = |ks: &[usize]| {
-                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(from[k]).min(to[k]));
-                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(from[k]).max(to[k]));
-                (lo, hi)
-            };
-            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
-            lo1.cmple(hi2 + Vec3::splat(tolerance)).all() && lo2.cmple(hi1 + Vec3::splat(tolerance)).all()
-        };
+        let swept = Near::new(self, Self::node_boxes(from, Some(to)), tolerance);
         let hits: Vec<(Pair, f64)> = candidates
             .par_iter()
             .with_min_len(256)
-            .filter(|&&pair| swept_near(pair))
+            .filter(|&&pair| swept.near(pair))
             .filter_map(|&pair| self.advance(pair, from, to, tolerance).map(|t| (pair, t)))
             .collect();
         hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
@@ -418,6 +398,42 @@ fn segment_crosses(p: Vec3, q: Vec3, t: [Vec3; 3]) -> bool {
     }
     let r = p + (q - p) * (dp / (dp - dq));
     (0..3).all(|i| n.dot((t[(i + 1) % 3] - t[i]).cross(r - t[i])) > 0.0)
+}
+
+/// The boxes of a surface's nodes, triangles and edges in one configuration (or swept over two), for the box
+/// test of a pair before its closest points are measured.
+struct Near {
+    nodes: Vec<Bounds>,
+    triangles: Vec<Bounds>,
+    edges: Vec<Bounds>,
+    /// The gap two boxes may leave and still be near.
+    radius: f64,
+}
+
+impl Near {
+    fn new(faces: &Faces, nodes: Vec<Bounds>, radius: f64) -> Self {
+        let bound = |ks: &[usize]| {
+            ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
+                let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
+                (lo.min(l), hi.max(h))
+            })
+        };
+        let triangles = faces.triangles.par_iter().with_min_len(1024).map(|t| bound(t)).collect();
+        let edges = faces.edges.par_iter().with_min_len(1024).map(|e| bound(e)).collect();
+        Near { nodes, triangles, edges, radius }
+    }
+
+    /// Whether the pair's two boxes come within the radius of each other.
+    fn near(&self, pair: Pair) -> bool {
+        let far = (Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY));
+        let (a, b) = match pair {
+            Pair::PointFace(p, t) => (self.nodes.get(p), self.triangles.get(t)),
+            Pair::EdgeEdge(e, f) => (self.edges.get(e), self.edges.get(f)),
+        };
+        let ((lo1, hi1), (lo2, hi2)) = (a.copied().unwrap_or(far), b.copied().unwrap_or(far));
+        let r = Vec3::splat(self.radius);
+        lo1.cmple(hi2 + r).all() && lo2.cmple(hi1 + r).all()
+    }
 }
 
 /// How many times as many tree nodes per query and per overlap found a refit [`Tree`]'s search may test as the
