@@ -6,9 +6,12 @@
 //! diagonal and the next cell's corner), so a thickness under half the shortest grid edge finds no contact in a
 //! flat sheet, and a fold as sharp as one cell is still held apart.
 //!
-//! - **Broad phase**: a uniform grid of cells of one size over the elements' bounding boxes (grown by the
-//!   distance sought, or swept over a step's motion), kept as a sorted list of (cell, element) keys, so that
-//!   candidate pairs come out in one order whatever the thread count.
+//! - **Broad phase**: bounding volume hierarchies (parry's [`Bvh`]) over the triangles' and the edges' bounding
+//!   boxes (grown by the distance sought, or swept over a step's motion), queried with each node's and each
+//!   edge's box in parallel; a [`Broad`] kept from one step to the next is refit to the moved boxes and rebuilt
+//!   only when its queries have grown [`REBUILD`] times as costly as after its last build ([`Tree`]). A query
+//!   yields exactly the leaves whose boxes overlap its box, whatever the tree's shape, and each query's hits are
+//!   sorted, so candidate pairs come out in one order whatever the thread count and the tree's history.
 //! - **Narrow phase**: parry's point–triangle projection (with the barycentric coordinates of the closest point)
 //!   and segment–segment closest points.
 //! - **Continuous detection**: conservative advancement along the straight paths of a step: the distance of a
@@ -16,11 +19,17 @@
 //!   speed never steps over a crossing, at any speed.
 
 use crate::math::Vec3;
+use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhNode, BvhWorkspace};
 use parry3d_f64::query::details::closest_points_segment_segment_with_locations_nD;
 use parry3d_f64::query::PointQueryWithLocation;
 use parry3d_f64::shape::Triangle;
 use rayon::prelude::*;
+use std::cell::Cell;
+
+/// A box: its lower and upper corners.
+pub type Bounds = (Vec3, Vec3);
 
 /// The triangles and edges of the panels' grids over the model's nodes.
 #[derive(Debug, Clone, PartialEq)]
@@ -155,28 +164,52 @@ impl Faces {
     }
 
     /// Every pair (not neighbours) whose elements' boxes at `x`, grown by `radius`, or swept from `x` to `to`
-    /// when given, overlap: the candidates, sorted.
+    /// when given, overlap: the candidates, sorted (trees built for this search alone).
     pub fn candidates(&self, x: &[Vec3], to: Option<&[Vec3]>, radius: f64) -> Vec<Pair> {
-        let bound = |nodes: &[usize]| -> (Vec3, Vec3) {
+        self.candidates_in(&mut Broad::default(), x, to, radius)
+    }
+
+    /// [`Faces::candidates`] through the trees of `broad`, refit to this search's boxes (or built, when they
+    /// hold other elements or have degraded: [`Tree::update`]). The candidates do not depend on the trees.
+    pub fn candidates_in(&self, broad: &mut Broad, x: &[Vec3], to: Option<&[Vec3]>, radius: f64) -> Vec<Pair> {
+        self.candidates_of(broad, &Self::node_boxes(x, to), radius)
+    }
+
+    /// Each node's box over its positions in `x` and, when given, `to`.
+    pub fn node_boxes(x: &[Vec3], to: Option<&[Vec3]>) -> Vec<Bounds> {
+        match to {
+            Some(to) => x.iter().zip(to).map(|(a, b)| (a.min(*b), a.max(*b))).collect(),
+            None => x.iter().map(|a| (*a, *a)).collect(),
+        }
+    }
+
+    /// Every pair (not neighbours) whose elements' boxes, the union of their nodes' boxes `nodes` grown by
+    /// `radius`, overlap, sorted, through the trees of `broad` ([`Faces::candidates_in`]).
+    pub fn candidates_of(&self, broad: &mut Broad, nodes: &[Bounds], radius: f64) -> Vec<Pair> {
+        let grow = Vec3::splat(0.5 * radius);
+        let bound = |ks: &[usize]| -> Bounds {
             let mut lo = Vec3::splat(f64::INFINITY);
             let mut hi = Vec3::splat(f64::NEG_INFINITY);
-            for &k in nodes {
-                for p in std::iter::once(x[k]).chain(to.map(|t| t[k])) {
-                    lo = lo.min(p);
-                    hi = hi.max(p);
-                }
+            for &k in ks {
+                let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
+                lo = lo.min(l);
+                hi = hi.max(h);
             }
-            (lo - Vec3::splat(0.5 * radius), hi + Vec3::splat(0.5 * radius))
+            (lo - grow, hi + grow)
         };
-        let nodes: Vec<(Vec3, Vec3)> = (0..self.nodes()).map(|k| bound(&[k])).collect();
-        let tris: Vec<(Vec3, Vec3)> = self.triangles.iter().map(|t| bound(t)).collect();
-        let edges: Vec<(Vec3, Vec3)> = self.edges.iter().map(|e| bound(e)).collect();
-        let size = tris.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(radius, f64::max).max(f64::MIN_POSITIVE);
-        let mut out: Vec<Pair> = overlaps(&nodes, &tris, size, false)
+        let points: Vec<Bounds> = (0..self.nodes()).into_par_iter().with_min_len(1024).map(|k| bound(&[k])).collect();
+        let tris: Vec<Bounds> = self.triangles.par_iter().with_min_len(1024).map(|t| bound(t)).collect();
+        let edges: Vec<Bounds> = self.edges.par_iter().with_min_len(1024).map(|e| bound(e)).collect();
+        broad.triangles.update(&tris);
+        broad.edges.update(&edges);
+        let point_face = broad.triangles.overlaps(&points, &tris, |p, t| !self.excluded(Pair::PointFace(p, t)));
+        let edge_edge = broad.edges.overlaps(&edges, &edges, |e, f| e < f && !self.excluded(Pair::EdgeEdge(e, f)));
+        // Sorted already (each query's hits sorted, the queries in order, point–face pairs first); a sort of a
+        // sorted list is one pass.
+        let mut out: Vec<Pair> = point_face
             .into_iter()
             .map(|(p, t)| Pair::PointFace(p, t))
-            .chain(overlaps(&edges, &edges, size, true).into_iter().map(|(e, f)| Pair::EdgeEdge(e, f)))
-            .filter(|&pair| !self.excluded(pair))
+            .chain(edge_edge.into_iter().map(|(e, f)| Pair::EdgeEdge(e, f)))
             .collect();
         out.sort_unstable();
         out
@@ -192,21 +225,23 @@ impl Faces {
     /// grown by half the radius, overlap are measured, the others skipped as the broad phase would), in their
     /// order.
     pub fn close_among(&self, candidates: &[Pair], x: &[Vec3], radius: f64, boxes: bool) -> Vec<Closest> {
-        let near = |pair: Pair| -> bool {
-            let nodes = self.pair_nodes(pair);
-            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
-            let bound = |ks: &[usize]| {
-                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
-                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
-                (lo, hi)
-            };
-            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
-            lo1.cmple(hi2 + Vec3::splat(radius)).all() && lo2.cmple(hi1 + Vec3::splat(radius)).all()
-        };
+        self.close_among_except(candidates, &[], x, radius, boxes)
+    }
+
+    /// [`Faces::close_among`] without the pairs of `held` (sorted), which are not measured.
+    pub fn close_among_except(
+        &self,
+        candidates: &[Pair],
+        held: &[Pair],
+        x: &[Vec3],
+        radius: f64,
+        boxes: bool,
+    ) -> Vec<Closest> {
+        let near = if boxes { Some(Near::new(self, Self::node_boxes(x, None), radius)) } else { None };
         candidates
             .par_iter()
             .with_min_len(256)
-            .filter(|&&pair| !boxes || near(pair))
+            .filter(|&&pair| near.as_ref().is_none_or(|n| n.near(pair)) && held.binary_search(&pair).is_err())
             .map(|&pair| self.closest(pair, x))
             .filter(|c| c.distance() < radius)
             .collect()
@@ -217,7 +252,21 @@ impl Faces {
     /// `radius + 2 slack` ([`Faces::candidates`]).
     pub fn within(x: &[Vec3], from: &[Vec3], to: &[Vec3], slack: f64) -> bool {
         let s = Vec3::splat(slack);
-        x.iter().zip(from).zip(to).all(|((p, a), b)| p.cmpge(a.min(*b) - s).all() && p.cmple(a.max(*b) + s).all())
+        x.len() == from.len()
+            && x.len() == to.len()
+            && x.iter()
+                .zip(from)
+                .zip(to)
+                .all(|((p, a), b)| p.cmpge(a.min(*b) - s).all() && p.cmple(a.max(*b) + s).all())
+    }
+
+    /// Whether every node of `x` lies within `slack` (in each coordinate) of its box of `boxes`
+    /// ([`Faces::node_boxes`]): then every pair within `radius` at `x` is among the candidates of those boxes
+    /// for the radius `radius + 2 slack` ([`Faces::candidates_of`]).
+    pub fn within_boxes(x: &[Vec3], boxes: &[Bounds], slack: f64) -> bool {
+        let s = Vec3::splat(slack);
+        x.len() == boxes.len()
+            && x.iter().zip(boxes).all(|(p, (lo, hi))| p.cmpge(*lo - s).all() && p.cmple(*hi + s).all())
     }
 
     /// The first pair whose distance falls to `tolerance` or below along the straight paths from `from` to
@@ -238,21 +287,11 @@ impl Faces {
         to: &[Vec3],
         tolerance: f64,
     ) -> Option<(Pair, f64)> {
-        let swept_near = |pair: Pair| -> bool {
-            let nodes = self.pair_nodes(pair);
-            let split = if matches!(pair, Pair::PointFace(..)) { 1 } else { 2 };
-            let bound = |ks: &[usize]| {
-                let lo = ks.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(from[k]).min(to[k]));
-                let hi = ks.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(from[k]).max(to[k]));
-                (lo, hi)
-            };
-            let ((lo1, hi1), (lo2, hi2)) = (bound(&nodes[..split]), bound(&nodes[split..]));
-            lo1.cmple(hi2 + Vec3::splat(tolerance)).all() && lo2.cmple(hi1 + Vec3::splat(tolerance)).all()
-        };
+        let swept = Near::new(self, Self::node_boxes(from, Some(to)), tolerance);
         let hits: Vec<(Pair, f64)> = candidates
             .par_iter()
             .with_min_len(256)
-            .filter(|&&pair| swept_near(pair))
+            .filter(|&&pair| swept.near(pair))
             .filter_map(|&pair| self.advance(pair, from, to, tolerance).map(|t| (pair, t)))
             .collect();
         hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
@@ -268,16 +307,18 @@ impl Faces {
             let hi = nodes.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
             (lo, hi)
         };
-        let edges: Vec<(Vec3, Vec3)> = self.edges.iter().map(|e| bound(e)).collect();
-        let tris: Vec<(Vec3, Vec3)> = self.triangles.iter().map(|t| bound(t)).collect();
-        let size = tris.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(f64::MIN_POSITIVE, f64::max);
-        overlaps(&edges, &tris, size, false).into_iter().find(|&(e, t)| {
-            let ([a, b], tri) = (self.edges[e], self.triangles[t]);
-            let r = |k: usize| self.representative(k);
-            if tri.iter().any(|&k| r(k) == r(a) || r(k) == r(b)) {
-                return false;
-            }
-            segment_crosses(x[a], x[b], tri.map(|k| x[k]))
+        let edges: Vec<Bounds> = self.edges.iter().map(|e| bound(e)).collect();
+        let tris: Vec<Bounds> = self.triangles.iter().map(|t| bound(t)).collect();
+        let mut tree = Tree::default();
+        tree.update(&tris);
+        let r = |k: usize| self.representative(k);
+        let apart = |e: usize, t: usize| {
+            let [a, b] = self.edges[e];
+            !self.triangles[t].iter().any(|&k| r(k) == r(a) || r(k) == r(b))
+        };
+        tree.overlaps(&edges, &tris, apart).into_iter().find(|&(e, t)| {
+            let [a, b] = self.edges[e];
+            segment_crosses(x[a], x[b], self.triangles[t].map(|k| x[k]))
         })
     }
 
@@ -288,7 +329,7 @@ impl Faces {
     /// falls to `tolerance`, or `None`.
     fn advance(&self, pair: Pair, from: &[Vec3], to: &[Vec3], tolerance: f64) -> Option<f64> {
         let nodes = self.pair_nodes(pair);
-        let motion: Vec<Vec3> = nodes.iter().map(|&k| to[k] - from[k]).collect();
+        let motion: [Vec3; 4] = nodes.map(|k| to[k] - from[k]);
         // The distance changes no faster than the largest motion of one side plus the other side's.
         let (one, other) = match pair {
             Pair::PointFace(..) => (motion[0].length(), motion[1..].iter().map(|m| m.length()).fold(0.0, f64::max)),
@@ -359,50 +400,147 @@ fn segment_crosses(p: Vec3, q: Vec3, t: [Vec3; 3]) -> bool {
     (0..3).all(|i| n.dot((t[(i + 1) % 3] - t[i]).cross(r - t[i])) > 0.0)
 }
 
-/// The integer cells of a uniform grid of cells of `size` that the box `lo..hi` overlaps.
-fn cells_of((lo, hi): &(Vec3, Vec3), size: f64) -> impl Iterator<Item = [i64; 3]> {
-    let cell = |p: f64| (p / size).floor() as i64;
-    let (l, h) = ([cell(lo.x), cell(lo.y), cell(lo.z)], [cell(hi.x), cell(hi.y), cell(hi.z)]);
-    (l[0]..=h[0]).flat_map(move |i| (l[1]..=h[1]).flat_map(move |j| (l[2]..=h[2]).map(move |k| [i, j, k])))
+/// The boxes of a surface's nodes, triangles and edges in one configuration (or swept over two), for the box
+/// test of a pair before its closest points are measured.
+struct Near {
+    nodes: Vec<Bounds>,
+    triangles: Vec<Bounds>,
+    edges: Vec<Bounds>,
+    /// The gap two boxes may leave and still be near.
+    radius: f64,
 }
 
-/// The (cell key, element) entries of boxes on a uniform grid of cells of `size`, sorted.
-fn bins(boxes: &[(Vec3, Vec3)], size: f64) -> Vec<([i64; 3], u32)> {
-    let mut out: Vec<([i64; 3], u32)> =
-        boxes.iter().enumerate().flat_map(|(e, b)| cells_of(b, size).map(move |key| (key, e as u32))).collect();
-    out.sort_unstable();
-    out
+impl Near {
+    fn new(faces: &Faces, nodes: Vec<Bounds>, radius: f64) -> Self {
+        let bound = |ks: &[usize]| {
+            ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
+                let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
+                (lo.min(l), hi.max(h))
+            })
+        };
+        let triangles = faces.triangles.par_iter().with_min_len(1024).map(|t| bound(t)).collect();
+        let edges = faces.edges.par_iter().with_min_len(1024).map(|e| bound(e)).collect();
+        Near { nodes, triangles, edges, radius }
+    }
+
+    /// Whether the pair's two boxes come within the radius of each other.
+    fn near(&self, pair: Pair) -> bool {
+        let far = (Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY));
+        let (a, b) = match pair {
+            Pair::PointFace(p, t) => (self.nodes.get(p), self.triangles.get(t)),
+            Pair::EdgeEdge(e, f) => (self.edges.get(e), self.edges.get(f)),
+        };
+        let ((lo1, hi1), (lo2, hi2)) = (a.copied().unwrap_or(far), b.copied().unwrap_or(far));
+        let r = Vec3::splat(self.radius);
+        lo1.cmple(hi2 + r).all() && lo2.cmple(hi1 + r).all()
+    }
 }
 
-/// The pairs `(a, b)` of boxes of `first` and `second` that overlap (with `same`, the two lists are one and
-/// only `a < b` is kept), each once.
-fn overlaps(first: &[(Vec3, Vec3)], second: &[(Vec3, Vec3)], size: f64, same: bool) -> Vec<(usize, usize)> {
-    let table = bins(second, size);
-    let overlap = |a: &(Vec3, Vec3), b: &(Vec3, Vec3)| a.0.cmple(b.1).all() && b.0.cmple(a.1).all();
-    let mut pairs: Vec<(usize, usize)> = first
-        .par_iter()
-        .enumerate()
-        .with_min_len(256)
-        .flat_map_iter(|(a, boxa)| {
-            let mut found = Vec::new();
-            for key in cells_of(boxa, size) {
-                let start = table.partition_point(|e| e.0 < key);
-                for &(k, b) in &table[start..] {
-                    if k != key {
-                        break;
-                    }
-                    let b = b as usize;
-                    if (!same || a < b) && overlap(boxa, &second[b]) {
-                        found.push((a, b));
-                    }
-                }
+/// How many times as many tree nodes per query and per overlap found a refit [`Tree`]'s search may test as the
+/// first search after its last build before it is rebuilt.
+pub const REBUILD: f64 = 1.5;
+
+/// A bounding volume hierarchy over a list of boxes (parry's [`Bvh`], built by binned surface-area heuristic),
+/// kept from one search to the next: [`Tree::update`] refits it to the boxes' new extents (the same tree, each
+/// node's box recomputed from its children's, in one pass) and builds it anew only when the boxes are other
+/// elements or the refit tree has degraded. The measure of degradation is the cost a search actually paid:
+/// the tree nodes its queries tested per query and per overlap found ([`Tree::overlaps`]); once a search after
+/// a refit costs more than [`REBUILD`] times the first search after the build, the next update rebuilds.
+/// Queries yield exactly the leaves whose boxes overlap theirs, so the rule changes the cost, never a result.
+#[derive(Clone, Default)]
+pub struct Tree {
+    bvh: Bvh,
+    workspace: BvhWorkspace,
+    leaves: usize,
+    /// Node tests per query and overlap of the first search after the last build (0 until one ran).
+    built: f64,
+    /// The same of the last search.
+    last: f64,
+    /// Builds so far.
+    pub builds: usize,
+    /// Refits so far.
+    pub refits: usize,
+}
+
+impl std::fmt::Debug for Tree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tree")
+            .field("leaves", &self.leaves)
+            .field("built", &self.built)
+            .field("last", &self.last)
+            .field("builds", &self.builds)
+            .field("refits", &self.refits)
+            .finish()
+    }
+}
+
+impl Tree {
+    /// The tree over `boxes`: refit when it holds as many leaves and has not degraded, else built anew.
+    pub fn update(&mut self, boxes: &[Bounds]) {
+        let aabb = |&(lo, hi): &Bounds| Aabb::new(v(lo), v(hi));
+        let degraded = self.built > 0.0 && self.last > REBUILD * self.built;
+        if self.leaves == boxes.len() && boxes.len() > 2 && !degraded {
+            for (k, b) in boxes.iter().enumerate() {
+                self.bvh.insert_or_update_partially(aabb(b), k as u32, 0.0);
             }
-            found
-        })
-        .collect();
-    pairs.sort_unstable();
-    pairs.dedup();
-    pairs
+            self.bvh.refit(&mut self.workspace);
+            self.refits += 1;
+        } else {
+            self.bvh = Bvh::from_iter(BvhBuildStrategy::Binned, boxes.iter().map(aabb).enumerate());
+            self.leaves = boxes.len();
+            self.built = 0.0;
+            self.builds += 1;
+        }
+    }
+
+    /// The pairs `(a, b)` of a box `a` of `queries` and a box `b` of `leaves` (the boxes the tree was last
+    /// updated to) that overlap and that `keep` keeps, sorted. Queries run in parallel, each its own.
+    pub fn overlaps(
+        &mut self,
+        queries: &[Bounds],
+        leaves: &[Bounds],
+        keep: impl Fn(usize, usize) -> bool + Sync,
+    ) -> Vec<(usize, usize)> {
+        let overlap = |a: &Bounds, b: &Bounds| a.0.cmple(b.1).all() && b.0.cmple(a.1).all();
+        let bvh = &self.bvh;
+        let found: Vec<(Vec<(usize, usize)>, usize)> = queries
+            .par_iter()
+            .enumerate()
+            .with_min_len(256)
+            .map(|(a, boxa)| {
+                let query = BvhNode::leaf(Aabb::new(v(boxa.0), v(boxa.1)), 0);
+                let tests = Cell::new(0_usize);
+                let mut hits: Vec<(usize, usize)> = bvh
+                    .leaves(|node| {
+                        tests.set(tests.get() + 1);
+                        node.intersects(&query)
+                    })
+                    .map(|b| b as usize)
+                    .filter(|&b| leaves.get(b).is_some_and(|boxb| overlap(boxa, boxb)) && keep(a, b))
+                    .map(|b| (a, b))
+                    .collect();
+                hits.sort_unstable();
+                (hits, tests.get())
+            })
+            .collect();
+        let tests: usize = found.iter().map(|f| f.1).sum();
+        let pairs: Vec<(usize, usize)> = found.into_iter().flat_map(|f| f.0).collect();
+        self.last = tests as f64 / (queries.len() + pairs.len()).max(1) as f64;
+        if self.built == 0.0 {
+            self.built = self.last;
+        }
+        pairs
+    }
+}
+
+/// The broad phase of a surface's pairs: trees over its triangles' and its edges' boxes, kept from one search
+/// to the next ([`Faces::candidates_in`]).
+#[derive(Debug, Clone, Default)]
+pub struct Broad {
+    /// The triangles' tree (queried with the nodes' boxes).
+    pub triangles: Tree,
+    /// The edges' tree (queried with the edges' boxes).
+    pub edges: Tree,
 }
 
 #[cfg(test)]

@@ -28,7 +28,7 @@
 use super::contact::{add_all, records_fit, restore_scratch, save_scratch, Contact, Other, Stencil, FRICTION_ROUNDS};
 use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
 use super::{ActiveSet, Context, Motion, Part, Scratch, Stage, Term, TermInfo};
-use crate::contact::proximity::{Closest, Faces, Pair};
+use crate::contact::proximity::{Bounds, Broad, Closest, Faces, Pair};
 use crate::energy::Sink;
 use crate::math::Vec3;
 use serde::Serialize;
@@ -74,9 +74,13 @@ pub struct SelfScratch {
     relinearized: usize,
     /// The step's candidate pairs: those whose elements' boxes swept from the start to the target come within
     /// the thickness and twice the [`SLACK`] (every close pair of a configuration within the slack of the
-    /// swept boxes is among them), with the target they were swept to.
+    /// swept boxes is among them), with the nodes' boxes they were swept over (grown to take in any
+    /// configuration of the step that left them: [`SelfContact::cover`]).
     #[serde(skip)]
-    candidates: Option<(Vec<Pair>, Vec<Vec3>)>,
+    candidates: Option<(Vec<Pair>, Vec<Bounds>)>,
+    /// The broad phase's trees, refit each step to its swept boxes (rebuilt when they degrade).
+    #[serde(skip)]
+    broad: Broad,
 }
 
 /// How far (a multiple of the thickness, per coordinate) a configuration may leave a step's swept boxes and
@@ -138,26 +142,46 @@ impl SelfContact {
         }
     }
 
-    /// The pairs closer than the thickness at `x`: among the step's candidates when `x` is within their slack,
-    /// else from the whole broad phase.
-    fn close(&self, s: &SelfScratch, x: &[Vec3]) -> Vec<Closest> {
+    /// The pairs closer than the thickness at `x` and not yet held: among the step's candidates
+    /// ([`SelfContact::cover`]) during a step, else (a static solve) from the broad phase at `x`.
+    fn close(&self, s: &mut SelfScratch, x: &[Vec3]) -> Vec<Closest> {
         let thickness = self.params.thickness;
-        match &s.candidates {
-            Some((pairs, target))
-                if s.start.len() == x.len() && Faces::within(x, &s.start, target, SLACK * thickness) =>
-            {
-                self.faces.close_among(pairs, x, thickness, true)
+        if self.cover(s, x) {
+            if let Some((pairs, _)) = &s.candidates {
+                return self.faces.close_among_except(pairs, &s.pairs, x, thickness, true);
             }
-            _ => self.faces.close(x, thickness),
         }
+        let candidates = self.faces.candidates_in(&mut s.broad, x, None, thickness);
+        self.faces.close_among_except(&candidates, &s.pairs, x, thickness, false)
+    }
+
+    /// Whether the step's candidates hold every pair close at `x`: true when a step's candidates are held and
+    /// `x` is within their slack, or after sweeping them anew (through the refit trees) over their nodes' boxes
+    /// grown to take in `x` when it is not; the new ones stand for the rest of the step (the boxes only grow,
+    /// so a step sweeps anew at most once per configuration that leaves all the earlier ones' slack). False
+    /// without a step's candidates.
+    fn cover(&self, s: &mut SelfScratch, x: &[Vec3]) -> bool {
+        let thickness = self.params.thickness;
+        let Some((_, boxes)) = &mut s.candidates else { return false };
+        if boxes.len() != x.len() {
+            return false;
+        }
+        if !Faces::within_boxes(x, boxes, SLACK * thickness) {
+            for ((lo, hi), p) in boxes.iter_mut().zip(x) {
+                (*lo, *hi) = (lo.min(*p), hi.max(*p));
+            }
+            let radius = (1.0 + 2.0 * SLACK) * thickness;
+            let pairs = self.faces.candidates_of(&mut s.broad, boxes, radius);
+            s.candidates = Some((pairs, std::mem::take(boxes)));
+        }
+        true
     }
 
     /// Adds the close pairs of `x` not yet held, as contacts; returns the largest force one would have had at
     /// `at` (the proposal a solve missed them at).
     fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
         let mut missed: f64 = 0.0;
-        let fresh: Vec<Closest> =
-            self.close(s, x).into_iter().filter(|c| s.pairs.binary_search(&c.pair).is_err()).collect();
+        let fresh = self.close(s, x);
         for c in &fresh {
             let contact = self.record(c, &s.start);
             missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
@@ -295,14 +319,19 @@ impl ActiveSet for SelfContact {
         match cx.motion {
             Some(m) if m.predict => s.start = m.x.to_vec(),
             Some(_) if s.start.len() == y.len() => {}
-            _ => s.start = y.to_vec(),
+            _ => {
+                s.start = y.to_vec();
+                s.candidates = None;
+            }
         }
         s.pairs.clear();
         s.contacts.clear();
         s.relinearized = 0;
         if let Some(m) = cx.motion.filter(|m| m.predict) {
             let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
-            s.candidates = Some((self.faces.candidates(&s.start, Some(m.target), radius), m.target.to_vec()));
+            let boxes = Faces::node_boxes(&s.start, Some(m.target));
+            let pairs = self.faces.candidates_of(&mut s.broad, &boxes, radius);
+            s.candidates = Some((pairs, boxes));
         } else if cx.motion.is_none() {
             s.candidates = None;
         }
@@ -369,14 +398,14 @@ impl ActiveSet for SelfContact {
         let tolerance = TOUCH * self.params.thickness;
         let s = self.scratch(scratch);
         // The step's candidates hold every pair whose paths come within the tolerance when the step starts
-        // where they were swept from and ends within their slack.
+        // where they were swept from and ends within their slack (swept anew to `to` when it does not).
+        let step = s.start.as_slice() == from && self.cover(s, to);
         let touch = match &s.candidates {
-            Some((pairs, target))
-                if s.start.as_slice() == from && Faces::within(to, from, target, SLACK * self.params.thickness) =>
-            {
-                self.faces.first_touch_among(pairs, from, to, tolerance)
+            Some((pairs, _)) if step => self.faces.first_touch_among(pairs, from, to, tolerance),
+            _ => {
+                let pairs = self.faces.candidates_in(&mut s.broad, from, Some(to), tolerance);
+                self.faces.first_touch_among(&pairs, from, to, tolerance)
             }
-            _ => self.faces.first_touch(from, to, tolerance),
         };
         touch.map(|(pair, _)| match pair {
             Pair::PointFace(p, _) => p,

@@ -5,6 +5,7 @@
 //! and 0.1 s); sheets stacked on the floor rest a thickness apart; two sheets thrown at each other in free
 //! flight keep their linear momentum; the term through the shared finite-difference checker.
 
+use flexsurf::contact::proximity::{Broad, Faces, Pair, Tree};
 use flexsurf::contact::Obstacle;
 use flexsurf::energy::Operator;
 use flexsurf::grid::Grid;
@@ -392,4 +393,124 @@ fn self_contact_that_never_engages_leaves_the_ball_drop_as_it_was() {
     // The drop did reach the ball: its centre lies on it.
     let centre = on.last().unwrap()[grid.index(10, 10)];
     assert!((centre.z - 0.3).abs() < 0.01, "centre at {centre:?}");
+}
+
+/// A 16 × 16 sheet of spacing `h` folded like an accordion into layers `0.3 h` apart, jittered by up to
+/// `amplitude` in each coordinate (seeded), and its faces.
+fn crumpled(seed: u64, amplitude: f64) -> (Faces, Vec<Vec3>) {
+    use rand::{Rng, SeedableRng};
+    let (n, h) = (16, 0.05);
+    let idx = |i: usize, j: usize| i + n * j;
+    let cells =
+        (0..n - 1).flat_map(|j| (0..n - 1).map(move |i| [idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1)]));
+    let faces = Faces::new(n * n, cells);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    // Layers of four cells, turning back and forth along i.
+    let x = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k % n, k / n);
+            let (layer, along) = (i / 4, i % 4);
+            let u = if layer % 2 == 0 { along } else { 4 - along };
+            let mut jitter = || amplitude * (2.0 * rng.random::<f64>() - 1.0);
+            Vec3::new(u as f64 * h + jitter(), j as f64 * h + jitter(), layer as f64 * 0.3 * h + jitter())
+        })
+        .collect();
+    (faces, x)
+}
+
+/// The candidates of one search through `broad` against a brute force over every pair of elements: they must
+/// be exactly the pairs (not neighbours) whose boxes overlap and hold every pair whose closest points lie
+/// within the radius; returns how many do.
+fn brute_force_check(broad: &mut Broad, faces: &Faces, x: &[Vec3], to: Option<&[Vec3]>, radius: f64) -> usize {
+    let candidates = faces.candidates_in(broad, x, to, radius);
+    let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    assert_eq!(single.install(|| faces.candidates(x, to, radius)), candidates, "one thread");
+    let boxes = Faces::node_boxes(x, to);
+    let grow = |(lo, hi): (Vec3, Vec3)| (lo - Vec3::splat(0.5 * radius), hi + Vec3::splat(0.5 * radius));
+    let bound = |ks: &[usize]| {
+        grow(ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
+            (lo.min(boxes[k].0), hi.max(boxes[k].1))
+        }))
+    };
+    let overlap = |a: (Vec3, Vec3), b: (Vec3, Vec3)| a.0.cmple(b.1).all() && b.0.cmple(a.1).all();
+    let mut brute = Vec::new();
+    let mut close = 0;
+    let mut visit = |pair: Pair, a: &[usize], b: &[usize]| {
+        if faces.excluded(pair) {
+            return;
+        }
+        if overlap(bound(a), bound(b)) {
+            brute.push(pair);
+        }
+        if faces.closest(pair, x).distance() < radius {
+            close += 1;
+            assert!(candidates.binary_search(&pair).is_ok(), "{pair:?} is close but no candidate");
+        }
+    };
+    for p in 0..faces.nodes() {
+        for (t, tri) in faces.triangles.iter().enumerate() {
+            visit(Pair::PointFace(p, t), &[p], tri);
+        }
+    }
+    for (e, a) in faces.edges.iter().enumerate() {
+        for (f, b) in faces.edges.iter().enumerate().skip(e + 1) {
+            visit(Pair::EdgeEdge(e, f), a, b);
+        }
+    }
+    assert_eq!(candidates, brute);
+    close
+}
+
+/// The broad phase (bounding volume hierarchies refit from one search to the next, `Broad`) against a brute
+/// force over every pair of elements, on crumpled random sheets searched one after the other through the
+/// same trees: its candidates are exactly the pairs (not neighbours) whose boxes overlap, checked pair by
+/// pair, and so hold every pair whose closest points lie within the radius (thousands on each sheet); the
+/// same on one thread; still so with the nodes shuffled. And the rebuild rule fires on a tree refit to boxes
+/// in another order.
+#[test]
+fn the_refit_broad_phase_finds_every_pair_a_brute_force_search_finds() {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let radius = 0.02;
+    let mut broad = Broad::default();
+    for seed in 0..6 {
+        let (faces, x) = crumpled(seed, 0.004 * seed as f64);
+        // Every other search swept to a second crumpled configuration.
+        let (_, y) = crumpled(100 + seed, 0.01);
+        let to = (seed % 2 == 1).then_some(y.as_slice());
+        let close = brute_force_check(&mut broad, &faces, &x, to, radius);
+        assert!(close > 300, "seed {seed}: only {close} close pairs");
+        eprintln!("seed {seed}: {close} close pairs");
+    }
+    let (tris, edges) = (&broad.triangles, &broad.edges);
+    assert!((tris.builds, tris.refits, edges.builds, edges.refits) == (1, 5, 1, 5), "{tris:?} {edges:?}");
+    // Shuffled nodes (each takes another's place): the trees refit to boxes spanning the whole sheet still
+    // find every pair.
+    let (faces, mut x) = crumpled(7, 0.01);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    x.shuffle(&mut rng);
+    brute_force_check(&mut broad, &faces, &x, None, radius);
+    assert_eq!((broad.triangles.builds, broad.triangles.refits), (1, 6), "{:?}", broad.triangles);
+    // The rebuild rule: 1000 unit boxes two apart along a line, then the same boxes in a shuffled order along
+    // it. Refit, every node of the tree spans the line and a query tests hundreds of nodes against about 20
+    // after the build; the search after that rebuilds. No box overlaps another either way.
+    let line = |order: &[usize]| -> Vec<(Vec3, Vec3)> {
+        order
+            .iter()
+            .map(|&k| (Vec3::new(2.0 * k as f64, 0.0, 0.0), Vec3::new(2.0 * k as f64 + 1.0, 1.0, 1.0)))
+            .collect()
+    };
+    let mut order: Vec<usize> = (0..1000).collect();
+    let mut tree = Tree::default();
+    let boxes = line(&order);
+    tree.update(&boxes);
+    assert!(tree.overlaps(&boxes, &boxes, |a, b| a < b).is_empty());
+    order.shuffle(&mut rng);
+    let boxes = line(&order);
+    tree.update(&boxes);
+    assert!(tree.overlaps(&boxes, &boxes, |a, b| a < b).is_empty());
+    assert_eq!((tree.builds, tree.refits), (1, 1), "{tree:?}");
+    tree.update(&boxes);
+    assert_eq!((tree.builds, tree.refits), (2, 1), "{tree:?}: the degraded tree was not rebuilt");
+    eprintln!("{tree:?}");
 }
