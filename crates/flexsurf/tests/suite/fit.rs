@@ -356,47 +356,55 @@ fn drape_displacements_agree_with_central_differences() {
     }
 }
 
-/// The round trip with a shape: the constants that made synthetic bending lengths, a DC, the weight and
-/// a scanned drape come back to 0.1 % from the shape's symmetric Chamfer distance and the rest together. The
-/// scan is the truth's drape sampled as a scanner would, denser than the grid (its free nodes and the centroids
-/// of the triangles between them), in a scanner's frame: turned by 27.3° about z, tilted by 3.1° about x and
-/// 1.7° about y, and shifted by (2, −1.5, 4) cm. The fit places it back: the placed scan lies on the truth's
-/// samples (symmetric Chamfer distance, RMS) to 1e-6 m, and the reported tilt is that motion's.
-#[test]
-fn fit_round_trip_with_a_scanned_drape() {
-    use flexsurf::lab::fit::align::chamfer;
+/// The truth's drape sampled as a scanner would, denser than the grid (its free nodes and the centroids of the
+/// triangles between them), in the meter's frame; the scan, those samples in a scanner's frame (turned by 27.3°
+/// about z, tilted by 3.1° about x and 1.7° about y, shifted by (2, −1.5, 4) cm); the rotation; and the fit of
+/// bending warp and weft, shear and density from the bending lengths, the DC, the weight (noiseless, σ 0.1 %)
+/// and the scan (σ 0.1 mm), aligned, from 1.1, 0.92, 1.1, 0.95 times the truth.
+fn scanned_drape(truth: &Fabric) -> (Vec<flexsurf::math::Vec3>, flexsurf::math::Mat3, FitProblem) {
     use flexsurf::lab::fit::targets::drape_coefficient;
     use flexsurf::math::{Mat3, Vec3};
-    let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
     let mut warm = Warm::default();
-    drape_coefficient(&truth, Calibration::Kes, &[], &small(), &mut warm).unwrap();
+    drape_coefficient(truth, Calibration::Kes, &[], &small(), &mut warm).unwrap();
     let x = warm.drape.unwrap();
-    let s = Stiffness::calibrate(&truth, Calibration::Kes).unwrap();
-    let builder = flexsurf::lab::cusick::specimen_builder(&truth, s, small().specimen, small().drape_grid).unwrap();
-    let mut nodes: Vec<Vec3> = x.iter().zip(&builder.pinned).filter(|(_, &p)| !p).map(|(x, _)| *x).collect();
-    let free_triangles = builder.clone().build().unwrap().faces().triangles;
-    let free_triangles = free_triangles.iter().filter(|t| t.iter().all(|&k| !builder.pinned[k]));
-    nodes.extend(free_triangles.map(|t| (x[t[0]] + x[t[1]] + x[t[2]]) / 3.0));
+    let s = Stiffness::calibrate(truth, Calibration::Kes).unwrap();
+    let builder = flexsurf::lab::cusick::specimen_builder(truth, s, small().specimen, small().drape_grid).unwrap();
+    let mut samples: Vec<Vec3> = x.iter().zip(&builder.pinned).filter(|(_, &p)| !p).map(|(x, _)| *x).collect();
+    let triangles = builder.clone().build().unwrap().faces().triangles;
+    let free = triangles.iter().filter(|t| t.iter().all(|&k| !builder.pinned[k]));
+    samples.extend(free.map(|t| (x[t[0]] + x[t[1]] + x[t[2]]) / 3.0));
     let turn = Mat3::from_rotation_z(27.3f64.to_radians())
         * Mat3::from_rotation_x(3.1f64.to_radians())
         * Mat3::from_rotation_y(1.7f64.to_radians());
     let shift = Vec3::new(0.02, -0.015, 0.04);
-    let scan: Vec<Vec3> = nodes.iter().map(|p| turn * *p + shift).collect();
     let quantities = [
         Quantity::BendingLength(Direction::Warp),
         Quantity::BendingLength(Direction::Weft),
         Quantity::DrapeCoefficient,
         Quantity::Kes(KesValue::Weight),
     ];
-    let mut p = problem_of(&truth, &quantities, [0.0; 4], 1e-3, [1.1, 0.92, 1.1, 0.95]);
+    let mut p = problem_of(truth, &quantities, [0.0; 4], 1e-3, [1.1, 0.92, 1.1, 0.95]);
     p.targets.push(Target { quantity: Quantity::Shape, value: 0.0, sigma: 1e-4 });
-    p.scan = scan.clone();
+    p.scan = samples.iter().map(|q| turn * *q + shift).collect();
     p.align = flexsurf::lab::fit::Align::Rigid;
+    (samples, turn, p)
+}
+
+/// The round trip with a shape: the constants that made synthetic bending lengths, a DC, the weight and
+/// a scanned drape in a scanner's frame ([`scanned_drape`]) come back to 0.1 % from the shape's symmetric
+/// distance and the rest together, and the fit places the scan back: the placed scan lies on the truth's
+/// samples (symmetric Chamfer distance, RMS) to 1e-6 m, and the reported tilt is that motion's.
+#[test]
+fn fit_round_trip_with_a_scanned_drape() {
+    use flexsurf::lab::fit::align::chamfer;
+    use flexsurf::math::{Mat3, Vec3};
+    let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
+    let (samples, turn, p) = scanned_drape(&truth);
     let r = check_fit(&p, &truth, 1e-3, false, "lengths + DC + W + shape in a scanner's frame, noiseless");
     let a = r.alignment.expect("an aligned scan's placement is reported");
     let m = Mat3::from_cols_array_2d(&a.matrix).transpose();
-    let placed: Vec<Vec3> = scan.iter().map(|s| m * *s + Vec3::from_array(a.offset)).collect();
-    let rms = chamfer(&placed, &nodes).sqrt();
+    let placed: Vec<Vec3> = p.scan.iter().map(|s| m * *s + Vec3::from_array(a.offset)).collect();
+    let rms = chamfer(&placed, &samples).sqrt();
     let tilt = (turn * Vec3::Z).dot(Vec3::Z).acos().to_degrees();
     eprintln!(
         "placed from {:?}: RMS {rms:.2e} m from the truth, tilt {:.4}° (the motion's {tilt:.4}°)",
@@ -404,17 +412,26 @@ fn fit_round_trip_with_a_scanned_drape() {
     );
     assert!(rms < 1e-6, "the placed scan is {rms:.2e} m off the truth's drape");
     assert!((a.tilt_degrees - tilt).abs() < 1e-3, "{} vs {tilt}", a.tilt_degrees);
-    // With noise (fixed draws): 1 sd = 0.1 mm on every coordinate of every scan point (the shape's sigma) and
-    // 0.1 % on the other targets. The truth within three standard errors of every constant, the shear (which
-    // a drape determines weakly, docs/materials.md: its standard error is 16 % here) within 10 % as in the fit
-    // to a DC without a shape, the rest within 1 %.
+}
+
+/// The same with noise (fixed draws): 1 sd = 0.1 mm on every coordinate of every scan point (the shape's sigma)
+/// and 0.1 % on the other targets. The truth within three standard errors of every constant, the shear (which
+/// a drape determines weakly, docs/materials.md: its standard error is 16 % here) within 10 % as in the fit to a
+/// DC without a shape, the rest within 1 % (measured: 1.6 standard errors at the most, 25 iterations, 18 s).
+#[test]
+#[ignore = "long check (a second fit of the scanned drape, about 20 s): run with --ignored"]
+fn fit_round_trip_with_a_noisy_scanned_drape() {
+    use flexsurf::math::Vec3;
     use rand::{Rng, SeedableRng};
+    let truth = Fabric { poisson: 0.0, bending_poisson: 0.0, ..woven() };
+    let (_, _, mut p) = scanned_drape(&truth);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
     let mut gauss = || {
         let (u, v): (f64, f64) = (rng.random::<f64>().max(1e-300), rng.random());
         (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
     };
-    p.scan = scan.iter().map(|s| *s + Vec3::new(gauss(), gauss(), gauss()) * 1e-4).collect();
+    p.scan = p.scan.iter().map(|s| *s + Vec3::new(gauss(), gauss(), gauss()) * 1e-4).collect();
+    let quantities: Vec<Quantity> = p.targets[..4].iter().map(|t| t.quantity).collect();
     let noisy = problem_of(&truth, &quantities, [0.9, -1.4, 0.6, -0.8], 1e-3, [1.1, 0.92, 1.1, 0.95]);
     p.targets.splice(..4, noisy.targets);
     let r = check_fit(&p, &truth, 1e-1, true, "lengths + DC + W + shape in a scanner's frame, noisy");
