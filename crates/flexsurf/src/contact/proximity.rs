@@ -188,13 +188,7 @@ impl Faces {
     pub fn candidates_of(&self, broad: &mut Broad, nodes: &[Bounds], radius: f64) -> Vec<Pair> {
         let grow = Vec3::splat(0.5 * radius);
         let bound = |ks: &[usize]| -> Bounds {
-            let mut lo = Vec3::splat(f64::INFINITY);
-            let mut hi = Vec3::splat(f64::NEG_INFINITY);
-            for &k in ks {
-                let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
-                lo = lo.min(l);
-                hi = hi.max(h);
-            }
+            let (lo, hi) = union(nodes, ks);
             (lo - grow, hi + grow)
         };
         let points: Vec<Bounds> = (0..self.nodes()).into_par_iter().with_min_len(1024).map(|k| bound(&[k])).collect();
@@ -251,13 +245,7 @@ impl Faces {
     /// and `to`: then every pair within `radius` at `x` is among the candidates of `from → to` for the radius
     /// `radius + 2 slack` ([`Faces::candidates`]).
     pub fn within(x: &[Vec3], from: &[Vec3], to: &[Vec3], slack: f64) -> bool {
-        let s = Vec3::splat(slack);
-        x.len() == from.len()
-            && x.len() == to.len()
-            && x.iter()
-                .zip(from)
-                .zip(to)
-                .all(|((p, a), b)| p.cmpge(a.min(*b) - s).all() && p.cmple(a.max(*b) + s).all())
+        from.len() == to.len() && Self::within_boxes(x, &Self::node_boxes(from, Some(to)), slack)
     }
 
     /// Whether every node of `x` lies within `slack` (in each coordinate) of its box of `boxes`
@@ -302,13 +290,7 @@ impl Faces {
     /// Only proper crossings count ([`segment_crosses`]): an edge touching a triangle or lying in its plane
     /// does not.
     pub fn crossing(&self, x: &[Vec3]) -> Option<(usize, usize)> {
-        let bound = |nodes: &[usize]| {
-            let lo = nodes.iter().fold(Vec3::splat(f64::INFINITY), |a, &k| a.min(x[k]));
-            let hi = nodes.iter().fold(Vec3::splat(f64::NEG_INFINITY), |a, &k| a.max(x[k]));
-            (lo, hi)
-        };
-        let edges: Vec<Bounds> = self.edges.iter().map(|e| bound(e)).collect();
-        let tris: Vec<Bounds> = self.triangles.iter().map(|t| bound(t)).collect();
+        let Near { edges, triangles: tris, .. } = Near::new(self, Self::node_boxes(x, None), 0.0);
         let mut tree = Tree::default();
         tree.update(&tris);
         let r = |k: usize| self.representative(k);
@@ -400,6 +382,14 @@ fn segment_crosses(p: Vec3, q: Vec3, t: [Vec3; 3]) -> bool {
     (0..3).all(|i| n.dot((t[(i + 1) % 3] - t[i]).cross(r - t[i])) > 0.0)
 }
 
+/// The box of the nodes `ks`: the union of their boxes in `nodes` (a node not there adds nothing).
+fn union(nodes: &[Bounds], ks: &[usize]) -> Bounds {
+    ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
+        let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
+        (lo.min(l), hi.max(h))
+    })
+}
+
 /// The boxes of a surface's nodes, triangles and edges in one configuration (or swept over two), for the box
 /// test of a pair before its closest points are measured.
 struct Near {
@@ -412,14 +402,8 @@ struct Near {
 
 impl Near {
     fn new(faces: &Faces, nodes: Vec<Bounds>, radius: f64) -> Self {
-        let bound = |ks: &[usize]| {
-            ks.iter().fold((Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY)), |(lo, hi), &k| {
-                let (l, h) = nodes.get(k).copied().unwrap_or((lo, hi));
-                (lo.min(l), hi.max(h))
-            })
-        };
-        let triangles = faces.triangles.par_iter().with_min_len(1024).map(|t| bound(t)).collect();
-        let edges = faces.edges.par_iter().with_min_len(1024).map(|e| bound(e)).collect();
+        let triangles = faces.triangles.par_iter().with_min_len(1024).map(|t| union(&nodes, t)).collect();
+        let edges = faces.edges.par_iter().with_min_len(1024).map(|e| union(&nodes, e)).collect();
         Near { nodes, triangles, edges, radius }
     }
 

@@ -417,9 +417,9 @@ fn fit_round_trip_with_a_scanned_drape() {
 /// The same with noise (fixed draws): 1 sd = 0.1 mm on every coordinate of every scan point (the shape's sigma)
 /// and 0.1 % on the other targets. The truth within three standard errors of every constant, the shear (which
 /// a drape determines weakly, docs/materials.md: its standard error is 16 % here) within 10 % as in the fit to a
-/// DC without a shape, the rest within 1 % (measured: 1.6 standard errors at the most, 25 iterations, 18 s).
+/// DC without a shape, the rest within 1 % (measured: 1.6 standard errors at the most, 25 iterations, 13 s).
 #[test]
-#[ignore = "long check (a second fit of the scanned drape, about 20 s): run with --ignored"]
+#[ignore = "long check (a second fit of the scanned drape, about 15 s): run with --ignored"]
 fn fit_round_trip_with_a_noisy_scanned_drape() {
     use flexsurf::math::Vec3;
     use rand::{Rng, SeedableRng};

@@ -341,17 +341,19 @@ fn check_one(dir: &Path, role: Role, input: &[u8], run: bool) -> Result<bool, St
         }
         Ok(true)
     });
-    match outcome {
-        Ok(r) => r,
-        Err(payload) => {
-            let msg = payload
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "(no message)".into());
-            Err(format!("panic: {msg}"))
-        }
-    }
+    caught(outcome)
+}
+
+/// A check's outcome, a panic caught in it as a finding with its message.
+fn caught(outcome: std::thread::Result<Result<bool, String>>) -> Result<bool, String> {
+    outcome.unwrap_or_else(|payload| {
+        let msg = payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "(no message)".into());
+        Err(format!("panic: {msg}"))
+    })
 }
 
 /// Checks a mutated fit file: read and checked without a panic, an error naming the file.
@@ -363,7 +365,7 @@ fn check_fit_file(dir: &Path, input: &[u8]) -> Result<bool, String> {
         Err(e) if e.to_string().contains("fit.toml") => Ok(false),
         Err(e) => Err(format!("an error names no file: {e}")),
     });
-    outcome.unwrap_or_else(|_| Err("panic while reading a fit file".into()))
+    caught(outcome)
 }
 
 fn env_u64(name: &str) -> Option<u64> {

@@ -206,12 +206,12 @@ fn with_theta(f: &Fabric, free: &[Free], theta: &[f64]) -> Fabric {
 }
 
 /// The placement of a shape target's scan to fit (`None`: the scan as given, nothing fitted), estimated against
-/// the starting constants' drape.
-fn placement(p: &FitProblem) -> Result<Option<Placement>, LabError> {
+/// the drape of the starting `fabric` (left in `warm` for the fit's first evaluation).
+fn placement(p: &FitProblem, fabric: &Fabric, warm: &mut Warm) -> Result<Option<Placement>, LabError> {
     if p.align == Align::None || !p.targets.iter().any(|t| t.quantity == Quantity::Shape) {
         return Ok(None);
     }
-    let drape = targets::drape_surface(&p.fabric, p.calibration, &p.instrument)?;
+    let drape = targets::drape_surface(fabric, p.calibration, &p.instrument, warm)?;
     Ok(Some(align::estimate(&p.scan, &drape)))
 }
 
@@ -242,8 +242,9 @@ fn residuals_at(
     }
     if let Some(t) = p.targets.iter().find(|t| t.quantity == Quantity::Shape) {
         let pose = &theta[n..];
-        let scan = placement.map_or_else(|| p.scan.clone(), |pl| pl.placed(pose, &p.scan));
-        let sr = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, warm, &scan)?;
+        let placed = placement.map(|pl| pl.placed(pose, &p.scan));
+        let scan = placed.as_deref().unwrap_or(&p.scan);
+        let sr = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, warm, scan)?;
         r.extend(sr.values.iter().map(|v| v / t.sigma));
         for (row, &(i, g)) in sr.rows.iter().zip(&sr.scan_terms) {
             let mut row = scale(row, t.sigma);
@@ -262,8 +263,10 @@ fn residuals_at(
 pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
     check(p)?;
     let t0 = std::time::Instant::now();
-    let placement = placement(p)?;
     let mut start: Vec<f64> = p.free.iter().map(|f| f.constant.get(&p.fabric).unwrap_or(f64::NAN).ln()).collect();
+    // The estimate's drape is the first evaluation's: the same fabric, to the bit.
+    let mut warm = Warm::default();
+    let placement = placement(p, &with_theta(&p.fabric, &p.free, &start), &mut warm)?;
     let mut lower: Vec<f64> = p.free.iter().map(|f| f.lower.ln()).collect();
     let mut upper: Vec<f64> = p.free.iter().map(|f| f.upper.ln()).collect();
     if placement.is_some() {
@@ -273,7 +276,6 @@ pub fn fit(p: &FitProblem) -> Result<FitReport, LabError> {
         lower.extend([-turn, -turn, -turn, -shift, -shift, -shift]);
         upper.extend([turn, turn, turn, shift, shift, shift]);
     }
-    let mut warm = Warm::default();
     let residuals = |theta: &[f64]| residuals_at(p, placement.as_ref(), theta, &mut warm);
     let opts = lm::Options { max_iterations: p.max_iterations, step_tolerance: 1e-10 };
     let out = lm::minimise(&start, (&lower, &upper), opts, residuals)?;

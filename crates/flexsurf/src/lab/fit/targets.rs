@@ -133,6 +133,9 @@ impl Default for Instrument {
 pub struct Warm {
     /// The last drape's positions.
     pub drape: Option<Vec<Vec3>>,
+    /// What the last drape was relaxed for: the fabric, the calibration and the instrument. A drape is a
+    /// function of these alone, so a second target of the same evaluation (a DC and a shape) takes it as it is.
+    pub drape_of: Option<(Fabric, Calibration, Instrument)>,
     /// The last overhang `L*` (m), `∂Θ/∂L` and coarse strip of each cantilever direction.
     pub lengths: Vec<(Direction, f64, f64, Columns)>,
 }
@@ -350,7 +353,8 @@ pub fn evaluate(
 }
 
 /// The drape of `f` on the drape meter of `ins`, relaxed from the flat specimen (see [`drape_coefficient`]) and
-/// left in `warm`: the builder, the model and the positions. Not continued from the last evaluation's drape by a
+/// left in `warm`, or taken from `warm` when it was relaxed for the same fabric, calibration and instrument: the
+/// builder, the model and the positions. Not continued from the last evaluation's drape by a
 /// static solve: a drape has several equilibria at one set of constants, close to one another, and which one a
 /// continuation reaches depends on the fit's path (the 24 cm test drape of the medium woven at the truth:
 /// relaxed, DC 84.34 %; continued from 1.2 × its shear and bending, 83.46 %, 6.9 mm away), so a fit that
@@ -364,9 +368,16 @@ fn drape(
     let s = Stiffness::calibrate(f, calibration)?;
     let builder = specimen_builder(f, s, ins.specimen, ins.drape_grid)?;
     let model = builder.clone().build()?;
-    let settle = Settle { equilibrium: Some(DRAPE_TOLERANCE), ..Settle::default() };
-    let x = cusick_settled(f, calibration, ins.specimen, ins.drape_grid, 0, &settle)?.x;
-    warm.drape = Some(x.clone());
+    let key = Some((*f, calibration, *ins));
+    let x = match &warm.drape {
+        Some(x) if warm.drape_of == key => x.clone(),
+        _ => {
+            let settle = Settle { equilibrium: Some(DRAPE_TOLERANCE), ..Settle::default() };
+            let x = cusick_settled(f, calibration, ins.specimen, ins.drape_grid, 0, &settle)?.x;
+            (warm.drape, warm.drape_of) = (Some(x.clone()), key);
+            x
+        }
+    };
     Ok((builder, model, x))
 }
 
@@ -391,9 +402,8 @@ fn nearest(cloud: &[Vec3], p: Vec3) -> usize {
 
 /// A drape's surface: the model's triangulated grid at the drape's positions, for the nearest points of a scan.
 pub struct DrapeSurface {
-    /// The triangles (model nodes).
-    triangles: Vec<[usize; 3]>,
-    /// The same, with a bounding-volume hierarchy for the nearest-point queries.
+    /// The model's triangles at the drape's positions, with a bounding-volume hierarchy for the nearest-point
+    /// queries.
     mesh: parry3d_f64::shape::TriMesh,
     /// The drape's positions (every model node).
     pub x: Vec<Vec3>,
@@ -404,13 +414,12 @@ pub struct DrapeSurface {
 impl DrapeSurface {
     /// The surface of `model` at `x`.
     pub fn new(model: &Model, x: Vec<Vec3>) -> Result<Self, LabError> {
-        let triangles = model.faces().triangles;
         let vertices = x.iter().map(|p| parry3d_f64::math::Vector::new(p.x, p.y, p.z)).collect();
-        let indices = triangles.iter().map(|t| t.map(|k| k as u32)).collect();
+        let indices = model.faces().triangles.iter().map(|t| t.map(|k| k as u32)).collect();
         let mesh = parry3d_f64::shape::TriMesh::new(vertices, indices)
             .map_err(|e| LabError::Input(format!("shape: the drape's surface: {e}")))?;
         let free = (0..x.len()).filter(|&k| !model.pinned()[k]).collect();
-        Ok(Self { triangles, mesh, x, free })
+        Ok(Self { mesh, x, free })
     }
 
     /// The point of the surface nearest `p`: its triangle's nodes and their weights (which sum to 1), and the
@@ -419,7 +428,7 @@ impl DrapeSurface {
         use parry3d_f64::query::PointQueryWithLocation;
         let q = parry3d_f64::math::Vector::new(p.x, p.y, p.z);
         let (_, (face, location)) = self.mesh.project_local_point_and_get_location(q, false);
-        let nodes = self.triangles[face as usize];
+        let nodes = self.mesh.indices()[face as usize].map(|k| k as usize);
         let w = location.barycentric_coordinates().unwrap_or([1.0, 0.0, 0.0]);
         let at = (0..3).fold(Vec3::ZERO, |a, j| a + self.x[nodes[j]] * w[j]);
         (nodes, w, at)
@@ -431,9 +440,15 @@ impl DrapeSurface {
     }
 }
 
-/// The surface of the drape of `f` on the drape meter of `ins` (meter frame), relaxed as for a DC.
-pub fn drape_surface(f: &Fabric, calibration: Calibration, ins: &Instrument) -> Result<DrapeSurface, LabError> {
-    let (_, model, x) = drape(f, calibration, ins, &mut Warm::default())?;
+/// The surface of the drape of `f` on the drape meter of `ins` (meter frame), relaxed as for a DC (and left in
+/// `warm`).
+pub fn drape_surface(
+    f: &Fabric,
+    calibration: Calibration,
+    ins: &Instrument,
+    warm: &mut Warm,
+) -> Result<DrapeSurface, LabError> {
+    let (_, model, x) = drape(f, calibration, ins, warm)?;
     DrapeSurface::new(&model, x)
 }
 
