@@ -125,15 +125,6 @@ const SEARCH_POINTS: usize = 2000;
 /// Turns about the axis tried by the estimate (every 5°).
 const TURNS: usize = 72;
 
-/// The symmetric Chamfer distance (mean squared nearest distance each way) between `a` and `b`, by brute force.
-pub fn chamfer(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let one = |from: &[Vec3], to: &[Vec3]| -> f64 {
-        from.iter().map(|p| to.iter().map(|q| (*q - *p).length_squared()).fold(f64::INFINITY, f64::min)).sum::<f64>()
-            / from.len().max(1) as f64
-    };
-    one(a, b) + one(b, a)
-}
-
 /// The unit eigenvector of the least eigenvalue of the scan's covariance (its axis of least spread).
 fn least_spread_axis(points: &[Vec3], c: Vec3) -> Vec3 {
     let mut cov = [[0.0; 3]; 3];

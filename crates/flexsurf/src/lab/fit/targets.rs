@@ -433,11 +433,6 @@ impl DrapeSurface {
         let at = (0..3).fold(Vec3::ZERO, |a, j| a + self.x[nodes[j]] * w[j]);
         (nodes, w, at)
     }
-
-    /// The free nodes' positions.
-    pub fn free_points(&self) -> Vec<Vec3> {
-        self.free.iter().map(|&k| self.x[k]).collect()
-    }
 }
 
 /// The surface of the drape of `f` on the drape meter of `ins` (meter frame), relaxed as for a DC (and left in
