@@ -418,6 +418,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let (mut inputs, mut built, mut runs) = (0u64, 0u64, 0u64);
     let mut slowest = (0.0f64, 0u64, String::new());
     let mut n = start_at;
+    let dump = std::env::var("FLEXSURF_FUZZ_DUMP").is_ok();
     while Instant::now() < deadline && inputs < max_inputs {
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ n);
         let mut pick_at = rng.random_range(0..total_weight);
@@ -441,7 +442,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
         let run = rng.random_range(0..RUN_EVERY) == 0;
         let t = Instant::now();
         busy_since.store(t0.elapsed().as_millis() as u64, Ordering::SeqCst);
-        if std::env::var("FLEXSURF_FUZZ_DUMP").is_ok() {
+        if dump {
             let _ = std::fs::write(std::env::temp_dir().join(format!("fuzz-input-{n}")), &input);
         }
         match check_one(&dir, s.role, &input, run) {
