@@ -137,6 +137,10 @@ pub struct Counters {
     /// Self-contact records active at the steps' starts, summed over the steps (their mean is this over
     /// `steps`).
     pub self_contact_pairs: usize,
+    /// Builds of the self-contact broad phase's trees (triangles and edges, each counted).
+    pub broad_builds: usize,
+    /// Refits of the same trees (a refit keeps the tree and recomputes its boxes).
+    pub broad_refits: usize,
 }
 
 impl Counters {
@@ -157,6 +161,8 @@ impl Counters {
         self.contact_steps += other.contact_steps;
         self.residual_max = self.residual_max.max(other.residual_max);
         self.self_contact_pairs += other.self_contact_pairs;
+        self.broad_builds += other.broad_builds;
+        self.broad_refits += other.broad_refits;
     }
 }
 
@@ -530,6 +536,8 @@ impl Stepper {
         let self_before = self_term.map_or(0.0, |t| self.ws.term_seconds[t]);
         let refine_before = self.refine_seconds;
         let before = self.counters;
+        let broad = |ws: &Workspace| self_term.and_then(|t| ws.scratch(t)).map_or((0, 0), SelfContact::broad_updates);
+        let broad_before = broad(&self.ws);
         let step = state.step + 1;
         let first = self.assemble(model, state);
         let self_contacts = self_term.map_or(0, |t| model.potential.active_of(t, &self.ws));
@@ -559,6 +567,8 @@ impl Stepper {
             contact_steps: usize::from(newton.contact),
             residual_max: newton.residual,
             self_contact_pairs: self_contacts,
+            broad_builds: broad(&self.ws).0 - broad_before.0,
+            broad_refits: broad(&self.ws).1 - broad_before.1,
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;

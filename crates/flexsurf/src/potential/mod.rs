@@ -411,6 +411,11 @@ impl Workspace {
             journal: Vec::new(),
         }
     }
+
+    /// Term `t`'s scratch (its support and warm start), for inspection.
+    pub fn scratch(&self, t: usize) -> Option<&Scratch> {
+        self.scratch.get(t)
+    }
 }
 
 /// The total potential: an ordered list of terms on one sparsity pattern, and the fixed nodes.

@@ -96,6 +96,14 @@ impl SelfContact {
         Self { faces, params, area }
     }
 
+    /// The broad phase's tree builds and refits so far in `scratch` (both trees; 0 before the first search).
+    pub fn broad_updates(scratch: &Scratch) -> (usize, usize) {
+        scratch.get::<SelfScratch>().map_or((0, 0), |s| {
+            let (t, e) = (&s.broad.triangles, &s.broad.edges);
+            (t.builds + e.builds, t.refits + e.refits)
+        })
+    }
+
     /// The parameters.
     pub fn params(&self) -> &SelfContactParams {
         &self.params

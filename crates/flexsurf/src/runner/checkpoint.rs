@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 7;
+pub const VERSION: u32 = 8;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -59,8 +59,8 @@ pub struct CountersSaved {
     /// Assembly, contact, self-contact, factorisation, solve.
     seconds: [f64; 5],
     /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps, contact
-    /// steps, self-contact records.
-    counts: [usize; 9],
+    /// steps, self-contact records, broad-phase builds and refits.
+    counts: [usize; 11],
     /// The largest final relative Newton residual.
     residual_max: f64,
 }
@@ -79,6 +79,8 @@ impl From<Counters> for CountersSaved {
                 c.unconverged,
                 c.contact_steps,
                 c.self_contact_pairs,
+                c.broad_builds,
+                c.broad_refits,
             ],
             residual_max: c.residual_max,
         }
@@ -88,7 +90,7 @@ impl From<Counters> for CountersSaved {
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
         let [assembly, contact, self_contact, factorization, solve] = c.seconds;
-        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps, self_contact_pairs] =
+        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps, self_contact_pairs, broad_builds, broad_refits] =
             c.counts;
         Counters {
             assembly,
@@ -106,6 +108,8 @@ impl From<CountersSaved> for Counters {
             contact_steps,
             residual_max: c.residual_max,
             self_contact_pairs,
+            broad_builds,
+            broad_refits,
         }
     }
 }

@@ -289,7 +289,13 @@ fn a_strip_twisted_by_two_turns_coils_without_intersecting() {
     }
     let c = stepper.counters;
     assert!(c.self_contact_pairs > 0, "the twisted strip never touched itself");
-    println!("twist (21 × 3): {} self-contact records over {} steps", c.self_contact_pairs, c.steps);
+    println!(
+        "twist (21 × 3): {} self-contact records over {} steps; broad phase: {} builds, {} refits",
+        c.self_contact_pairs, c.steps, c.broad_builds, c.broad_refits
+    );
+    // Both trees are built once at least and then refit (every step searches the swept boxes once at least).
+    assert!(c.broad_builds >= 2, "{} builds", c.broad_builds);
+    assert!(c.broad_builds + c.broad_refits >= 2 * c.steps, "{} builds and {} refits", c.broad_builds, c.broad_refits);
 }
 
 /// A start whose surface passes through itself is refused, naming the crossing edge's and triangle's nodes: a
