@@ -56,6 +56,11 @@ pub fn print_table(rows: &[(&str, &RunOutput)]) {
         );
     }
     for (name, o) in rows {
+        for w in &o.summary.warnings {
+            eprintln!("warning: {name}: {w}");
+        }
+    }
+    for (name, o) in rows {
         // A static solve takes no steps: its own numbers instead of a rate.
         if let Some(r) = &o.summary.static_solve {
             println!(

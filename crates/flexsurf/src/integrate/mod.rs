@@ -816,7 +816,10 @@ impl Stepper {
         let deepest = self.bounds.max_penetration(model);
         if penetration > deepest {
             let what = format!("a node is {penetration:.3e} m inside an obstacle (bound {deepest:.3e} m)");
-            return Err(self.diverged(step, what));
+            let hint = "the contact penalty is too soft for what presses the cloth on the obstacle: raise [contact] \
+                        stiffness, or leave it out for the default (100 times the fabric's weight held within half \
+                        the offset)";
+            return Err(StepError::Diverged { step, what, hint });
         }
         if let Some(distance) = left_behind(model, &self.y) {
             return Err(StepError::LeftBehind { step, distance });

@@ -121,6 +121,10 @@ pub struct Summary {
     pub interrupted: bool,
     /// Version, command line, input hashes, material constants and solver settings.
     pub provenance: Provenance,
+    /// What the run did that its results should be read with (absent when nothing): today, cloth that went
+    /// below an obstacle's surface by more than the contact offset ([`penetration_warning`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// What the run loop hands to [`summarize`] besides the scene and the final state.
@@ -199,7 +203,25 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         final_state: final_state(model, &state.x, final_mesh, &d),
         interrupted,
         provenance,
+        warnings: penetration_warning(model, stats.max_penetration_seen).into_iter().collect(),
     }
+}
+
+/// A warning when the cloth went deeper below an obstacle's surface than the contact offset, which the
+/// default stiffness never allows (docs/model.md §10): the penalty is too soft for what presses the cloth on
+/// the body, and the drape is that of cloth inside it.
+pub fn penetration_warning(model: &Model, deepest: f64) -> Option<String> {
+    let c = model.contact_params()?;
+    (c.offset > 0.0 && deepest > c.offset).then(|| {
+        format!(
+            "the cloth went {:.1} mm below an obstacle's surface, deeper than the contact offset ({:.1} mm): \
+             [contact] stiffness = {} N/m³ is too soft for what presses the cloth on it; raise it, or leave it out \
+             for the default, which holds 100 times the fabric's weight within half the offset",
+            deepest * 1e3,
+            c.offset * 1e3,
+            c.stiffness
+        )
+    })
 }
 
 /// Largest distance of a spring-held node among `nodes` from its spring's target (m; 0 without such springs).

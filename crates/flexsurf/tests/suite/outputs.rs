@@ -349,3 +349,35 @@ fn regression_demo_animation_had_4_frames_1_s_apart() {
     assert_eq!(pvd.matches("<DataSet ").count(), 13, "the VTK series has the animation's frames");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Cloth pressed deeper into an obstacle than the contact offset is told in `summary.json`'s `warnings` (and by
+/// the CLI): a penalty far too soft for the sheet's weight lets the short ball drop sink into the ball; the
+/// same drop with the scene's stiffness warns of nothing; one softer still fails with the remedy in its hint.
+#[test]
+fn a_contact_too_soft_to_hold_the_cloth_is_a_warning() {
+    let d = scratch("soft_contact");
+    let with_stiffness = |stiffness: f64| {
+        let path = repo().join("scenes/ball_drop.toml");
+        let mut spec = SceneSpec::load(&path).unwrap();
+        spec.sheet.as_mut().unwrap().first_mut().nodes = [11, 11];
+        spec.time.steps = 60;
+        spec.contact.stiffness = Some(stiffness);
+        spec.build(&path).unwrap()
+    };
+    let soft = with_stiffness(300.0);
+    let out = run_scene(&soft, &d, |_| {}).unwrap();
+    let offset = soft.model.contact_params().unwrap().offset;
+    assert!(out.summary.max_penetration_seen > offset, "{} m", out.summary.max_penetration_seen);
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap();
+    let warnings = written["warnings"].as_array().expect("summary.json has no warnings");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let w = warnings[0].as_str().unwrap();
+    assert!(w.contains("below an obstacle's surface") && w.contains("[contact] stiffness = 300 N/m³"), "{w}");
+    let held = short_ball_drop(&scratch("held_contact"));
+    assert!(held.summary.max_penetration_seen <= offset, "{}", held.summary.max_penetration_seen);
+    assert!(held.summary.warnings.is_empty(), "{:?}", held.summary.warnings);
+    // Softer still, the sheet sinks past the divergence bound: the error says what to change.
+    let e = run_scene(&with_stiffness(20.0), &scratch("softer_contact"), |_| {}).unwrap_err().to_string();
+    assert!(e.contains("inside an obstacle") && e.contains("raise [contact] stiffness"), "{e}");
+}
