@@ -106,7 +106,7 @@ mod frame {
         let _ = render(&same, &scene, 8, 8);
     }
 
-    /// Timing and a look at a typical figure: `cargo test --release -p flexsurf --lib render_speed -- --ignored
+    /// Timing and a look at a typical figure: `cargo test --release -p flexsurf --test suite render_speed -- --ignored
     /// --nocapture` writes `flexsurf-render-demo.png` to the temp dir.
     #[test]
     #[ignore]
