@@ -201,22 +201,3 @@ impl Grid {
             .collect()
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn validation_and_wrapping() {
-        assert!(matches!(Grid::sheet(2, 5, 1.0, 1.0), Err(GridError::TooFewNodes { dir: 1, count: 2 })));
-        assert!(matches!(Grid::new(3, 3, f64::NAN, 1.0, [Topology::Free; 2]), Err(GridError::BadSpacing { .. })));
-        let g = Grid::new(4, 3, 0.1, 0.2, [Topology::Periodic, Topology::Free]).unwrap();
-        assert_eq!(g.node(-1, 0), Some(3));
-        assert_eq!(g.node(0, -1), None);
-        assert_eq!(g.spans(0), 4);
-        assert_eq!(g.spans(1), 2);
-        assert_eq!(g.cells().count(), 8);
-        let total: f64 = (0..g.len()).map(|k| g.node_area(k)).sum();
-        assert!((total - 4.0 * 0.1 * 2.0 * 0.2).abs() < 1e-14);
-    }
-}

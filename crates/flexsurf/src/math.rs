@@ -35,17 +35,3 @@ pub fn entry(m: &Mat3, r: usize, c: usize) -> Real {
 pub fn finite(v: Vec3) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn skew_is_cross_product() {
-        let a = Vec3::new(0.3, -1.2, 2.0);
-        let b = Vec3::new(-0.7, 0.4, 1.1);
-        assert!((skew(a) * b - a.cross(b)).length() < 1e-15);
-        assert!((outer(a, b) * b - a * b.dot(b)).length() < 1e-14);
-        assert_eq!(entry(&outer(a, b), 0, 1), a.x * b.y);
-    }
-}

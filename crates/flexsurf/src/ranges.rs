@@ -336,36 +336,3 @@ impl Range {
         ))
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn messages_quote_the_value_only_when_asked() {
-        assert_eq!(DT.problem(-1.0, true).unwrap(), "-1 s must be positive");
-        assert_eq!(DT.problem(f64::NAN, false).unwrap(), "must be a finite number");
-        assert_eq!(DT.problem(11.0, true).unwrap(), "11 s is outside the accepted range 1e-9 to 1e1 s");
-        assert_eq!(FRICTION.problem(-0.5, true).unwrap(), "-0.5 must be finite and non-negative");
-        assert_eq!(GRAVITY.problem(-2e4, true).unwrap(), "-20000 m/s² is outside the accepted range ±1e4 m/s²");
-        assert!(DT.problem(0.01, true).is_none());
-        assert_eq!(SPHERE_RADIUS.problem(0.0, true).unwrap(), "0 m must be a positive length");
-    }
-
-    #[test]
-    fn unusual_values_name_both_unit_systems() {
-        // 70 kg/m² is 7000 mg/cm²; the usual 0.01 to 1.5 kg/m² are 1 to 150 mg/cm² (1 mg/cm² = 0.01 kg/m²).
-        let w = DENSITY.unusual(70.0, true).unwrap();
-        assert!(
-            w.starts_with(
-                "70 kg/m² (7000 mg/cm²) is outside the usual range of fabrics, 0.01 to 1.5 kg/m² (1 to 150 mg/cm²"
-            ),
-            "{w}"
-        );
-        assert!(DENSITY.unusual(0.0745, true).is_none());
-        // 1e-8 N·m = 1.02e-4 gf·cm²/cm (1 gf·cm²/cm = 9.80665e-5 N·m).
-        assert!(BENDING_WARP.unusual(1.0, false).unwrap().contains("1e-8 to 0.001 N·m (1.02e-4 to 10.2 gf·cm²/cm"));
-        assert!(DT.unusual(100.0, true).is_none() && CONTACT_OFFSET.unusual(0.0, true).is_none());
-        assert_eq!((short(10.197), short(1.0197e-4), short(150.0)), ("10.2".into(), "1.02e-4".into(), "150".into()));
-    }
-}

@@ -272,6 +272,13 @@ pub fn scratch(suite: &str, tag: &str) -> std::path::PathBuf {
     d
 }
 
+/// A small curved test mesh with normals (a 4 × 3 sheet bent in z, tessellated twice), for the writer tests.
+pub fn test_mesh() -> crate::surface::mesh::TriMesh {
+    let g = crate::grid::Grid::sheet(4, 3, 0.9, 0.6).expect("grid");
+    let x: Vec<Vec3> = g.flat_positions(0.0).into_iter().map(|p| p + Vec3::Z * (0.3 * p.x * p.x - 0.1 * p.y)).collect();
+    crate::surface::coons::CoonsSurface::new(&g, &x).tessellate(2)
+}
+
 /// The first pair of triangles of `triangles` (node indices into `x`) that share no vertex and intersect,
 /// found with exact orientation predicates (Shewchuk's adaptive arithmetic, the `robust` crate), independently
 /// of the simulator's contact code: two triangles not in one plane intersect exactly when an edge of one

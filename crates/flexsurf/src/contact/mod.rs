@@ -242,36 +242,3 @@ pub fn passes_inside(obstacles: &[Obstacle], cache: &mut ContactCache, k: usize,
         .chain((1..=8).map(|i| t + (1.0 - t) * i as f64 / 8.0))
         .any(|s| closest_cached(obstacles, cache, k, p + (q - p) * s, 0.0).is_some_and(|(d, _)| d < 0.0))
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn first_hit_catches_a_segment_through_a_ball() {
-        let s = [Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }];
-        let mut cache = ContactCache::new(1, 1);
-        // Straight through the centre, from 1 m above to 1 m below: both ends are far outside.
-        let (t, x, d, n) =
-            first_hit(&s, &mut cache, 0, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, -1.0), 0.005).unwrap();
-        assert!((0.0025..0.005).contains(&d) && (x.z - 0.3 - d).abs() < 1e-12 && (n - Vec3::Z).length() < 1e-12);
-        assert!((t - (1.0 - 0.3 - d) / 2.0).abs() < 1e-12);
-        // Beside the ball: no hit.
-        let far = first_hit(&s, &mut cache, 0, Vec3::new(0.4, 0.0, 1.0), Vec3::new(0.4, 0.0, -1.0), 0.005);
-        assert!(far.is_none());
-        // Through it, and grazing it from outside.
-        assert!(passes_inside(&s, &mut cache, 0, Vec3::new(0.1, 0.0, 1.0), Vec3::new(0.1, 0.0, -1.0), 1e-6));
-        let graze =
-            passes_inside(&s, &mut cache, 0, Vec3::new(-1.0, 0.0, 0.3 + 1e-7), Vec3::new(1.0, 0.0, 0.3 + 1e-7), 1e-6);
-        assert!(!graze);
-    }
-
-    #[test]
-    fn sphere_and_plane_distances() {
-        let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };
-        let (d, n) = s.distance(Vec3::new(0.0, 0.0, 0.5));
-        assert!((d - 0.2).abs() < 1e-15 && (n - Vec3::Z).length() < 1e-15);
-        let p = Obstacle::Plane { point: Vec3::new(0.0, 0.0, -1.0), normal: Vec3::Z };
-        assert!((p.distance(Vec3::new(3.0, 1.0, -1.5)).0 + 0.5).abs() < 1e-15);
-    }
-}

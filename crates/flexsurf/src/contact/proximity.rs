@@ -527,81 +527,16 @@ pub struct Broad {
     pub edges: Tree,
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    use super::{Faces, Pair};
+    use crate::math::Vec3;
 
-    fn square() -> (Faces, Vec<Vec3>) {
-        // 3 × 3 nodes, 2 × 2 cells, spacing 1.
-        let idx = |i: usize, j: usize| i + 3 * j;
-        let cells =
-            (0..2).flat_map(|j| (0..2).map(move |i| [idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1)]));
-        let x = (0..9).map(|k| Vec3::new((k % 3) as f64, (k / 3) as f64, 0.0)).collect();
-        (Faces::new(9, cells), x)
-    }
-
-    #[test]
-    fn a_flat_sheet_has_no_close_pairs_below_its_half_diagonal() {
-        let (faces, x) = square();
-        assert_eq!(faces.triangles.len(), 8);
-        assert_eq!(faces.edges.len(), 16);
-        assert!(faces.close(&x, 0.7).is_empty());
-        let close = faces.close(&x, 1.5);
-        assert!(!close.is_empty());
-        assert!(close.iter().all(|c| c.distance() >= std::f64::consts::FRAC_1_SQRT_2 - 1e-12));
-    }
-
-    /// A step's candidates (swept from the start to a target, the radius grown by twice a slack) find the same
-    /// close pairs and the same first touch as the whole broad phase, for any configuration within the slack.
-    #[test]
-    fn a_steps_candidates_find_what_the_broad_phase_finds() {
-        let (faces, flat) = square();
-        // Folded: the corner node 8 over the first cell, then moving through it.
-        let mut start = flat.clone();
-        start[8] = Vec3::new(0.4, 0.3, 0.3);
-        let mut target = start.clone();
-        target[8] = Vec3::new(0.5, 0.2, -0.2);
-        let (radius, slack) = (0.2, 0.2);
-        let candidates = faces.candidates(&start, Some(&target), radius + 2.0 * slack);
-        for (k, z) in [0.25, 0.1, 0.0, -0.15, -0.35].iter().enumerate() {
-            let mut x = target.clone();
-            x[8] = Vec3::new(0.45, 0.25 + 0.01 * k as f64, *z);
-            assert!(Faces::within(&x, &start, &target, slack));
-            let pairs = |c: Vec<Closest>| c.into_iter().map(|c| c.pair).collect::<Vec<_>>();
-            assert_eq!(
-                pairs(faces.close_among(&candidates, &x, radius, true)),
-                pairs(faces.close(&x, radius)),
-                "z = {z}"
-            );
-            assert_eq!(
-                faces.first_touch_among(&candidates, &start, &x, 1e-4),
-                faces.first_touch(&start, &x, 1e-4),
-                "z = {z}"
-            );
-        }
-        let mut far = target.clone();
-        far[8].z -= 0.5;
-        assert!(!Faces::within(&far, &start, &target, slack));
-    }
-
-    #[test]
-    fn a_node_above_a_face_is_close_and_crossing_is_caught() {
-        let (faces, mut x) = square();
-        // Fold node 8 (corner (2, 2)) over the first cell, 0.1 above it.
-        x[8] = Vec3::new(0.4, 0.3, 0.1);
-        let close = faces.close(&x, 0.2);
-        assert!(close.iter().any(|c| c.pair == Pair::PointFace(8, 0) || c.pair == Pair::PointFace(8, 1)), "{close:?}");
-        let c = close.iter().find(|c| matches!(c.pair, Pair::PointFace(8, _))).unwrap();
-        assert!((c.distance() - 0.1).abs() < 1e-12);
-        let mut to = x.clone();
-        to[8] = Vec3::new(0.4, 0.3, -0.5);
-        let (_, t) = faces.first_touch(&x, &to, 1e-4).expect("the node passes through the face");
-        // The node reaches 1e-4 above the face at t = (0.1 − 1e-4) / 0.6 (its edges may meet others earlier).
-        assert!(t < 0.1 / 0.6, "t = {t}");
-        let node = faces.advance(Pair::PointFace(8, 0), &x, &to, 1e-4).expect("the node meets the face");
-        // Conservative advancement stops at or inside the tolerance, never past the face.
-        assert!(((0.1 - 1e-4) / 0.6 - 1e-12..0.1 / 0.6).contains(&node), "t = {node}");
-        to[8] = Vec3::new(0.4, 0.3, 0.05);
-        assert!(faces.first_touch(&x, &to, 1e-4).is_none());
+    /// [`Faces`]' conservative advancement of one pair.
+    pub fn advance(faces: &Faces, pair: Pair, from: &[Vec3], to: &[Vec3], tolerance: f64) -> Option<f64> {
+        faces.advance(pair, from, to, tolerance)
     }
 }

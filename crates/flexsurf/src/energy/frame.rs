@@ -107,28 +107,3 @@ impl Frame {
         diag.min(anti) <= 1e-9 * diag.max(anti)
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn identity_rotation_and_scaling() {
-        let f = Frame::new(Vec3::X, Vec3::Y, 0.0);
-        assert_eq!(f.voigt(), [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-        assert!(f.is_aligned() && (f.area - 1.0).abs() < 1e-15);
-        // Polar-like scaling: u2 is an angle, |∂X/∂u2| = r.
-        let f = Frame::new(Vec3::X, Vec3::Y * 0.25, 0.0);
-        assert!((f.area - 0.25).abs() < 1e-15 && (f.voigt()[1][1] - 16.0).abs() < 1e-12);
-        // Warp at 90°: the u1 strain is the weft strain.
-        let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_2);
-        let t = f.voigt();
-        assert!((t[1][0] - 1.0).abs() < 1e-12 && t[0][0].abs() < 1e-12);
-        assert!(f.is_aligned(), "warp along u2 is aligned with the grid");
-        // Warp at 45°: uniaxial u1 strain ε has warp and weft strain ε/2 and shear ∓ε.
-        let f = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4);
-        let t = f.voigt();
-        assert!((t[0][0] - 0.5).abs() < 1e-12 && (t[1][0] - 0.5).abs() < 1e-12 && (t[2][0].abs() - 1.0).abs() < 1e-12);
-        assert!(!f.is_aligned());
-    }
-}

@@ -24,19 +24,3 @@ pub(crate) fn backtrack(phi0: f64, slope: f64, phi1: f64) -> f64 {
         0.1
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn backtrack_is_the_parabolas_minimum_within_bounds() {
-        // φ(α) = 1 − 2α + 4α²: least at α = 1/4; φ(1) = 3.
-        assert!((backtrack(1.0, -2.0, 3.0) - 0.25).abs() < 1e-15);
-        // A parabola least beyond 1/2, or a non-finite value, is clamped.
-        assert_eq!(backtrack(1.0, -2.0, 0.5), 0.5);
-        assert_eq!(backtrack(1.0, -2.0, f64::INFINITY), 0.1);
-        assert!(resolvable(-1e-3, 1.0) && !resolvable(-1e-16, 1.0) && !resolvable(1e-3, 1.0));
-        assert!(!resolvable(f64::NAN, 1.0));
-    }
-}

@@ -950,3 +950,19 @@ fn left_behind(model: &Model, x: &[Vec3]) -> Option<f64> {
 pub fn max_penetration(model: &Model, x: &[Vec3]) -> f64 {
     model.potential.violation_cold(x)
 }
+
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `descent::backtrack`.
+    pub fn backtrack(phi0: f64, slope: f64, phi1: f64) -> f64 {
+        super::descent::backtrack(phi0, slope, phi1)
+    }
+
+    /// `descent::resolvable`.
+    pub fn resolvable(pred: f64, value: f64) -> bool {
+        super::descent::resolvable(pred, value)
+    }
+}

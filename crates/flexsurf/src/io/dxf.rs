@@ -289,86 +289,33 @@ pub fn split_piece(outline: &mut Vec<DxfVertex>, i: usize, t: f64) -> usize {
     i
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    use super::DxfVertex;
 
-    fn bezier(p: [f64; 2], c: [[f64; 2]; 2], q: [f64; 2], t: f64) -> [f64; 2] {
-        let u = 1.0 - t;
-        let f = |k: usize| u * u * u * p[k] + 3.0 * u * u * t * c[0][k] + 3.0 * u * t * t * c[1][k] + t * t * t * q[k];
-        [f(0), f(1)]
+    /// An outline as read: (point, bulge) per vertex.
+    pub type Raw = super::Raw;
+
+    /// `with_arcs`.
+    pub fn with_arcs(raw: &Raw) -> Result<Vec<DxfVertex>, String> {
+        super::with_arcs(raw)
     }
 
-    #[test]
-    fn a_bulge_becomes_beziers_on_its_circle() {
-        // A half disc of radius 1: the straight diameter from (1, 0) to (−1, 0), then the arc back through (0, −1)
-        // (bulge 1: a half turn, counter-clockwise from (−1, 0)).
-        let raw: Raw = vec![([1.0, 0.0], 0.0), ([-1.0, 0.0], 1.0)];
-        let v = with_arcs(&raw).unwrap();
-        assert_eq!(v.len(), 3, "{v:?}");
-        let n = v.len();
-        for i in 0..n {
-            let (p, w) = (v[(i + n - 1) % n].at, v[i]);
-            if let Some(c) = w.curve {
-                for k in 0..=8 {
-                    let b = bezier(p, c, w.at, k as f64 / 8.0);
-                    let r = b[0].hypot(b[1]);
-                    assert!((r - 1.0).abs() < 3e-4, "radius {r} at {b:?}");
-                    assert!(b[1] <= 1e-12, "the arc goes through y < 0: {b:?}");
-                }
-            }
-        }
-        assert!(signed_area(&v) > 0.0);
+    /// `signed_area`.
+    pub fn signed_area(v: &[DxfVertex]) -> f64 {
+        super::signed_area(v)
     }
 
-    #[test]
-    fn a_clockwise_outline_is_reversed_with_its_arcs() {
-        let square: Raw = vec![([0.0, 0.0], 0.0), ([0.0, 1.0], 0.0), ([1.0, 1.0], -0.4), ([1.0, 0.0], 0.0)];
-        let v = with_arcs(&square).unwrap();
-        assert!(signed_area(&v) < 0.0);
-        let r = reversed(&v);
-        assert!(signed_area(&r) > 0.0);
-        // The same curve: every piece's points, reversed, are the original piece's.
-        let n = r.len();
-        let pieces = |v: &[DxfVertex]| {
-            let mut s: Vec<[i64; 2]> = Vec::new();
-            for i in 0..v.len() {
-                let p = v[(i + v.len() - 1) % v.len()].at;
-                let c = v[i].curve.unwrap_or([p, v[i].at]);
-                for k in 1..8 {
-                    let b = bezier(p, c, v[i].at, k as f64 / 8.0);
-                    s.push([(b[0] * 1e9).round() as i64, (b[1] * 1e9).round() as i64]);
-                }
-            }
-            s.sort_unstable();
-            s
-        };
-        assert_eq!(n, v.len());
-        assert_eq!(pieces(&v), pieces(&r));
+    /// `reversed`.
+    pub fn reversed(v: &[DxfVertex]) -> Vec<DxfVertex> {
+        super::reversed(v)
     }
 
-    #[test]
-    fn a_split_keeps_the_outline_and_finds_its_points() {
-        // The half disc: its arc split where the outline passes nearest (0.6, −0.8): the new vertex lies on
-        // the circle there, and both halves stay on it.
-        let raw: Raw = vec![([1.0, 0.0], 0.0), ([-1.0, 0.0], 1.0)];
-        let mut v = with_arcs(&raw).unwrap();
-        let (i, t, d) = nearest_on_outline(&v, [0.6, -0.8]).unwrap();
-        assert!(v[i].curve.is_some() && d < 3e-4, "{i} {t} {d}");
-        let k = split_piece(&mut v, i, t);
-        assert!((v[k].at[0] - 0.6).abs() < 3e-4 && (v[k].at[1] + 0.8).abs() < 3e-4, "{:?}", v[k]);
-        let n = v.len();
-        for j in [k, (k + 1) % n] {
-            for s in 0..=8 {
-                let p = piece_point(&v, j, s as f64 / 8.0);
-                assert!((p[0].hypot(p[1]) - 1.0).abs() < 3e-4, "piece {j} at {s}/8: {p:?}");
-            }
-        }
-        // A straight piece: the foot of the perpendicular.
-        let mut v = with_arcs(&vec![([0.0, 0.0], 0.0), ([2.0, 0.0], 0.0), ([2.0, 1.0], 0.0)]).unwrap();
-        let (i, t, d) = nearest_on_outline(&v, [0.5, 0.1]).unwrap();
-        assert!((i, (t - 0.25).abs() < 1e-12, (d - 0.1).abs() < 1e-12) == (1, true, true), "{i} {t} {d}");
-        let k = split_piece(&mut v, i, t);
-        assert_eq!((v.len(), v[k].at, v[k].curve), (4, [0.5, 0.0], None));
+    /// `piece_point`.
+    pub fn piece_point(outline: &[DxfVertex], i: usize, t: f64) -> [f64; 2] {
+        super::piece_point(outline, i, t)
     }
 }

@@ -144,30 +144,3 @@ pub fn read_text(path: &Path) -> io::Result<String> {
         )
     })
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn refuses_directories_large_files_and_bad_utf8_and_records_hashes() {
-        let d = crate::io::scratch_dir("input");
-        assert!(read_text(&d).unwrap_err().to_string().contains("directory"));
-        let big = d.join("big.toml");
-        std::fs::write(&big, vec![b'#'; 1000]).unwrap();
-        let err = read_bytes_limited(&big, 999).unwrap_err().to_string();
-        assert!(err.contains("1000 bytes"), "{err}");
-        let bad = d.join("bad.toml");
-        std::fs::write(&bad, b"a = 1\nb = \"\xff secret\"\n").unwrap();
-        let err = read_text(&bad).unwrap_err().to_string();
-        assert!(err.contains("byte 11") && err.contains("line 2, column 6"), "{err}");
-        assert!(!err.contains("secret"));
-        let good = d.join("good.toml");
-        std::fs::write(&good, b"abc").unwrap();
-        let (text, files) = recording(|| read_text(&good).unwrap());
-        assert_eq!(text, "abc");
-        assert_eq!(files.len(), 1);
-        assert_eq!(files[0].sha256, "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-        std::fs::remove_dir_all(&d).unwrap();
-    }
-}

@@ -42,25 +42,3 @@ pub struct MeshWriter {
 pub(crate) fn invalid<E: std::fmt::Display>(e: E) -> std::io::Error {
     std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string())
 }
-
-/// A fresh empty directory under the system temp dir, for tests.
-#[cfg(test)]
-pub(crate) fn scratch_dir(tag: &str) -> std::path::PathBuf {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static N: AtomicU64 = AtomicU64::new(0);
-    let n = N.fetch_add(1, Ordering::Relaxed);
-    let d = std::env::temp_dir().join(format!("flexsurf-test-{tag}-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("create scratch dir");
-    d
-}
-
-/// A small curved test mesh with normals, for the writer tests.
-#[cfg(test)]
-pub(crate) fn test_mesh() -> crate::surface::mesh::TriMesh {
-    use crate::grid::Grid;
-    use crate::math::Vec3;
-    let g = Grid::sheet(4, 3, 0.9, 0.6).expect("grid");
-    let x: Vec<Vec3> = g.flat_positions(0.0).into_iter().map(|p| p + Vec3::Z * (0.3 * p.x * p.x - 0.1 * p.y)).collect();
-    crate::surface::coons::CoonsSurface::new(&g, &x).tessellate(2)
-}

@@ -549,14 +549,13 @@ fn count_folds(r: &[f64]) -> usize {
     (0..n).filter(|&j| s[j] > s[(j + n - 1) % n] && s[j] >= s[(j + 1) % n] && s[j] - lo > tol).count()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn folds_of_a_six_lobed_hem() {
-        let r: Vec<f64> = (0..72).map(|j| 0.12 + 0.01 * (6.0 * j as f64 * 2.0 * PI / 72.0).cos()).collect();
-        assert_eq!(count_folds(&r), 6);
-        assert_eq!(count_folds(&[0.1; 12]), 0);
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `count_folds`.
+    pub fn count_folds(r: &[f64]) -> usize {
+        super::count_folds(r)
     }
 }

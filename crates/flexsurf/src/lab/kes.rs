@@ -241,13 +241,13 @@ fn parabola(pts: &[(f64, f64)]) -> f64 {
     det3(&with_column(&a, 0, r)) / det3(&a)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parabola_fit_is_exact_on_a_parabola() {
-        let pts: Vec<(f64, f64)> = (0..7).map(|i| (i as f64 * 0.1, 3.0 * (i as f64 * 0.1).powi(2) - 0.2)).collect();
-        assert!((parabola(&pts) - 3.0).abs() < 1e-9);
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `parabola`.
+    pub fn parabola(pts: &[(f64, f64)]) -> f64 {
+        super::parabola(pts)
     }
 }

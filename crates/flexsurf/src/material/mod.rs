@@ -253,39 +253,3 @@ impl Stiffness {
         Self { d11: self.d11 * l2, d12: self.d12 * l2, d22: self.d22 * l2, d66: self.d66 * l2, ..*self }
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn kes_calibration_of_the_paper_fabric() {
-        let s = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Kes).unwrap();
-        assert_eq!((s.a11, s.a22, s.a66, s.a12), (21300.0, 4300.0, 54.0, 0.0));
-        // Huber: D66 = ½ √(175e-6 · 45e-6) = 44.37e-6 (docs/model.md §A4: 44.4e-6).
-        assert!((s.d66 - 44.370598e-6).abs() < 1e-11);
-        let p = Stiffness::calibrate(&Fabric::paper_cotton(), Calibration::Paper).unwrap();
-        assert_eq!(p.d11, 2.0 * 175e-6);
-        assert_eq!(p.a66, 27.0);
-    }
-
-    #[test]
-    fn poisson_coupling_recovers_uniaxial_stiffness() {
-        let f = Fabric { poisson: 0.3, ..Fabric::paper_cotton() };
-        let s = Stiffness::calibrate(&f, Calibration::Kes).unwrap();
-        // Uniaxial: lateral strain free, effective A11 − A12²/A22 must be E1h.
-        assert!((s.a11 - s.a12 * s.a12 / s.a22 - 21300.0).abs() < 1e-9);
-        let p = Stiffness::calibrate(&f, Calibration::Paper).unwrap();
-        assert!((p.a11 - 21084.0).abs() < 1.0 && (p.a22 - 2402.0).abs() < 1.0, "AUDIT §2.4: 21084 and 2402");
-    }
-
-    #[test]
-    fn bad_constants_name_their_key() {
-        let e = Fabric { density: f64::NAN, ..Fabric::paper_cotton() }.validate().unwrap_err();
-        assert!(e.to_string().contains("density"));
-        let e = Fabric { shear: -1.0, ..Fabric::paper_cotton() }.validate().unwrap_err();
-        assert!(e.to_string().contains("shear"));
-        let e = Fabric { poisson: 2.5, ..Fabric::paper_cotton() }.validate().unwrap_err();
-        assert!(e.to_string().contains("poisson"));
-    }
-}

@@ -849,19 +849,3 @@ impl ActiveSet for PenaltyContact {
         !same
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn penalty_force() {
-        let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 1.0 };
-        let params = ContactParams { stiffness: 100.0, offset: 0.01, friction: 0.5, slip_speed: 1e-4 };
-        let mut out = Vec::new();
-        detect(&[s], &params, &[0.5, 0.5], &[Vec3::new(0.0, 0.0, 0.995), Vec3::new(0.0, 0.0, 2.0)], &mut out);
-        assert_eq!(out.len(), 1);
-        // c a (δ − d) = 100 · 0.5 · (0.01 + 0.005).
-        assert!((out[0].force - 0.75).abs() < 1e-12);
-    }
-}

@@ -20,8 +20,9 @@ pub struct WarmState {
 
 impl WarmState {
     /// The warm state of a workspace without terms (for tests of the checkpoint format).
-    #[cfg(test)]
-    pub(crate) fn empty() -> Self {
+    #[cfg(feature = "testing")]
+    #[doc(hidden)]
+    pub fn empty() -> Self {
         Self { terms: Vec::new() }
     }
 }

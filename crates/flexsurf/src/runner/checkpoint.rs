@@ -269,39 +269,3 @@ fn check_against(ck: &Checkpoint, scene: &crate::scene::Scene) -> Result<(), Str
     }
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::math::Vec3;
-
-    fn sample() -> Checkpoint {
-        Checkpoint {
-            fingerprint: "abc".into(),
-            state: State::at_rest(vec![Vec3::new(1.0, f64::NEG_INFINITY, 0.1 + 0.2); 3]),
-            warm: WarmState::empty(),
-            counters: Counters::default().into(),
-            solver: SolverWarm::default(),
-            stats: StatsSaved { steps: 3, wall_seconds: 0.5, max_penetration_seen: 1e-3, max_contacts: 2 },
-            outputs: vec![("energy".into(), OutputState::of(&99u64).unwrap())],
-        }
-    }
-
-    #[test]
-    fn round_trip_is_exact_and_damage_is_detected() {
-        let ck = sample();
-        let bytes = encode(&ck).unwrap();
-        let back = decode(&bytes).unwrap();
-        assert_eq!(back.state.x[0].to_array().map(f64::to_bits), ck.state.x[0].to_array().map(f64::to_bits));
-        assert_eq!(back, Checkpoint { state: back.state.clone(), ..ck.clone() });
-        let mut damaged = bytes.clone();
-        let last = damaged.len() - 1;
-        damaged[last] ^= 1;
-        assert!(decode(&damaged).unwrap_err().contains("checksum"));
-        let mut other = bytes.clone();
-        other[MAGIC.len()] = 9;
-        assert!(decode(&other).unwrap_err().contains("version 9"));
-        assert!(decode(b"hello").unwrap_err().contains("not a flexsurf checkpoint"));
-        assert!(decode(&bytes[..MAGIC.len() + 10]).unwrap_err().contains("truncated"));
-    }
-}

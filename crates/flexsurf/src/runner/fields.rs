@@ -286,66 +286,21 @@ pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> F
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::grid::Topology;
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    use super::DisplayTopology;
+    use crate::grid::Grid;
 
-    #[test]
-    fn display_stencil_matches_the_tessellation() {
-        for topology in [[Topology::Free, Topology::Free], [Topology::Periodic, Topology::Free]] {
-            let g = Grid::new(5, 4, 0.1, 0.2, topology).unwrap();
-            let x: Vec<Vec3> = (0..g.len())
-                .map(|n| {
-                    let (i, j) = g.coords(n);
-                    Vec3::new(i as f64 * 0.1, j as f64 * 0.2, 0.05 * (i * j) as f64)
-                })
-                .collect();
-            let k = 3;
-            let mesh = CoonsSurface::new(&g, &x).tessellate(k);
-            let topo = grid_topology(&g, k);
-            assert_eq!(topo.uv.len(), mesh.vertex_count());
-            assert_eq!(topo.triangles, mesh.triangles);
-            // Blending the node positions gives the display vertex at the grid nodes exactly.
-            let blended = to_display(&g, k, &x);
-            for n in 0..g.len() {
-                let (i, j) = g.coords(n);
-                let v = (i * k) + display_counts(&g, k).0 * (j * k);
-                assert!((blended[v] - x[n]).length() < 1e-12);
-                assert!((mesh.positions[v] - x[n]).length() < 1e-12);
-                assert!((f64::from(topo.uv[v][0]) - i as f64 * 0.1).abs() < 1e-6);
-                assert!((f64::from(topo.uv[v][1]) - j as f64 * 0.2).abs() < 1e-6);
-            }
-            // A third of the way along the first cell edge.
-            assert!((f64::from(topo.uv[1][0]) - 0.1 / 3.0).abs() < 1e-6);
-            assert!((blended[1] - (x[0] * (2.0 / 3.0) + x[1] * (1.0 / 3.0))).length() < 1e-12);
-        }
+    /// `display_counts`.
+    pub fn display_counts(grid: &Grid, k: usize) -> (usize, usize) {
+        super::display_counts(grid, k)
     }
 
-    #[test]
-    fn panels_are_merged_in_order_and_one_panel_is_its_own_tessellation() {
-        let (a, b) = (Grid::sheet(3, 3, 0.5, 0.5).unwrap(), Grid::sheet(4, 3, 0.2, 0.3).unwrap());
-        let panels = [Panel::contiguous(a, 0, a.flat_positions(0.0)), Panel::contiguous(b, 9, b.flat_positions(0.0))];
-        let x: Vec<Vec3> = (0..21).map(|n| Vec3::new(0.1 * n as f64, (n % 3) as f64, 0.01 * (n * n) as f64)).collect();
-        let k = 2;
-        // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 2 cells: 7 × 5.
-        let (na, nb) = (25, 35);
-        let mesh = display_mesh(&panels, &x, k);
-        assert_eq!(mesh.vertex_count(), na + nb);
-        assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 4));
-        let first = CoonsSurface::new(&a, &x[..9]).tessellate(k);
-        let second = CoonsSurface::new(&b, &x[9..]).tessellate(k);
-        assert_eq!(display_mesh(&panels[..1], &x[..9], k), first);
-        assert_eq!(mesh.positions[na..], second.positions[..]);
-        assert_eq!(mesh.triangles[first.triangles.len()], second.triangles[0].map(|v| v + na as u32));
-        let topo = display_topology(&panels, k);
-        assert_eq!((topo.uv.len(), &topo.triangles), (na + nb, &mesh.triangles));
-        // The second panel's pattern coordinates start at its own origin; a 0.2 m × 0.3 m sheet, its far corner at (0.2, 0.3) m.
-        assert_eq!(topo.uv[na], [0.0, 0.0]);
-        assert!((f64::from(topo.uv[na + nb - 1][0]) - 0.2).abs() < 1e-6);
-        assert!((f64::from(topo.uv[na + nb - 1][1]) - 0.3).abs() < 1e-6);
-        // Node values reach the display vertices panel by panel: the corner nodes keep theirs.
-        let blended = panels_to_display(&panels, k, &x);
-        assert!((blended[na] - x[9]).length() < 1e-12 && (blended[na + nb - 1] - x[20]).length() < 1e-12);
+    /// `grid_topology`.
+    pub fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
+        super::grid_topology(grid, k)
     }
 }

@@ -464,22 +464,25 @@ impl Drop for Folder {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    use std::path::Path;
 
-    #[test]
-    fn temporary_and_frame_names() {
-        let owned = |n: &str| n == "energy.csv" || frame_name(n);
-        assert!(stale_temp(".energy.csv.tmp.123.0", &owned));
-        assert!(stale_temp(".frame_00010.obj.tmp.9.12", &owned));
-        assert!(!stale_temp(".energy.csv.tmp.123.x", &owned));
-        assert!(!stale_temp(".notes.txt.tmp.1.2", &owned));
-        assert!(!stale_temp("energy.csv", &owned));
-        assert!(frame_name("frame_00001.ply") && !frame_name("frame_.obj") && !frame_name("frame_01"));
-        assert!(plain_relative("frames/a.obj").is_some());
-        assert!(
-            plain_relative("../x").is_none() && plain_relative("/etc/passwd").is_none() && plain_relative("").is_none()
-        );
+    /// `plain_relative`.
+    pub fn plain_relative(rel: &str) -> Option<&Path> {
+        super::plain_relative(rel)
+    }
+
+    /// `stale_temp`.
+    pub fn stale_temp(name: &str, owned: &dyn Fn(&str) -> bool) -> bool {
+        super::stale_temp(name, owned)
+    }
+
+    /// `frame_name`.
+    pub fn frame_name(name: &str) -> bool {
+        super::frame_name(name)
     }
 }

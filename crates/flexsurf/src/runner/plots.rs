@@ -151,32 +151,13 @@ pub fn line_chart(
     render::save_png(path, &img)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_chart_draws_its_lines() {
-        let d = crate::io::scratch_dir("chart");
-        let p = d.join("c.png");
-        let s = Series {
-            name: "a".into(),
-            color: [214, 39, 40],
-            points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)],
-            dots: true,
-        };
-        line_chart(&p, (400, 300), "a chart", "x (s)", "y (J)", &[s]).unwrap();
-        let img = image::open(&p).unwrap().to_rgb8();
-        assert_eq!(img.dimensions(), (400, 300));
-        let red = img.pixels().filter(|p| p.0[0] > 180 && p.0[1] < 90 && p.0[2] < 90).count();
-        let text = img.pixels().filter(|p| p.0.iter().all(|&c| c < 90)).count();
-        assert!(red > 200, "{red} line pixels");
-        assert!(text > 100, "{text} text pixels");
-        // No points at all still gives a chart (empty axes), not an error.
-        line_chart(&p, (300, 200), "empty", "x", "y", &[]).unwrap();
-        let f = tick_format(0.25);
-        assert_eq!((f(&-0.05), f(&1e-12), f(&0.1)), ("-0.050".to_string(), "0.000".to_string(), "0.100".to_string()));
-        assert_eq!(tick_format(2e-6)(&1e-6), "1.00e-6");
-        std::fs::remove_dir_all(&d).unwrap();
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `tick_format`.
+    pub fn tick_format(span: f64) -> impl Fn(&f64) -> String {
+        super::tick_format(span)
     }
 }

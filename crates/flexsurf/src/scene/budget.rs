@@ -262,19 +262,3 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
     }
     Ok(bytes as u64)
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes_parse_and_print() {
-        assert_eq!(parse_size("512M").unwrap(), 512 << 20);
-        assert_eq!(parse_size("16GiB").unwrap(), 16 << 30);
-        assert_eq!(parse_size("1.5g").unwrap(), 3 << 29);
-        assert_eq!(parse_size("1000").unwrap(), 1000);
-        assert!(parse_size("lots").is_err() && parse_size("-1G").is_err() && parse_size("1e400").is_err());
-        assert_eq!(human(3 << 30), "3.0 GiB");
-        assert_eq!(human(12), "12 B");
-    }
-}

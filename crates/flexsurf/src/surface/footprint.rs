@@ -41,17 +41,3 @@ pub fn projected_area_xy(mesh: &TriMesh, res: usize) -> f64 {
     }
     covered.iter().filter(|&&c| c).count() as f64 * sx * sy
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::surface::CoonsSurface;
-
-    #[test]
-    fn footprint_of_a_flat_square() {
-        let g = crate::grid::Grid::sheet(5, 5, 1.0, 0.5).unwrap();
-        let mesh = CoonsSurface::new(&g, &g.flat_positions(0.3)).tessellate(2);
-        let a = projected_area_xy(&mesh, 512);
-        assert!((a - 0.5).abs() < 1e-9, "{a}");
-    }
-}

@@ -33,3 +33,17 @@ mod threads;
 mod trust;
 mod tshirt;
 mod two_sheets;
+mod unit_contact;
+mod unit_core;
+mod unit_integrate;
+mod unit_io;
+mod unit_lab;
+mod unit_render;
+mod unit_runner;
+mod unit_scene;
+mod unit_surface;
+
+/// A fresh empty directory for one unit test (`unit_*` modules), named after `tag`.
+fn scratch_dir(tag: &str) -> std::path::PathBuf {
+    flexsurf::testing::scratch("unit", tag)
+}

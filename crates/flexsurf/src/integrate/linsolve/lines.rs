@@ -432,35 +432,18 @@ fn band_solve(band: &[f64], w: usize, x: &mut [f64]) {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `band_factor`.
+    pub fn band_factor(band: &mut [f64], w: usize, n: usize) {
+        super::band_factor(band, w, n);
+    }
 
-    #[test]
-    fn banded_cholesky_solves_a_banded_system() {
-        // A pentadiagonal SPD matrix, w = 2.
-        let n = 12;
-        let w = 2;
-        let a = |i: usize, j: usize| -> f64 {
-            match i.abs_diff(j) {
-                0 => 6.0 + i as f64 * 0.1,
-                1 => -2.0,
-                2 => 0.5,
-                _ => 0.0,
-            }
-        };
-        let mut band = vec![0.0; n * (w + 1)];
-        for i in 0..n {
-            for d in 0..=w.min(i) {
-                band[i * (w + 1) + d] = a(i, i - d);
-            }
-        }
-        band_factor(&mut band, w, n);
-        let x_true: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
-        let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum()).collect();
-        band_solve(&band, w, &mut b);
-        for (x, t) in b.iter().zip(&x_true) {
-            assert!((x - t).abs() < 1e-12, "{x} vs {t}");
-        }
+    /// `band_solve`.
+    pub fn band_solve(band: &[f64], w: usize, x: &mut [f64]) {
+        super::band_solve(band, w, x);
     }
 }

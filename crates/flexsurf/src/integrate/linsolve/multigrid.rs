@@ -625,166 +625,65 @@ impl BlockSolver for Multigrid {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::integrate::Stepper;
+/// The hierarchy's internals, for the unit tests in the suite (`tests/suite/unit_integrate.rs`); feature
+/// `testing` only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    use super::{BlockMatrix, BlockPattern, Level, LinearError, Multigrid, Vec3};
 
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    /// A coarse level's operator, its node positions and the parents of the finer level's nodes (the rows of
+    /// the prolongation `P`: node `k`'s parents are `p_node[p_start[k]..p_start[k + 1]]`).
+    pub struct LevelView<'a> {
+        /// The level's block pattern.
+        pub pattern: &'a BlockPattern,
+        /// The level's Galerkin operator.
+        pub a: &'a BlockMatrix,
+        /// Where each finer node's parents start in `p_node`.
+        pub p_start: &'a [u32],
+        /// The parents.
+        pub p_node: &'a [u32],
+        /// The level's node positions.
+        pub pos: &'a [Vec3],
     }
 
-    /// The step matrix of the 41×41 ball drop after a few steps (contacts and friction in it).
-    fn step_matrix(n: usize, topology: [Topology; 2]) -> (BlockPattern, BlockMatrix, Grid, Vec<Vec3>) {
-        let scene = crate::bench::ball_drop(n).unwrap();
-        let mut state = scene.state.clone();
-        let mut stepper = Stepper::new(&scene.model, &scene.step_params()).unwrap();
-        stepper.assemble(&scene.model, &state);
-        for _ in 0..3 {
-            stepper.step(&scene.model, &mut state).unwrap();
-        }
-        stepper.assemble(&scene.model, &state);
-        let grid = Grid { topology, ..scene.model.panels[0].grid };
-        (scene.model.potential.pattern().clone(), stepper.matrix().clone(), grid, state.x)
+    /// Builds the hierarchy for the fixed set `fixed`.
+    pub fn build(mg: &mut Multigrid, fixed: &[bool]) -> Result<(), LinearError> {
+        mg.build(fixed)
     }
 
-    /// A tube (periodic around, free along its axis, its top ring pinned, radius 0.2 m) at a slightly rough
-    /// shape: its step matrix, grid, positions and pinned nodes.
-    fn tube(around: usize, down: usize) -> (BlockPattern, BlockMatrix, Grid, Vec<Vec3>, Vec<bool>) {
-        use crate::material::{Calibration, Fabric, Stiffness};
-        use crate::model::{ModelBuilder, ModelKind};
-        let fabric = Fabric::paper_cotton();
-        let stiffness = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
-        let (grid, rest) = crate::testing::cylinder(around, down, 0.2, 0.5);
-        let gravity = Vec3::new(0.0, 0.0, -9.81);
-        let mut b = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, gravity);
-        for k in 0..grid.len() {
-            b.pinned[k] = grid.coords(k).1 == down - 1;
-        }
-        let model = b.build().unwrap();
-        let mut seed = 11;
-        let x: Vec<Vec3> =
-            rest.iter().map(|p| *p + Vec3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed)) * 1e-3).collect();
-        let mut stepper = Stepper::new(&model, &crate::integrate::StepParams::with_dt(0.01)).unwrap();
-        stepper.assemble(&model, &crate::state::State::at_rest(x.clone()));
-        (model.potential.pattern().clone(), stepper.matrix().clone(), grid, x, model.pinned().to_vec())
+    /// Refills the finest level's smoother from `a` (after [`build`]).
+    pub fn refill_fine(mg: &mut Multigrid, a: &BlockMatrix) {
+        mg.fine.as_mut().expect("the hierarchy is built").refill(a);
     }
 
-    /// On a tube the prolongation carries a rigid motion `t + θ × x` of the coarse nodes exactly to every fine
-    /// node with one or four parents (a cell's centre), and to a node between two parents up to the twist about
-    /// their line, `(θ·ê) ê × (x − x̄)`; linear interpolation misses by `θ × (x − x̄)`, a tenth of a millimetre
-    /// here.
-    #[test]
-    fn prolongation_carries_rigid_motions_on_a_tube() {
-        let (pattern, a, grid, x, _) = tube(64, 16);
-        let mut mg = Multigrid::on_grid(&pattern, &grid, &x).unwrap();
-        mg.build(&vec![false; pattern.nodes()]).unwrap();
-        mg.coarse.refill(&a, &x).unwrap();
-        let level = &mg.coarse.levels[0];
-        let (t, theta) = (Vec3::new(0.3, -0.2, 0.1), Vec3::new(0.7, 0.4, -0.5));
-        let rigid = |p: Vec3| t + theta.cross(p);
-        let lv = Level { x: level.pos.iter().map(|p| rigid(*p)).collect(), ..level.clone() };
-        let mut u = vec![Vec3::ZERO; x.len()];
-        lv.prolong_add(&mut u);
-        let (mut worst, mut linear) = (0.0f64, 0.0f64);
-        for (k, (uk, xk)) in u.iter().zip(&x).enumerate() {
-            let parents: Vec<Vec3> = (level.p_start[k]..level.p_start[k + 1])
-                .map(|e| level.pos[level.p_node[e as usize] as usize])
-                .collect();
-            let center = parents.iter().fold(Vec3::ZERO, |s, p| s + *p) / parents.len() as f64;
-            let twist = match parents[..] {
-                [p, q] => {
-                    let e = (q - p).normalize();
-                    (e * theta.dot(e)).cross(*xk - center)
-                }
-                _ => Vec3::ZERO,
-            };
-            worst = worst.max((*uk - rigid(*xk) + twist).length());
-            linear = linear.max(theta.cross(*xk - center).length());
-        }
-        assert!(worst <= 1e-13, "a rigid motion is off by {worst:e} m (linear interpolation: {linear:e} m)");
-        assert!(linear > 1e-4, "linear interpolation's miss {linear:e} m");
+    /// Refills the coarse operators from `a` with the prolongations at the finest positions `x`.
+    pub fn refill_coarse(mg: &mut Multigrid, a: &BlockMatrix, x: &[Vec3]) -> Result<(), LinearError> {
+        mg.coarse.refill(a, x)
     }
 
-    /// The V-cycle on a tube with its top ring pinned is a symmetric positive definite operator.
-    #[test]
-    fn v_cycle_is_symmetric_positive_definite_on_a_tube() {
-        let (pattern, a, grid, x, fixed) = tube(64, 16);
-        let mut mg = Multigrid::on_grid(&pattern, &grid, &x).unwrap();
-        mg.build(&fixed).unwrap();
-        let mut fine = mg.fine.take().unwrap();
-        fine.refill(&a);
-        mg.coarse.refill(&a, &x).unwrap();
-        let mut seed = 5;
-        let mut random = || -> Vec<Vec3> {
-            let v = (0..x.len()).map(|_| Vec3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed)));
-            v.zip(&fixed).map(|(v, &f)| if f { Vec3::ZERO } else { v }).collect()
-        };
-        let (u, v) = (random(), random());
-        let (mut mu, mut mv) = (vec![Vec3::ZERO; x.len()], vec![Vec3::ZERO; x.len()]);
-        mg.coarse.v_cycle(&fine, &u, &mut mu);
-        mg.coarse.v_cycle(&fine, &v, &mut mv);
-        let dot = |p: &[Vec3], q: &[Vec3]| p.iter().zip(q).map(|(a, b)| a.dot(*b)).sum::<f64>();
-        let (uv, vu) = (dot(&mu, &v), dot(&u, &mv));
-        let scale = dot(&mu, &mu).sqrt() * dot(&v, &v).sqrt();
-        assert!((uv - vu).abs() <= 1e-10 * scale, "uᵀMv = {uv:e}, vᵀMu = {vu:e}");
-        assert!(dot(&mu, &u) > 0.0 && dot(&mv, &v) > 0.0);
+    /// `out ≈ A⁻¹ r`: one V-cycle from zero with the finest level's smoother.
+    pub fn v_cycle(mg: &mut Multigrid, r: &[Vec3], out: &mut [Vec3]) {
+        let fine = mg.fine.as_ref().expect("the hierarchy is built");
+        mg.coarse.v_cycle(fine, r, out);
     }
 
-    #[test]
-    fn coarse_operators_are_galerkin_products() {
-        for topology in [[Topology::Free; 2], [Topology::Periodic, Topology::Free]] {
-            let (pattern, a, grid, x) = step_matrix(41, topology);
-            let fixed = vec![false; pattern.nodes()];
-            let mut mg = Multigrid::on_grid(&pattern, &grid, &x).unwrap();
-            mg.build(&fixed).unwrap();
-            mg.coarse.refill(&a, &x).unwrap();
-            let level = &mg.coarse.levels[0];
-            let nc = level.pattern.nodes();
-            let mut seed = 7;
-            let v: Vec<Vec3> = (0..nc).map(|_| Vec3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed))).collect();
-            // P v, A P v, Pᵀ A P v.
-            let mut pv = vec![Vec3::ZERO; pattern.nodes()];
-            let mut lv = Level { x: v.clone(), ..level.clone() };
-            lv.prolong_add(&mut pv);
-            let mut apv = vec![Vec3::ZERO; pattern.nodes()];
-            a.mul_add(&pattern, &pv, &mut apv);
-            lv.restrict(&apv);
-            let mut acv = vec![Vec3::ZERO; nc];
-            level.a.mul_add(&level.pattern, &v, &mut acv);
-            let scale = acv.iter().map(|w| w.length()).fold(0.0, f64::max);
-            let err = acv.iter().zip(&lv.b).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
-            assert!(err <= 1e-12 * scale, "{topology:?}: |A_c v − Pᵀ A P v| = {err:e} of {scale:e}");
-        }
+    /// Coarse level `l`.
+    pub fn level(mg: &Multigrid, l: usize) -> LevelView<'_> {
+        let lv = &mg.coarse.levels[l];
+        LevelView { pattern: &lv.pattern, a: &lv.a, p_start: &lv.p_start, p_node: &lv.p_node, pos: &lv.pos }
     }
 
-    #[test]
-    fn multigrid_solution_matches_the_direct_solve() {
-        let (pattern, a, grid, pos) = step_matrix(41, [Topology::Free; 2]);
-        let mut fixed = vec![false; pattern.nodes()];
-        fixed[5] = true;
-        fixed[700] = true;
-        let mut seed = 3;
-        let b: Vec<Vec3> =
-            (0..pattern.nodes()).map(|_| Vec3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed))).collect();
-        let mut x_direct = vec![Vec3::ZERO; b.len()];
-        Cholesky::new(&pattern).unwrap().solve(&a, &fixed, &b, &mut x_direct, Reuse::Fresh).unwrap();
-        let mut x = vec![Vec3::ZERO; b.len()];
-        let stats =
-            Multigrid::on_grid(&pattern, &grid, &pos).unwrap().solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
-        let scale = x_direct.iter().map(|w| w.length()).fold(0.0, f64::max);
-        let err = x.iter().zip(&x_direct).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
-        assert!(
-            err <= 1e-6 * scale,
-            "multigrid differs from Cholesky by {err:e} (of {scale:e}), {} iterations",
-            stats.iterations
-        );
-        assert_eq!(x[5], b[5]);
-        assert_eq!(x[700], b[700]);
-        eprintln!(
-            "41x41 step matrix: {} multigrid iterations, max difference {:.2e} of {:.2e}",
-            stats.iterations, err, scale
-        );
+    /// `fine_x += P x` from coarse level `l` with its unknowns `x`.
+    pub fn prolong_add(mg: &Multigrid, l: usize, x: &[Vec3], fine_x: &mut [Vec3]) {
+        let lv = Level { x: x.to_vec(), ..mg.coarse.levels[l].clone() };
+        lv.prolong_add(fine_x);
+    }
+
+    /// `Pᵀ fine_r` onto coarse level `l`.
+    pub fn restrict(mg: &Multigrid, l: usize, fine_r: &[Vec3]) -> Vec<Vec3> {
+        let mut lv: Level = mg.coarse.levels[l].clone();
+        lv.restrict(fine_r);
+        lv.b
     }
 }

@@ -126,29 +126,3 @@ pub fn axis_triad(img: &mut RgbImage, view: &View) {
         draw_text(img, lx as i64, ly as i64, name, 13.0, color);
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use image::Rgb;
-
-    #[test]
-    fn round_lengths_and_projection() {
-        assert_eq!(round_length(0.27), (0.2, "20 cm".to_string()));
-        assert_eq!(round_length(0.6).1, "50 cm");
-        assert_eq!(round_length(3.0).1, "2 m");
-        assert_eq!(round_length(0.0042).1, "2 mm");
-        let view = View::look_at(Vec3::new(0.0, -3.0, 0.0), Vec3::ZERO);
-        let c = project(&view, 200, 100, Vec3::ZERO).unwrap();
-        assert!((c[0] - 100.0).abs() < 1e-9 && (c[1] - 50.0).abs() < 1e-9);
-        // One metre to the right at the target's depth is pixels_per_metre to the right.
-        let p = project(&view, 200, 100, Vec3::X).unwrap();
-        assert!((p[0] - 100.0 - pixels_per_metre(&view, 100)).abs() < 1e-6);
-        assert!(project(&view, 200, 100, Vec3::new(0.0, -5.0, 0.0)).is_none());
-        let mut img = RgbImage::from_pixel(200, 100, Rgb([255, 255, 255]));
-        scale_bar(&mut img, &view);
-        axis_triad(&mut img, &view);
-        let dark = img.pixels().filter(|p| p.0[0] < 100 && p.0[1] < 100).count();
-        assert!(dark > 50, "{dark}");
-    }
-}

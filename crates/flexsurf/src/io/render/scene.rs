@@ -199,21 +199,3 @@ pub(super) fn gather(drawables: &[Drawable<'_>]) -> Vec<Tri> {
     }
     tris
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn uv_sphere_is_closed_and_outward() {
-        let m = uv_sphere(Vec3::ZERO, 2.0, 8, 16);
-        assert!(m.validate().is_ok());
-        assert_eq!(m.triangle_count(), 2 * 8 * 16 - 2 * 16);
-        let area = m.area();
-        assert!(area < 4.0 * std::f64::consts::PI * 4.0 && area > 0.9 * 4.0 * std::f64::consts::PI * 4.0);
-        for t in 0..m.triangle_count() {
-            let [a, b, c] = m.triangle(t).unwrap();
-            assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
-        }
-    }
-}

@@ -194,3 +194,11 @@ pub fn chord_angle(fabric: &Fabric, calibration: Calibration, strip: Strip, l: f
     let s = Stiffness::calibrate(fabric, calibration)?;
     extrapolated(fabric, &s, strip, l).map(|(a, f, _)| (a, f))
 }
+
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    pub use super::rk4::{rk4, OdeState};
+}

@@ -37,20 +37,3 @@ pub fn rk4<S: OdeState>(y0: S, h: f64, steps: usize, rhs: impl Fn(f64, &S) -> S,
     }
     y
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `y' = y` to `s = 1` is `e`, to fourth order; the nested array state advances each component alike.
-    #[test]
-    fn exponential_to_fourth_order() {
-        let e = rk4(1.0, 0.01, 100, |_, y| *y, |_| {});
-        assert!((e - std::f64::consts::E).abs() < 1e-9, "{e}");
-        let mut count = 0;
-        let v = rk4([[1.0, 2.0], [0.0, -1.0]], 0.01, 100, |_, y| *y, |_| count += 1);
-        assert_eq!(count, 100);
-        // Scaling by a power of two is exact, so the components come out exactly scaled.
-        assert_eq!(v, [[e, 2.0 * e], [0.0, -e]]);
-    }
-}

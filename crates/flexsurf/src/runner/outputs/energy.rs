@@ -149,12 +149,13 @@ pub fn write_energy_png(out: &Path, scene: &Scene) -> Result<(), RunError> {
     line_chart(&png, (800, 480), &title, axis, "energy (J)", &series).map_err(io_err(&png))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rows_are_parsed_and_bad_lines_skipped() {
-        assert_eq!(energy_rows("step,time,k,m,b,p\n0,0,1,2,3,4\nbad\n"), vec![[0.0, 1.0, 2.0, 3.0, 4.0]]);
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `energy_rows`.
+    pub fn energy_rows(text: &str) -> Vec<[f64; 5]> {
+        super::energy_rows(text)
     }
 }

@@ -87,22 +87,3 @@ impl Output for Frames<'_> {
         run.summary.frames.clone_from(&self.written);
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_frame_format_writes_a_file_named_after_it() {
-        let dir = crate::io::scratch_dir("frame-formats");
-        let mesh = crate::io::test_mesh();
-        for format in [FrameFormat::Obj, FrameFormat::Ply, FrameFormat::Gltf] {
-            let path = dir.join(format!("mesh.{}", format.extension()));
-            write_mesh(&path, &mesh, format).unwrap();
-            assert!(std::fs::metadata(&path).unwrap().len() > 0);
-            assert_eq!(serde_json::to_value(format).unwrap().as_str(), Some(format.extension()));
-        }
-        assert_eq!(frame_file(42, FrameFormat::Ply), "frames/frame_00042.ply");
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-}

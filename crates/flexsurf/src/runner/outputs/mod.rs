@@ -223,22 +223,3 @@ pub fn animation_steps(steps: usize, output_every: usize, animation_every: usize
     v.dedup();
     v
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn output_steps_end_at_the_last_step() {
-        assert_eq!(output_steps(300, 100), vec![0, 100, 200, 300]);
-        assert_eq!(output_steps(250, 100), vec![0, 100, 200, 250]);
-        assert_eq!(output_steps(5, 0), vec![0, 1, 2, 3, 4, 5]);
-    }
-
-    #[test]
-    fn animation_steps_hold_every_output_step() {
-        assert_eq!(animation_steps(12, 5, 4), vec![0, 4, 5, 8, 10, 12]);
-        assert_eq!(animation_steps(300, 100, 5).len(), 61);
-        assert_eq!(animation_steps(7, 7, 100), vec![0, 7]);
-    }
-}

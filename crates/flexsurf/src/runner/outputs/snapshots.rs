@@ -199,13 +199,13 @@ pub fn render_frame(model: &Model, mesh: &TriMesh, view: &View, width: u32, heig
     render::render(view, &drawables, width, height)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn pictured_steps_are_spread_evenly() {
-        assert_eq!(spread(&(0..=20).collect::<Vec<_>>(), 5), vec![0, 5, 10, 15, 20]);
-        assert_eq!(spread(&[0, 1, 2], 8), vec![0, 1, 2]);
+/// This module's private helpers, for its unit tests in the suite (`tests/suite/unit_*.rs`); feature `testing`
+/// only, not part of the API.
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod internals {
+    /// `spread`.
+    pub fn spread(all: &[usize], max: usize) -> Vec<usize> {
+        super::spread(all, max)
     }
 }

@@ -180,24 +180,3 @@ pub fn write_view(dir: &Path) -> Result<PathBuf, ViewError> {
     write_atomic(&path, html.as_bytes()).map_err(|cause| ViewError::Io { path: path.clone(), cause })?;
     Ok(path)
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn missing_or_wrong_inputs_are_named() {
-        let d = crate::io::scratch_dir("viewer");
-        let e = write_view(&d).unwrap_err();
-        assert!(matches!(e, ViewError::NoAnimation(_)), "{e}");
-        assert!(e.to_string().contains("animation.glb"), "{e}");
-        std::fs::write(d.join(GLB_FILE), b"not a glb at all").unwrap();
-        let e = write_view(&d).unwrap_err().to_string();
-        assert!(e.contains("animation.glb") && e.contains("magic"), "{e}");
-        assert!(!d.join(VIEW_FILE).exists());
-        // The template has exactly one data slot, and no address outside the page.
-        assert_eq!(TEMPLATE.matches(SLOT).count(), 1);
-        assert!(!TEMPLATE.contains("http://") && !TEMPLATE.contains("https://"));
-        std::fs::remove_dir_all(&d).unwrap();
-    }
-}

@@ -1,0 +1,321 @@
+//! Unit tests of the library, contact area: moved from `#[cfg(test)]` modules beside the code (docs/testing.md).
+
+/// The tests of `contact` (`src/contact/mod.rs`).
+mod contact {
+    use flexsurf::contact::*;
+    use flexsurf::math::Vec3;
+
+    #[test]
+    fn first_hit_catches_a_segment_through_a_ball() {
+        let s = [Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 }];
+        let mut cache = ContactCache::new(1, 1);
+        // Straight through the centre, from 1 m above to 1 m below: both ends are far outside.
+        let (t, x, d, n) =
+            first_hit(&s, &mut cache, 0, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, -1.0), 0.005).unwrap();
+        assert!((0.0025..0.005).contains(&d) && (x.z - 0.3 - d).abs() < 1e-12 && (n - Vec3::Z).length() < 1e-12);
+        assert!((t - (1.0 - 0.3 - d) / 2.0).abs() < 1e-12);
+        // Beside the ball: no hit.
+        let far = first_hit(&s, &mut cache, 0, Vec3::new(0.4, 0.0, 1.0), Vec3::new(0.4, 0.0, -1.0), 0.005);
+        assert!(far.is_none());
+        // Through it, and grazing it from outside.
+        assert!(passes_inside(&s, &mut cache, 0, Vec3::new(0.1, 0.0, 1.0), Vec3::new(0.1, 0.0, -1.0), 1e-6));
+        let graze =
+            passes_inside(&s, &mut cache, 0, Vec3::new(-1.0, 0.0, 0.3 + 1e-7), Vec3::new(1.0, 0.0, 0.3 + 1e-7), 1e-6);
+        assert!(!graze);
+    }
+
+    #[test]
+    fn sphere_and_plane_distances() {
+        let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };
+        let (d, n) = s.distance(Vec3::new(0.0, 0.0, 0.5));
+        assert!((d - 0.2).abs() < 1e-15 && (n - Vec3::Z).length() < 1e-15);
+        let p = Obstacle::Plane { point: Vec3::new(0.0, 0.0, -1.0), normal: Vec3::Z };
+        assert!((p.distance(Vec3::new(3.0, 1.0, -1.5)).0 + 0.5).abs() < 1e-15);
+    }
+}
+
+/// The tests of `contact::nurbs::patch` (`src/contact/nurbs/patch.rs`).
+mod nurbs_patch {
+    use flexsurf::contact::nurbs::*;
+    use flexsurf::math::Vec3;
+
+    fn bilinear() -> NurbsPatch {
+        let pts = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 1.0),
+        ];
+        NurbsPatch::new([1, 1], vec![0.0, 0.0, 1.0, 1.0], vec![0.0, 0.0, 1.0, 1.0], pts, None).unwrap()
+    }
+
+    #[test]
+    fn bilinear_closed_form() {
+        let p = bilinear();
+        for (u, v) in [(0.0, 0.0), (0.3, 0.7), (1.0, 0.25), (0.5, 1.0)] {
+            let d = p.derivatives(u, v);
+            assert!((d.point - Vec3::new(u, v, u * v)).length() < 1e-15);
+            assert!((d.du - Vec3::new(1.0, 0.0, v)).length() < 1e-15);
+            assert!((d.dv - Vec3::new(0.0, 1.0, u)).length() < 1e-15);
+            assert!(d.duu.length() < 1e-15 && d.dvv.length() < 1e-15);
+            assert!((d.duv - Vec3::new(0.0, 0.0, 1.0)).length() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let pts = vec![Vec3::ZERO; 4];
+        let e = NurbsPatch::new([1, 1], vec![0.0, 0.0, 1.0], vec![0.0, 0.0, 1.0, 1.0], pts.clone(), None);
+        assert!(matches!(e, Err(NurbsError::TooFewKnots { dir: Direction::U, .. })));
+        let e = NurbsPatch::new(
+            [1, 1],
+            vec![0.0, 0.0, 1.0, 1.0],
+            vec![0.0, 0.0, 1.0, 1.0],
+            pts,
+            Some(vec![1.0, -1.0, 1.0, 1.0]),
+        );
+        assert_eq!(e.unwrap_err().to_string(), "weights[1] is -1; weights must be positive and finite");
+    }
+}
+
+/// The tests of `contact::proximity` (`src/contact/proximity.rs`).
+mod proximity {
+    use flexsurf::contact::proximity::internals::advance;
+    use flexsurf::contact::proximity::*;
+    use flexsurf::math::Vec3;
+
+    fn square() -> (Faces, Vec<Vec3>) {
+        // 3 × 3 nodes, 2 × 2 cells, spacing 1.
+        let idx = |i: usize, j: usize| i + 3 * j;
+        let cells =
+            (0..2).flat_map(|j| (0..2).map(move |i| [idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1)]));
+        let x = (0..9).map(|k| Vec3::new((k % 3) as f64, (k / 3) as f64, 0.0)).collect();
+        (Faces::new(9, cells), x)
+    }
+
+    #[test]
+    fn a_flat_sheet_has_no_close_pairs_below_its_half_diagonal() {
+        let (faces, x) = square();
+        assert_eq!(faces.triangles.len(), 8);
+        assert_eq!(faces.edges.len(), 16);
+        assert!(faces.close(&x, 0.7).is_empty());
+        let close = faces.close(&x, 1.5);
+        assert!(!close.is_empty());
+        assert!(close.iter().all(|c| c.distance() >= std::f64::consts::FRAC_1_SQRT_2 - 1e-12));
+    }
+
+    /// A step's candidates (swept from the start to a target, the radius grown by twice a slack) find the same
+    /// close pairs and the same first touch as the whole broad phase, for any configuration within the slack.
+    #[test]
+    fn a_steps_candidates_find_what_the_broad_phase_finds() {
+        let (faces, flat) = square();
+        // Folded: the corner node 8 over the first cell, then moving through it.
+        let mut start = flat.clone();
+        start[8] = Vec3::new(0.4, 0.3, 0.3);
+        let mut target = start.clone();
+        target[8] = Vec3::new(0.5, 0.2, -0.2);
+        let (radius, slack) = (0.2, 0.2);
+        let candidates = faces.candidates(&start, Some(&target), radius + 2.0 * slack);
+        for (k, z) in [0.25, 0.1, 0.0, -0.15, -0.35].iter().enumerate() {
+            let mut x = target.clone();
+            x[8] = Vec3::new(0.45, 0.25 + 0.01 * k as f64, *z);
+            assert!(Faces::within(&x, &start, &target, slack));
+            let pairs = |c: Vec<Closest>| c.into_iter().map(|c| c.pair).collect::<Vec<_>>();
+            assert_eq!(
+                pairs(faces.close_among(&candidates, &x, radius, true)),
+                pairs(faces.close(&x, radius)),
+                "z = {z}"
+            );
+            assert_eq!(
+                faces.first_touch_among(&candidates, &start, &x, 1e-4),
+                faces.first_touch(&start, &x, 1e-4),
+                "z = {z}"
+            );
+        }
+        let mut far = target.clone();
+        far[8].z -= 0.5;
+        assert!(!Faces::within(&far, &start, &target, slack));
+    }
+
+    #[test]
+    fn a_node_above_a_face_is_close_and_crossing_is_caught() {
+        let (faces, mut x) = square();
+        // Fold node 8 (corner (2, 2)) over the first cell, 0.1 above it.
+        x[8] = Vec3::new(0.4, 0.3, 0.1);
+        let close = faces.close(&x, 0.2);
+        assert!(close.iter().any(|c| c.pair == Pair::PointFace(8, 0) || c.pair == Pair::PointFace(8, 1)), "{close:?}");
+        let c = close.iter().find(|c| matches!(c.pair, Pair::PointFace(8, _))).unwrap();
+        assert!((c.distance() - 0.1).abs() < 1e-12);
+        let mut to = x.clone();
+        to[8] = Vec3::new(0.4, 0.3, -0.5);
+        let (_, t) = faces.first_touch(&x, &to, 1e-4).expect("the node passes through the face");
+        // The node reaches 1e-4 above the face at t = (0.1 − 1e-4) / 0.6 (its edges may meet others earlier).
+        assert!(t < 0.1 / 0.6, "t = {t}");
+        let node = advance(&faces, Pair::PointFace(8, 0), &x, &to, 1e-4).expect("the node meets the face");
+        // Conservative advancement stops at or inside the tolerance, never past the face.
+        assert!(((0.1 - 1e-4) / 0.6 - 1e-12..0.1 / 0.6).contains(&node), "t = {node}");
+        to[8] = Vec3::new(0.4, 0.3, 0.05);
+        assert!(faces.first_touch(&x, &to, 1e-4).is_none());
+    }
+}
+
+/// The tests of `contact::shape` (`src/contact/shape.rs`).
+mod shape {
+    use flexsurf::contact::nurbs::Hint;
+    use flexsurf::contact::shape::*;
+    use flexsurf::contact::Obstacle;
+    use flexsurf::grid::Grid;
+    use flexsurf::integrate::{StepParams, Stepper};
+    use flexsurf::material::{Calibration, Fabric, Stiffness};
+    use flexsurf::math::Vec3;
+    use flexsurf::model::{ModelBuilder, ModelKind};
+    use flexsurf::potential::contact::ContactParams;
+    use flexsurf::state::State;
+    use std::sync::Arc;
+
+    /// An axis-aligned box, written here as a user of the library would.
+    #[derive(Debug)]
+    struct Cuboid {
+        min: Vec3,
+        max: Vec3,
+    }
+
+    impl Shape for Cuboid {
+        fn distance_within(&self, p: Vec3, _hint: &mut Option<Hint>, _radius: f64) -> Option<(f64, Vec3)> {
+            let c = (self.min + self.max) * 0.5;
+            let q = (p - c).abs() - (self.max - self.min) * 0.5;
+            let outside = q.max(Vec3::ZERO);
+            if outside.length() > 0.0 {
+                let n = outside * (p - c).signum();
+                return Some((outside.length(), n / n.length()));
+            }
+            // Inside: the nearest face.
+            let a = (0..3).max_by(|&i, &j| q[i].total_cmp(&q[j])).unwrap_or(2);
+            let mut n = Vec3::ZERO;
+            n[a] = (p - c)[a].signum();
+            Some((q[a], n))
+        }
+    }
+
+    #[test]
+    fn a_custom_shape_pushes_the_cloth_out() {
+        let fabric = Fabric::paper_cotton();
+        let s = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
+        let g = Grid::sheet(5, 5, 0.4, 0.4).unwrap();
+        let rest = g.flat_positions(0.0);
+        let mut b = ModelBuilder::new(g, rest.clone(), fabric, s, ModelKind::Tfs, Vec3::ZERO);
+        let cuboid = Cuboid { min: Vec3::new(-0.1, -0.1, -0.5), max: Vec3::new(0.1, 0.1, 0.001) };
+        b.obstacles.push(Obstacle::Custom(Arc::new(cuboid)));
+        b.contact = ContactParams { stiffness: 1e4, offset: 0.005, friction: 0.0, ..ContactParams::default() };
+        let model = b.build().unwrap();
+        let centre = (0..rest.len()).min_by(|&i, &j| rest[i].length().total_cmp(&rest[j].length())).unwrap();
+        let before = model.obstacles()[0].distance(rest[centre]).0;
+        assert!(before < 0.0, "the centre node starts inside the box");
+        let mut state = State::at_rest(rest);
+        let mut stepper = Stepper::new(&model, &StepParams::with_dt(0.01)).unwrap();
+        let info = stepper.step(&model, &mut state).unwrap();
+        assert!(info.contacts > 0);
+        let after = model.obstacles()[0].distance(state.x[centre]).0;
+        assert!(after > before && state.x[centre].z > 0.0, "pushed out: {before} -> {after}");
+        assert!(model.obstacles()[0].scaled(2.0).is_none() && model.obstacles()[0].look().is_none());
+    }
+}
+
+/// The tests of `contact::trimesh` (`src/contact/trimesh.rs`).
+mod trimesh {
+    use flexsurf::contact::trimesh::*;
+    use flexsurf::math::Vec3;
+
+    #[test]
+    fn display_mesh_keeps_the_body() {
+        // A unit cube, quads fan-triangulated.
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                   f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        let body = TriMeshBody::from_obj_str(obj, "cube.obj").unwrap();
+        let m = body.to_mesh();
+        assert_eq!((m.vertex_count(), m.triangle_count()), (8, 12));
+        assert!((m.area() - 6.0).abs() < 1e-12);
+        assert!(body.distance(Vec3::new(0.5, 0.5, 2.0)).0 > 0.99);
+    }
+
+    /// Issue 22: one far-off vertex of a closed cube was reported as "inside out".
+    #[test]
+    fn regression_a_far_off_vertex_was_called_inside_out() {
+        let faces = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        let cube = |v7: &str| format!("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n{v7}\nv 0 1 1\n{faces}");
+        for far in ["v -1e9 -1e9 -1e9", "v -1e5 -2e5 -1e5"] {
+            let e = TriMeshBody::from_obj_str(&cube(far), "cube.obj").err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.contains("vertex, 7 ") && e.contains("stray vertex") && !e.contains("inside out"), "{far}: {e}");
+        }
+        // A cube wound the other way round is still inside out.
+        let flipped: String = cube("v 1 1 1")
+            .lines()
+            .map(|l| match l.strip_prefix("f ") {
+                Some(f) => format!("f {}\n", f.split(' ').rev().collect::<Vec<_>>().join(" ")),
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let e = TriMeshBody::from_obj_str(&flipped, "cube.obj").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("inside out"), "{e}");
+        assert!(TriMeshBody::from_obj_str(&cube("v 1 1 1"), "cube.obj").is_ok());
+    }
+}
+
+/// The tests of `potential::contact` (`src/potential/contact.rs`).
+mod potential_contact {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::math::Vec3;
+    use flexsurf::potential::contact::*;
+
+    #[test]
+    fn penalty_force() {
+        let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 1.0 };
+        let params = ContactParams { stiffness: 100.0, offset: 0.01, friction: 0.5, slip_speed: 1e-4 };
+        let mut out = Vec::new();
+        detect(&[s], &params, &[0.5, 0.5], &[Vec3::new(0.0, 0.0, 0.995), Vec3::new(0.0, 0.0, 2.0)], &mut out);
+        assert_eq!(out.len(), 1);
+        // c a (δ − d) = 100 · 0.5 · (0.01 + 0.005).
+        assert!((out[0].force - 0.75).abs() < 1e-12);
+    }
+}
+
+/// The tests of `potential::friction` (`src/potential/friction.rs`).
+mod friction {
+    use flexsurf::math::{outer, Mat3, Vec3};
+    use flexsurf::potential::friction::*;
+
+    #[test]
+    fn law_is_continuous_with_coulomb_limit_and_psd() {
+        let law = FrictionLaw { limit: 2.0, eps: 1e-3 };
+        // Continuity of value and force at s = ε, the Coulomb magnitude beyond it, zero force at rest.
+        assert!((law.energy(1e-3 * (1.0 - 1e-12)) - law.energy(1e-3)).abs() < 1e-12);
+        assert!((law.force(1e-3 * (1.0 - 1e-9)) - 2.0).abs() < 1e-8);
+        assert_eq!(law.force(0.5), 2.0);
+        assert_eq!(law.force(0.0), 0.0);
+        let p = Mat3::IDENTITY - outer(Vec3::Z, Vec3::Z);
+        for &s in &[0.0, 2e-4, 9e-4, 1e-3, 3e-3, 1.0] {
+            let u = Vec3::new(0.6, 0.8, 0.0) * s;
+            let h = law.hessian(u, p);
+            // The three eigen-directions: along u, across u in the plane, the normal.
+            for d in [Vec3::new(0.6, 0.8, 0.0), Vec3::new(-0.8, 0.6, 0.0), Vec3::Z] {
+                assert!(d.dot(h * d) >= -1e-12, "s = {s}: {}", d.dot(h * d));
+            }
+            assert!((h * Vec3::Z).length() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn majorant_touches_and_bounds_the_potential() {
+        let law = FrictionLaw { limit: 1.5, eps: 1e-3 };
+        let p = Mat3::IDENTITY - outer(Vec3::Z, Vec3::Z);
+        let dir = Vec3::new(0.6, -0.8, 0.0);
+        for &sl in &[1e-5, 5e-4, 1e-3, 2e-3, 0.1] {
+            let (v, g, _) = law.majorant(sl, dir * sl, p);
+            assert!((v - law.energy(sl)).abs() < 1e-12 * (1.0 + v.abs()));
+            assert!((g - law.gradient(dir * sl)).length() < 1e-9);
+            for &s in &[0.0, 1e-4, 8e-4, 1.5e-3, 0.05, 1.0] {
+                assert!(law.majorant(sl, dir * s, p).0 >= law.energy(s) - 1e-12, "s_l = {sl}, s = {s}");
+            }
+        }
+    }
+}
