@@ -551,6 +551,7 @@ impl Stepper {
         let paths = self.ws.contact_seconds - paths_before;
         let contact_time = self.ws.contact_seconds - contact_before;
         let refine = self.refine_seconds - refine_before;
+        let broad_after = broad(&self.ws);
         let timings = Counters {
             assembly: (t_assembly - (contact_time - refine - paths)).max(0.0),
             contact: contact_time,
@@ -567,8 +568,8 @@ impl Stepper {
             contact_steps: usize::from(newton.contact),
             residual_max: newton.residual,
             self_contact_pairs: self_contacts,
-            broad_builds: broad(&self.ws).0 - broad_before.0,
-            broad_refits: broad(&self.ws).1 - broad_before.1,
+            broad_builds: broad_after.0 - broad_before.0,
+            broad_refits: broad_after.1 - broad_before.1,
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;
