@@ -222,6 +222,14 @@ pub fn weld(grids: &[Grid], seams: &[Seam]) -> Result<Welds, SeamError> {
             );
             return Err(SeamError { seam: s, message });
         }
+        if la < 3 {
+            // The seam's bending strip has rows along the seam, whose second differences need three nodes.
+            let message = format!(
+                "its edges have {la} nodes (panel {} {:?}, panel {} {:?}); a seam needs 3 or more: a finer grid (a smaller edge_length)",
+                seam.a.panel, seam.a.edge, seam.b.panel, seam.b.edge
+            );
+            return Err(SeamError { seam: s, message });
+        }
         if seam.a.panel == seam.b.panel && seam.a.edge == seam.b.edge && seam.a.span == seam.b.span {
             return Err(SeamError { seam: s, message: "it joins an edge to itself".into() });
         }

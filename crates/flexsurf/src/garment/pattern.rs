@@ -711,7 +711,11 @@ impl Pattern {
             }
             panels.push(built);
         }
-        let seams = sides.iter().map(|&[a, b]| Seam { a, b }).collect();
+        let seams: Vec<Seam> = sides.iter().map(|&[a, b]| Seam { a, b }).collect();
+        // The model's checks of the seams (equal node counts, three or more, no cell folded), here so that
+        // `flexsurf check` reports them against the pattern's keys.
+        let grids: Vec<Grid> = panels.iter().map(|p| p.grid).collect();
+        crate::seam::weld(&grids, &seams).map_err(|e| error(format!("seam[{}]", e.seam), e.message))?;
         let seam_lengths = resolved.iter().map(|r| r.map(|s| s.arcs[1] - s.arcs[0])).collect();
         Ok(BuiltPattern { panels, seams, seam_lengths, holds, warnings })
     }

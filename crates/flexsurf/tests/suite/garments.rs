@@ -887,3 +887,21 @@ fn a_cone_placement_out_of_range_is_an_error() {
     assert!(e.contains("`panel[0].placement`") && e.contains("is its `center`"), "{e}");
     assert_eq!(build(&text(30.0, 0.5)).panels.len(), 1);
 }
+
+/// A grid too coarse for a seam (found by the fuzzer: the T-shirt's pattern at a 4.3e9 m edge length gave its
+/// shoulder seams two nodes, and building the seam's bending strip panicked) is an error naming the seam, from
+/// the pattern's own checks (so `flexsurf check` reports it too), not a panic when the model is built.
+#[test]
+fn regression_a_seam_of_two_nodes_panicked_the_seam_strip() {
+    let text = std::fs::read_to_string(repo().join("garments/tshirt.toml")).unwrap();
+    let coarse: String = text
+        .lines()
+        .map(|l| if l.starts_with("edge_length") { "edge_length = 4294967296".to_string() } else { l.to_string() })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let e = failure(&coarse);
+    assert!(
+        e.contains("`seam[") && e.contains("its edges have 2 nodes") && e.contains("a seam needs 3 or more"),
+        "{e}"
+    );
+}
