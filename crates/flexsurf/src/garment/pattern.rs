@@ -712,9 +712,19 @@ impl Pattern {
             panels.push(built);
         }
         let seams: Vec<Seam> = sides.iter().map(|&[a, b]| Seam { a, b }).collect();
+        let grids: Vec<Grid> = panels.iter().map(|p| p.grid).collect();
+        for (i, (seam, spec)) in seams.iter().zip(&self.seams).enumerate() {
+            let n = seam.a.len(&grids[seam.a.panel]);
+            if n < 3 {
+                let message = format!(
+                    "{} and {} have {n} nodes at edge_length = {} m; a seam needs 3 or more: a smaller edge_length",
+                    spec.a, spec.b, self.edge_length
+                );
+                return Err(error(format!("seam[{i}]"), message));
+            }
+        }
         // The model's checks of the seams (equal node counts, three or more, no cell folded), here so that
         // `flexsurf check` reports them against the pattern's keys.
-        let grids: Vec<Grid> = panels.iter().map(|p| p.grid).collect();
         crate::seam::weld(&grids, &seams).map_err(|e| error(format!("seam[{}]", e.seam), e.message))?;
         let seam_lengths = resolved.iter().map(|r| r.map(|s| s.arcs[1] - s.arcs[0])).collect();
         Ok(BuiltPattern { panels, seams, seam_lengths, holds, warnings })
