@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Union
@@ -76,12 +77,20 @@ def run(scene: SceneLike, out: str | os.PathLike[str] | None = None, overwrite: 
     removed. A folder holding another run's outputs raises :class:`FolderError` unless ``overwrite=True``
     (which removes exactly the files that run wrote, as its ``manifest.json`` lists them); files flexsurf did
     not write, a symbolic link inside the folder or another run writing into it now raise it too. Raises
-    :class:`SceneError` for a bad scene and :class:`SimulationError` for a failed run.
+    :class:`SceneError` for a bad scene and :class:`SimulationError` for a failed run. Each of ``summary.json``'s
+    ``warnings`` (cloth that went deeper inside an obstacle than the contact offset) is also issued as a
+    :class:`RuntimeWarning`.
     """
     built = as_scene(scene)
     if out is None:
         with tempfile.TemporaryDirectory(prefix="flexsurf-") as tmp:
             summary, steps, frames = run_into(built, tmp)
-        return RunResult(summary, np.asarray(steps), frames, None)
-    summary, steps, frames = run_into(built, os.fspath(out), overwrite=bool(overwrite))
-    return RunResult(summary, np.asarray(steps), frames, Path(out))
+        result = RunResult(summary, np.asarray(steps), frames, None)
+    else:
+        summary, steps, frames = run_into(built, os.fspath(out), overwrite=bool(overwrite))
+        result = RunResult(summary, np.asarray(steps), frames, Path(out))
+    # What the command line prints as warnings (``summary.json``'s ``warnings``: cloth deeper inside an obstacle
+    # than the contact offset), as Python warnings.
+    for message in summary.get("warnings", []):
+        warnings.warn(message, RuntimeWarning, stacklevel=2)
+    return result

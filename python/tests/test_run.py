@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import json
 import subprocess
+import warnings
 
 import numpy as np
+import pytest
 
 import flexsurf
 
@@ -59,3 +61,17 @@ def test_failed_runs_raise(small_drop, tmp_path):
         assert "cannot write" in str(e)
     else:
         raise AssertionError("running into a file should fail")
+
+
+def test_a_contact_too_soft_to_hold_the_cloth_warns(small_drop):
+    # The ball drop's sheet sinks into the ball deeper than the contact offset under a penalty 30 times too
+    # soft: summary.json's warning, issued as a RuntimeWarning; the scene's own stiffness warns of nothing.
+    soft = flexsurf.with_overrides(small_drop, {"contact.stiffness": 300.0, "time.steps": 60})
+    with pytest.warns(RuntimeWarning, match="below an obstacle's surface"):
+        result = flexsurf.run(soft)
+    assert len(result.summary["warnings"]) == 1
+    assert result.summary["max_penetration_seen"] > small_drop["contact"]["offset"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        held = flexsurf.run(flexsurf.with_overrides(small_drop, {"time.steps": 60}))
+    assert "warnings" not in held.summary
