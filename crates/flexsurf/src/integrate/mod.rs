@@ -242,6 +242,8 @@ pub struct Stepper {
     h: f64,
     /// Steps that were split into sub-steps, and sub-steps taken in all.
     pub split: (usize, usize),
+    /// The pinned nodes the (sub-)step moves: `(node, from, to)` ([`Stepper::step`]).
+    pin_moves: Vec<(usize, Vec3, Vec3)>,
     /// Contact seconds spent refining active sets inside the solves (counted as contact, not as solve).
     refine_seconds: f64,
 }
@@ -354,6 +356,7 @@ impl Stepper {
             history: History::default(),
             h: params.dt,
             split: (0, 0),
+            pin_moves: Vec::new(),
             refine_seconds: 0.0,
         })
     }
@@ -370,6 +373,9 @@ impl Stepper {
     pub fn assemble(&mut self, model: &Model, state: &State) -> Values {
         self.history.fill(self.params.scheme, state, self.h);
         self.y.copy_from_slice(&state.x);
+        for &(k, _, to) in &self.pin_moves {
+            self.y[k] = to;
+        }
         let want = Want { grad: true, hess: Some(self.operator()) };
         self.assemble_at(model, state, true, want)
     }
@@ -480,16 +486,44 @@ impl Stepper {
     /// solve) is retaken as two half steps from the same state (at most [`MAX_HALVINGS`] times nested), whose
     /// history is the second-order one of the half step: so any Δt the user gives either completes or stops
     /// with the step and the cause. The lagged scheme is not split (its instability is its defining property).
+    ///
+    /// Pinned nodes moved since the last step (to their end-of-step places: [`Model::move_pin`], a scene's
+    /// `[[pin]] motion`) move within the step, from where the last step left them (`x⁻`, which a step leaves at
+    /// a pinned node's place): the step starts from the configuration the last step accepted, its paths take
+    /// the pins' motion, so contact and the continuous check see it, and a split step moves them half way.
     pub fn step(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
+        self.pin_moves = (0..model.nodes())
+            .filter(|&k| model.pinned()[k] && state.x_prev[k] != state.x[k])
+            .map(|k| (k, state.x_prev[k], state.x[k]))
+            .collect();
         let info = self.step_split(model, state, self.params.dt, 0);
         self.h = self.params.dt;
+        self.pin_moves.clear();
         info
+    }
+
+    /// [`Stepper::step_once`] with the pins of [`Stepper::pin_moves`] at their starts (the state has them at
+    /// their ends, as it is left after a failure).
+    fn step_pinned(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
+        for &(k, from, _) in &self.pin_moves {
+            state.x[k] = from;
+        }
+        let result = self.step_once(model, state);
+        for &(k, from, to) in &self.pin_moves {
+            state.x[k] = to;
+            if result.is_ok() {
+                // Where the next step's move of this pin starts, and the pin's own speed.
+                state.x_prev[k] = to;
+                state.v[k] = (to - from) / self.h;
+            }
+        }
+        result
     }
 
     fn step_split(&mut self, model: &Model, state: &mut State, h: f64, depth: usize) -> Result<StepInfo, StepError> {
         self.h = h;
         // A failed step leaves the state as it was.
-        let error = match self.step_once(model, state) {
+        let error = match self.step_pinned(model, state) {
             Ok(info) => return Ok(info),
             Err(e) => e,
         };
@@ -511,9 +545,26 @@ impl Stepper {
             state.x_prev[k] = saved.x[k] - saved.v[k] * half + a * (0.5 * half * half);
             state.v_prev[k] = saved.v[k] - a * half;
         }
-        let mut info = self.step_split(model, state, half, depth + 1)?;
+        // The pins move half way in each half.
+        let moves = std::mem::take(&mut self.pin_moves);
+        let halves = |first: bool| -> Vec<(usize, Vec3, Vec3)> {
+            let mid = |f: Vec3, t: Vec3| (f + t) * 0.5;
+            moves.iter().map(|&(k, f, t)| if first { (k, f, mid(f, t)) } else { (k, mid(f, t), t) }).collect()
+        };
+        self.pin_moves = halves(true);
+        for &(k, from, to) in &self.pin_moves {
+            (state.x[k], state.x_prev[k]) = (to, from);
+        }
+        let first = self.step_split(model, state, half, depth + 1);
+        self.pin_moves = halves(false);
+        let mut info = first?;
+        for &(k, from, to) in &self.pin_moves {
+            (state.x[k], state.x_prev[k]) = (to, from);
+        }
         state.step = saved.step;
-        let second = self.step_split(model, state, half, depth + 1)?;
+        let second = self.step_split(model, state, half, depth + 1);
+        self.pin_moves = moves;
+        let second = second?;
         self.split.1 += 2;
         info.timings.add(&second.timings);
         info.timings.steps = 1;
