@@ -492,14 +492,22 @@ impl Stepper {
     /// a pinned node's place): the step starts from the configuration the last step accepted, its paths take
     /// the pins' motion, so contact and the continuous check see it, and a split step moves them half way.
     pub fn step(&mut self, model: &Model, state: &mut State) -> Result<StepInfo, StepError> {
-        self.pin_moves = (0..model.nodes())
-            .filter(|&k| model.pinned()[k] && state.x_prev[k] != state.x[k])
-            .map(|k| (k, state.x_prev[k], state.x[k]))
-            .collect();
+        let fixed = model.pinned();
+        let moves = (0..model.nodes()).filter(|&k| fixed[k] && state.x_prev[k] != state.x[k]);
+        self.set_pin_moves(moves.map(|k| (k, state.x_prev[k], state.x[k])).collect(), state);
         let info = self.step_split(model, state, self.params.dt, 0);
         self.h = self.params.dt;
         self.pin_moves.clear();
         info
+    }
+
+    /// Takes `moves` as the (sub-)step's pin moves, the state holding each pin at its end and `x⁻` at its start
+    /// (as a step is entered).
+    fn set_pin_moves(&mut self, moves: Vec<(usize, Vec3, Vec3)>, state: &mut State) {
+        for &(k, from, to) in &moves {
+            (state.x[k], state.x_prev[k]) = (to, from);
+        }
+        self.pin_moves = moves;
     }
 
     /// [`Stepper::step_once`] with the pins of [`Stepper::pin_moves`] at their starts (the state has them at
@@ -547,21 +555,21 @@ impl Stepper {
         }
         // The pins move half way in each half.
         let moves = std::mem::take(&mut self.pin_moves);
-        let halves = |first: bool| -> Vec<(usize, Vec3, Vec3)> {
-            let mid = |f: Vec3, t: Vec3| (f + t) * 0.5;
-            moves.iter().map(|&(k, f, t)| if first { (k, f, mid(f, t)) } else { (k, mid(f, t), t) }).collect()
+        let half_of = |second: bool| {
+            let half = |&(k, from, to): &(usize, Vec3, Vec3)| {
+                let mid = (from + to) * 0.5;
+                if second {
+                    (k, mid, to)
+                } else {
+                    (k, from, mid)
+                }
+            };
+            moves.iter().map(half).collect()
         };
-        self.pin_moves = halves(true);
-        for &(k, from, to) in &self.pin_moves {
-            (state.x[k], state.x_prev[k]) = (to, from);
-        }
-        let first = self.step_split(model, state, half, depth + 1);
-        self.pin_moves = halves(false);
-        let mut info = first?;
-        for &(k, from, to) in &self.pin_moves {
-            (state.x[k], state.x_prev[k]) = (to, from);
-        }
+        self.set_pin_moves(half_of(false), state);
+        let mut info = self.step_split(model, state, half, depth + 1)?;
         state.step = saved.step;
+        self.set_pin_moves(half_of(true), state);
         let second = self.step_split(model, state, half, depth + 1);
         self.pin_moves = moves;
         let second = second?;
