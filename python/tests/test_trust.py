@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -90,15 +91,17 @@ def readme_snippet() -> str:
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
-def test_the_readme_snippet_runs_verbatim_as_a_script(tmp_path):
+def test_the_readme_snippet_runs_verbatim_as_a_script(tmp_path, small_drop):
     for name in ("scenes", "materials", "bodies"):
         (tmp_path / name).symlink_to(ROOT / name)
+    # A run already in the snippet's folder (a small one, so the snippet runs once): it must replace it.
+    flexsurf.run(small_drop, out=tmp_path / "out" / "py")
     script = tmp_path / "snippet.py"
     script.write_text(readme_snippet())
-    for _ in range(2):  # twice: the second run finds the first one's folder
-        done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=900)
-        assert done.returncode == 0, done.stderr
-    assert (tmp_path / "out" / "py" / "summary.json").exists()
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((tmp_path / "out" / "py" / "summary.json").read_text())
+    assert summary["steps"] == 300, "the snippet's run replaced the small one"
 
 
 def test_a_process_sweep_from_an_unguarded_script_says_why(tmp_path, small_drop):
