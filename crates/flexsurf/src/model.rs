@@ -10,6 +10,7 @@ use crate::contact::Obstacle;
 use crate::grid::Grid;
 use crate::material::{Fabric, Stiffness};
 use crate::math::{finite, Vec3};
+use crate::potential::body_contact::BodyContact;
 use crate::potential::contact::{ContactParams, PenaltyContact};
 use crate::potential::external::External;
 use crate::potential::face_samples::FaceSamples;
@@ -333,6 +334,9 @@ impl ModelBuilder {
             let springs = self.springs.iter().map(|s| Spring { node: node(s.node), ..*s }).collect();
             terms.push(Box::new(Springs::new(springs)));
         }
+        if self.contact_faces && self.contact.stiffness > 0.0 {
+            terms.extend(body_contacts(&self.obstacles, &self.contact, &faces(&panels, n), &area));
+        }
         if !self.obstacles.is_empty() {
             let contact = PenaltyContact::new(self.obstacles, self.contact, area.clone());
             terms.push(Box::new(if self.contact_faces {
@@ -408,6 +412,19 @@ fn cell_edges<'a>(grid: &'a Grid, rest: &'a [Vec3]) -> impl Iterator<Item = (usi
         let c = grid.cell(i, j);
         [(0, 1), (0, 2), (1, 3), (2, 3)].map(|(a, b)| (c[a], c[b], (rest[c[b]] - rest[c[a]]).length()))
     })
+}
+
+/// The contact of the sheet's faces with each mesh body's own vertices and edges ([`BodyContact`]), of the
+/// obstacles' penalty and friction and half their offset.
+fn body_contacts(obstacles: &[Obstacle], contact: &ContactParams, sheet: &Faces, area: &[f64]) -> Vec<Box<dyn Term>> {
+    let params = SelfContactParams {
+        stiffness: contact.stiffness,
+        thickness: 0.5 * contact.offset,
+        friction: contact.friction,
+        slip_speed: contact.slip_speed,
+    };
+    let meshes = obstacles.iter().filter_map(|o| if let Obstacle::Mesh(body) = o { Some(body) } else { None });
+    meshes.map(|body| Box::new(BodyContact::new(sheet, body, params, area.to_vec())) as Box<dyn Term>).collect()
 }
 
 /// The triangulated surface of every panel over the model's `n` nodes.

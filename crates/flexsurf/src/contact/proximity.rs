@@ -43,6 +43,9 @@ pub struct Faces {
     /// Each node's representative under the identification of nodes about to be joined (a sewing phase's
     /// pairs, [`Faces::with_joined`]); empty: every node is its own.
     joined: Vec<usize>,
+    /// The first node of a rigid body's surface ([`Faces::against_body`]): nodes from here on are the body's
+    /// fixed vertices, and only pairs of a body element with a sheet element count; `nodes` when there is none.
+    fixed_from: usize,
 }
 
 /// Two elements of the surface that are close: a node and a triangle, or two edges.
@@ -82,7 +85,8 @@ fn v(p: Vec3) -> Vector {
 impl Faces {
     /// The faces of grids given as their cells' corners (model nodes), over `nodes` model nodes.
     pub fn new(nodes: usize, cells: impl Iterator<Item = [usize; 4]>) -> Self {
-        let mut faces = Faces { triangles: Vec::new(), edges: Vec::new(), nodes, joined: Vec::new() };
+        let mut faces =
+            Faces { triangles: Vec::new(), edges: Vec::new(), nodes, joined: Vec::new(), fixed_from: nodes };
         for c in cells {
             faces.triangles.push([c[0], c[1], c[3]]);
             faces.triangles.push([c[0], c[3], c[2]]);
@@ -98,6 +102,36 @@ impl Faces {
     /// Number of nodes.
     pub fn nodes(&self) -> usize {
         self.nodes
+    }
+
+    /// The pairs between the sheet of `self` and a rigid body's surface (`vertices`, `triangles`), numbered after
+    /// the sheet's nodes: each body vertex against each sheet triangle, and each body edge against each sheet
+    /// edge (a sheet node against a body triangle is the nodes' own obstacle contact). The body's vertices are
+    /// nodes `self.nodes()..`, fixed: positions passed to these faces hold them after the sheet's
+    /// ([`Faces::fixed_from`]).
+    pub fn against_body(&self, vertices: usize, triangles: &[[usize; 3]]) -> Self {
+        let n = self.nodes;
+        let mut body: Vec<[usize; 2]> = triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .filter(|&(a, b)| a < vertices && b < vertices && a != b)
+            .map(|(a, b)| [n + a.min(b), n + a.max(b)])
+            .collect();
+        body.sort_unstable();
+        body.dedup();
+        Faces {
+            triangles: self.triangles.clone(),
+            edges: self.edges.iter().copied().chain(body).collect(),
+            nodes: n + vertices,
+            // A body vertex is its own representative (beyond the list).
+            joined: self.joined.clone(),
+            fixed_from: n,
+        }
+    }
+
+    /// The first fixed node (a rigid body's vertex, [`Faces::against_body`]); [`Faces::nodes`] when none is.
+    pub fn fixed_from(&self) -> usize {
+        self.fixed_from
     }
 
     /// The same faces with the nodes of each pair of `pairs` taken as one node (and so, transitively, every
@@ -133,6 +167,14 @@ impl Faces {
     /// contact).
     pub fn excluded(&self, pair: Pair) -> bool {
         let r = |k: usize| self.representative(k);
+        if self.fixed_from < self.nodes {
+            // Against a body: a body vertex and a sheet triangle, or a body edge and a sheet edge.
+            let fixed = |k: usize| k >= self.fixed_from;
+            return match pair {
+                Pair::PointFace(p, t) => !fixed(p) || self.triangles[t].iter().any(|&k| fixed(k)),
+                Pair::EdgeEdge(e, f) => fixed(self.edges[e][0]) == fixed(self.edges[f][0]),
+            };
+        }
         match pair {
             Pair::PointFace(p, t) => self.triangles[t].iter().any(|&k| r(k) == r(p)),
             Pair::EdgeEdge(e, f) => {
@@ -191,7 +233,14 @@ impl Faces {
             let (lo, hi) = union(nodes, ks);
             (lo - grow, hi + grow)
         };
-        let points: Vec<Bounds> = (0..self.nodes()).into_par_iter().with_min_len(1024).map(|k| bound(&[k])).collect();
+        // Against a body only its vertices are points of a pair: the sheet's nodes query nothing.
+        let first = if self.fixed_from < self.nodes { self.fixed_from } else { 0 };
+        let far = (Vec3::splat(f64::INFINITY), Vec3::splat(f64::NEG_INFINITY));
+        let points: Vec<Bounds> = (0..self.nodes())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|k| if k < first { far } else { bound(&[k]) })
+            .collect();
         let tris: Vec<Bounds> = self.triangles.par_iter().with_min_len(1024).map(|t| bound(t)).collect();
         let edges: Vec<Bounds> = self.edges.par_iter().with_min_len(1024).map(|e| bound(e)).collect();
         broad.triangles.update(&tris);
@@ -275,14 +324,30 @@ impl Faces {
         to: &[Vec3],
         tolerance: f64,
     ) -> Option<(Pair, f64)> {
+        let hits = self.touching_among(candidates, from, to, tolerance);
+        hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
+
+    /// Every pair of `candidates` whose distance falls to `tolerance` or below along the straight paths from
+    /// `from` to `to`, with the fraction of the step where it first does, in the candidates' order (the same
+    /// requirement on the candidates as [`Faces::first_touch_among`]).
+    pub fn touching_among(&self, candidates: &[Pair], from: &[Vec3], to: &[Vec3], tolerance: f64) -> Vec<(Pair, f64)> {
         let swept = Near::new(self, Self::node_boxes(from, Some(to)), tolerance);
-        let hits: Vec<(Pair, f64)> = candidates
+        candidates
             .par_iter()
             .with_min_len(256)
             .filter(|&&pair| swept.near(pair))
             .filter_map(|&pair| self.advance(pair, from, to, tolerance).map(|t| (pair, t)))
-            .collect();
-        hits.into_iter().min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+            .collect()
+    }
+
+    /// The pair's closest points with its nodes at the fraction `t` of their straight paths from `from` to `to`.
+    pub fn closest_along(&self, pair: Pair, from: &[Vec3], to: &[Vec3], t: f64) -> Closest {
+        let nodes = self.pair_nodes(pair);
+        let at = nodes.map(|k| from[k] + (to[k] - from[k]) * t);
+        let weights = weights(pair, at);
+        let delta = at.iter().zip(&weights).fold(Vec3::ZERO, |acc, (&p, &w)| acc + p * w);
+        Closest { pair, nodes, weights, delta }
     }
 
     /// The first edge (an index of [`Faces::edges`]) that passes through a triangle it shares no node with at

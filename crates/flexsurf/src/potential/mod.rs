@@ -16,6 +16,7 @@
 //! and in insertion order within a stage. The order of the floating-point additions is part of the
 //! bit-for-bit reproducibility of a run; a new term picks its stage and is appended to it.
 
+pub mod body_contact;
 pub mod contact;
 pub mod elastic;
 pub mod external;

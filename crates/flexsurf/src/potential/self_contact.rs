@@ -59,6 +59,9 @@ pub struct SelfContact {
     faces: Faces,
     params: SelfContactParams,
     area: Vec<f64>,
+    /// A rigid body's vertices, nodes `area.len()..` of `faces` ([`Faces::against_body`]); empty for the sheet
+    /// against itself.
+    fixed: Vec<Vec3>,
 }
 
 /// The term's scratch: the active pairs and the configuration their directions come from.
@@ -93,7 +96,44 @@ pub const TOUCH: f64 = 1e-3;
 impl SelfContact {
     /// Self-contact of `faces` under `params`, nodes of rest area `area`.
     pub fn new(faces: Faces, params: SelfContactParams, area: Vec<f64>) -> Self {
-        Self { faces, params, area }
+        Self { faces, params, area, fixed: Vec::new() }
+    }
+
+    /// Contact of the sheet `faces` with a rigid body's surface (`vertices`, `triangles`): each body vertex
+    /// against the sheet's triangles and each body edge against its edges ([`Faces::against_body`]), under
+    /// `params` (its friction the cloth–obstacle `μ`); the body's side stays put.
+    pub fn against_body(
+        faces: &Faces,
+        vertices: Vec<Vec3>,
+        triangles: &[[usize; 3]],
+        params: SelfContactParams,
+        area: Vec<f64>,
+    ) -> Self {
+        Self { faces: faces.against_body(vertices.len(), triangles), params, area, fixed: vertices }
+    }
+
+    /// The rigid body's vertices (nodes `faces().fixed_from()..` of the faces); empty for the sheet against
+    /// itself.
+    pub fn body_vertices(&self) -> &[Vec3] {
+        &self.fixed
+    }
+
+    /// What the term's saved state is called in errors.
+    fn what(&self) -> &'static str {
+        if self.fixed.is_empty() {
+            "self-contact state"
+        } else {
+            "body-contact state"
+        }
+    }
+
+    /// `x` (the sheet's nodes) followed by the body's fixed vertices, when there is a body and `x` lacks them.
+    fn with_fixed<'a>(&self, x: &'a [Vec3]) -> std::borrow::Cow<'a, [Vec3]> {
+        if self.fixed.is_empty() || x.len() != self.area.len() {
+            std::borrow::Cow::Borrowed(x)
+        } else {
+            std::borrow::Cow::Owned(x.iter().chain(&self.fixed).copied().collect())
+        }
     }
 
     /// The broad phase's tree builds and refits so far in `scratch` (both trees; 0 before the first search).
@@ -125,29 +165,52 @@ impl SelfContact {
 
     /// The contact of a close pair, its direction from `start`.
     fn record(&self, c: &Closest, start: &[Vec3]) -> Contact {
-        let stencil = Stencil::of(&c.nodes, &c.weights);
-        let before = stencil.point(start);
+        let full = Stencil::of(&c.nodes, &c.weights);
+        let before = full.point(start);
         let normal = if before.length() > 1e-12 * self.params.thickness {
             before.normalize()
         } else {
             c.delta.normalize_or(Vec3::Z)
         };
-        // A node carries its own area; an edge pair the mean of its four nodes' halves.
-        let area = match c.pair {
-            Pair::PointFace(p, _) => self.area[p],
-            Pair::EdgeEdge(..) => 0.125 * c.nodes.iter().map(|&k| self.area[k]).sum::<f64>(),
+        let distance = normal.dot(c.delta);
+        let (stencil, area, reference) = if self.fixed.is_empty() {
+            // A node carries its own area; an edge pair the mean of its four nodes' halves.
+            let area = match c.pair {
+                Pair::PointFace(p, _) => self.area[p],
+                Pair::EdgeEdge(..) => 0.125 * c.nodes.iter().map(|&k| self.area[k]).sum::<f64>(),
+            };
+            (full, area, c.delta)
+        } else {
+            self.body_share(c)
         };
         let stiffness = self.params.stiffness * area;
-        let distance = normal.dot(c.delta);
         Contact {
             stencil,
-            other: Other::Sheet,
+            other: if self.fixed.is_empty() { Other::Sheet } else { Other::Obstacle },
             normal,
             force: stiffness * (self.params.thickness - distance),
             stiffness,
             distance,
-            reference: c.delta,
+            reference,
         }
+    }
+
+    /// A pair against a body: the sheet's nodes of it as the stencil, half their mean area, and the reference
+    /// `delta − (the body's fixed share of it)`, so that the gap `distance + normal·(p − reference)` of the
+    /// stencil's point `p` is the pair's.
+    fn body_share(&self, c: &Closest) -> (Stencil, f64, Vec3) {
+        let n = self.area.len();
+        let (mut nodes, mut weights, mut body) = (Vec::with_capacity(4), Vec::with_capacity(4), Vec3::ZERO);
+        for (&k, &w) in c.nodes.iter().zip(&c.weights) {
+            if k < n {
+                nodes.push(k);
+                weights.push(w);
+            } else {
+                body += self.fixed[k - n] * w;
+            }
+        }
+        let area = 0.5 * nodes.iter().map(|&k| self.area[k]).sum::<f64>() / nodes.len().max(1) as f64;
+        (Stencil::of(&nodes, &weights), area, c.delta - body)
     }
 
     /// The pairs closer than the thickness at `x` and not yet held: among the step's candidates
@@ -200,6 +263,27 @@ impl SelfContact {
             sort(s);
         }
         missed
+    }
+
+    /// Against a body: the step's candidate pairs that come within the thickness somewhere on the straight
+    /// paths from the step's start to its target `to` and are not held, each as a contact with its closest
+    /// points where it first does (continuous detection, as the nodes' obstacle contact enters at the first
+    /// point of a path inside the layer): a sheet that would pass a body's edge or vertex within one step is
+    /// caught where it reaches it, whatever its speed.
+    fn add_entered(&self, s: &mut SelfScratch, to: &[Vec3]) {
+        let Some((pairs, _)) = &s.candidates else { return };
+        let (from, thickness) = (&s.start, self.params.thickness);
+        let entered: Vec<(Pair, Contact)> = (self.faces.touching_among(pairs, from, to, thickness).into_iter())
+            .filter(|(pair, _)| s.pairs.binary_search(pair).is_err())
+            .map(|(pair, t)| (pair, self.record(&self.faces.closest_along(pair, from, to, t), from)))
+            .collect();
+        if !entered.is_empty() {
+            for (pair, c) in entered {
+                s.pairs.push(pair);
+                s.contacts.push(c);
+            }
+            sort(s);
+        }
     }
 }
 
@@ -304,14 +388,14 @@ impl Term for SelfContact {
     }
 
     fn save(&self, scratch: &Scratch) -> Result<Option<Vec<u8>>, String> {
-        save_scratch::<SelfScratch>(scratch, "self-contact state")
+        save_scratch::<SelfScratch>(scratch, self.what())
     }
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
-        let n = self.area.len();
-        restore_scratch(saved, scratch, "self-contact state", |s: &SelfScratch| {
+        let (n, all) = (self.area.len(), self.faces.nodes());
+        restore_scratch(saved, scratch, self.what(), |s: &SelfScratch| {
             let fits = s.pairs.len() == s.contacts.len()
-                && (s.start.is_empty() || s.start.len() == n)
+                && (s.start.is_empty() || s.start.len() == all)
                 && records_fit(&s.contacts, n)
                 && s.lagged.iter().all(|(st, _)| (1..=4).contains(&st.len) && st.nodes.iter().all(|&k| k < n));
             fits.then_some(()).ok_or_else(|| format!("{n} nodes"))
@@ -324,11 +408,12 @@ impl ActiveSet for SelfContact {
     /// the step's start.
     fn prepare(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) {
         let s = self.scratch(scratch);
+        let all = self.faces.nodes();
         match cx.motion {
-            Some(m) if m.predict => s.start = m.x.to_vec(),
-            Some(_) if s.start.len() == y.len() => {}
+            Some(m) if m.predict => s.start = self.with_fixed(m.x).into_owned(),
+            Some(_) if s.start.len() == all => {}
             _ => {
-                s.start = y.to_vec();
+                s.start = self.with_fixed(y).into_owned();
                 s.candidates = None;
             }
         }
@@ -337,17 +422,21 @@ impl ActiveSet for SelfContact {
         s.relinearized = 0;
         if let Some(m) = cx.motion.filter(|m| m.predict) {
             let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
-            let boxes = Faces::node_boxes(&s.start, Some(m.target));
+            let boxes = Faces::node_boxes(&s.start, Some(&self.with_fixed(m.target)));
             let pairs = self.faces.candidates_of(&mut s.broad, &boxes, radius);
             s.candidates = Some((pairs, boxes));
         } else if cx.motion.is_none() {
             s.candidates = None;
         }
-        self.add_close(s, y, y);
+        self.add_close(s, &self.with_fixed(y), y);
         match cx.motion {
             Some(m) if m.predict => {
                 lag_friction(&self.params, s, &m, cx.fixed);
-                self.add_close(s, m.target, y);
+                let target = self.with_fixed(m.target);
+                self.add_close(s, &target, y);
+                if !self.fixed.is_empty() {
+                    self.add_entered(s, &target);
+                }
             }
             // A Newton iteration linearises the friction about the iterate.
             Some(m) => {
@@ -395,7 +484,7 @@ impl ActiveSet for SelfContact {
             }
         }
         (s.pairs, s.contacts) = kept.into_iter().unzip();
-        let missed = self.add_close(s, &z, &z);
+        let missed = self.add_close(s, &self.with_fixed(&z), &z);
         let relinearized = cx.motion.is_some_and(|m| self.relinearize(s, &z, &m));
         changed || relinearized || (missed > tolerance && missed > 0.0)
     }
@@ -404,6 +493,7 @@ impl ActiveSet for SelfContact {
     /// paths from `from` to `to`.
     fn tunnelled(&self, from: &[Vec3], to: &[Vec3], scratch: &mut Scratch) -> Option<usize> {
         let tolerance = TOUCH * self.params.thickness;
+        let (from, to) = (&*self.with_fixed(from), &*self.with_fixed(to));
         let s = self.scratch(scratch);
         // The step's candidates hold every pair whose paths come within the tolerance when the step starts
         // where they were swept from and ends within their slack (swept anew to `to` when it does not).
@@ -415,9 +505,23 @@ impl ActiveSet for SelfContact {
                 self.faces.first_touch_among(&pairs, from, to, tolerance)
             }
         };
+        // A sheet node of the pair (against a body, the body's vertex or edge is the other side).
+        let sheet = |k: usize| k < self.area.len();
         touch.map(|(pair, _)| match pair {
-            Pair::PointFace(p, _) => p,
-            Pair::EdgeEdge(e, _) => self.faces.edges[e][0],
+            Pair::PointFace(p, t) => {
+                if sheet(p) {
+                    p
+                } else {
+                    self.faces.triangles[t][0]
+                }
+            }
+            Pair::EdgeEdge(e, f) => {
+                if sheet(self.faces.edges[e][0]) {
+                    self.faces.edges[e][0]
+                } else {
+                    self.faces.edges[f][0]
+                }
+            }
         })
     }
 

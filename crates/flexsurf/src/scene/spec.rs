@@ -355,8 +355,9 @@ pub struct ContactSpec {
     pub friction: f64,
     /// Slip speed `ε_v` (m/s) below which friction holds (smoothed static friction), default 1e-4.
     pub slip_speed: f64,
-    /// Also check points of the faces between the nodes (a thin feature of a body cannot pass through a face
-    /// between nodes), default false.
+    /// The sheet's faces touch the bodies too: points of the faces between the nodes against every obstacle,
+    /// and a mesh body's own vertices and edges against the sheet's triangles and edges (a thin feature of a
+    /// body cannot pass through a face between nodes), default false.
     pub faces: bool,
 }
 

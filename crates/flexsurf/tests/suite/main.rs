@@ -3,6 +3,7 @@
 //! A new test file is one `mod` line here. Run one module with its path as the filter, e.g.
 //! `cargo test --profile ci -p flexsurf --test suite derivatives::` (docs/testing.md).
 
+mod body_contact;
 mod contact_records;
 mod converged_step;
 mod curved_multigrid;

@@ -1,0 +1,205 @@
+//! Issue 19, item 1: a mesh body's own vertices and edges against the sheet's faces (`[contact] faces = true`,
+//! `potential/body_contact.rs`). A body feature narrower than the grid (a blade's ridge, a spike) lies between
+//! the nodes; with nodes-only contact it cuts through the faces, with the body's features it holds them. Each
+//! case is judged by the independent triangle–triangle checker on the sheet's and the body's triangles together
+//! (`testing::intersecting_triangles`, exact orientation predicates), on every step.
+
+use flexsurf::contact::proximity::Pair;
+use flexsurf::contact::trimesh::TriMeshBody;
+use flexsurf::contact::Obstacle;
+use flexsurf::energy::Operator;
+use flexsurf::grid::Grid;
+use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::material::{Calibration, Fabric, Stiffness};
+use flexsurf::math::Vec3;
+use flexsurf::model::{Model, ModelBuilder, ModelKind};
+use flexsurf::potential::body_contact::BodyContact;
+use flexsurf::potential::contact::ContactParams;
+use flexsurf::testing::{alone, check, intersecting_triangles};
+use std::sync::Arc;
+
+const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
+const OFFSET: f64 = 0.004;
+
+/// A closed wedge whose ridge runs along y at `x`, `top` high, from y = −0.3 to 0.3 (past the sheet), 10 cm
+/// deep and 1 cm wide at its base: its ridge is an edge of the mesh and no vertex of it is under the sheet.
+fn blade(x: f64, top: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (w, base) = (0.005, top - 0.1);
+    let vertices = vec![
+        Vec3::new(x - w, -0.3, base),
+        Vec3::new(x + w, -0.3, base),
+        Vec3::new(x, -0.3, top),
+        Vec3::new(x - w, 0.3, base),
+        Vec3::new(x + w, 0.3, base),
+        Vec3::new(x, 0.3, top),
+    ];
+    let triangles = vec![[0, 1, 2], [3, 5, 4], [0, 3, 4], [0, 4, 1], [0, 2, 5], [0, 5, 3], [1, 4, 5], [1, 5, 2]];
+    (vertices, triangles)
+}
+
+/// A closed square pyramid with its apex at `apex` and a base 1 cm wide, 10 cm below: a spike whose apex is a
+/// vertex of the mesh under a face of the sheet.
+fn spike(apex: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (w, z) = (0.005, apex.z - 0.1);
+    let vertices = vec![
+        Vec3::new(apex.x - w, apex.y - w, z),
+        Vec3::new(apex.x + w, apex.y - w, z),
+        Vec3::new(apex.x + w, apex.y + w, z),
+        Vec3::new(apex.x - w, apex.y + w, z),
+        apex,
+    ];
+    let triangles = vec![[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+    (vertices, triangles)
+}
+
+/// How the sheet meets the body: held by its corners 3 cm up (contact penalty 2e4 N/m³), or falling free from
+/// rest at `height` onto a contact of penalty `stiffness` (frictionless both).
+#[derive(Clone, Copy)]
+enum Meet {
+    Held,
+    Falling { height: f64, stiffness: f64 },
+}
+
+/// A 5 × 5 sheet of 0.4 m (nodes 10 cm apart, node (2, 2) at the origin) over `body`, as `meet` says; `faces`
+/// switches the body's features on.
+fn over(body: &(Vec<Vec3>, Vec<[u32; 3]>), faces: bool, meet: Meet) -> (Model, Grid, Vec<Vec3>) {
+    let fabric = Fabric::paper_cotton();
+    let stiffness = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
+    let grid = Grid::sheet(5, 5, 0.4, 0.4).unwrap();
+    let height = if let Meet::Falling { height, .. } = meet { height } else { 0.03 };
+    let rest: Vec<Vec3> = grid.flat_positions(0.0).iter().map(|p| *p + Vec3::new(0.0, 0.0, height)).collect();
+    let mut b = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, G);
+    let mesh = TriMeshBody::new(body.0.clone(), body.1.clone()).unwrap();
+    b.obstacles.push(Obstacle::Mesh(Arc::new(mesh)));
+    let stiffness = if let Meet::Falling { stiffness, .. } = meet { stiffness } else { 2e4 };
+    b.contact = ContactParams { stiffness, offset: OFFSET, ..ContactParams::default() };
+    b.contact_faces = faces;
+    if let Meet::Held = meet {
+        for (i, j) in [(0, 0), (4, 0), (0, 4), (4, 4)] {
+            b.pinned[grid.index(i, j)] = true;
+        }
+    }
+    (b.build().unwrap(), grid, rest)
+}
+
+/// The sheet's and the body's triangles together (the body's vertices after the sheet's nodes), and the first
+/// intersecting pair of non-adjacent ones at the sheet's positions `x`.
+fn crossing(model: &Model, body: &(Vec<Vec3>, Vec<[u32; 3]>), x: &[Vec3]) -> Option<(usize, usize)> {
+    let n = x.len();
+    let mut triangles = model.faces().triangles;
+    triangles.extend(body.1.iter().map(|t| t.map(|k| n + k as usize)));
+    let all: Vec<Vec3> = x.iter().chain(&body.0).copied().collect();
+    intersecting_triangles(&triangles, &all)
+}
+
+/// Runs `steps` steps of `dt` of the sheet meeting `body` as `meet` says; returns the grid, the final positions
+/// and the first step on which the sheet and the body intersect.
+fn run(
+    body: &(Vec<Vec3>, Vec<[u32; 3]>),
+    faces: bool,
+    meet: Meet,
+    dt: f64,
+    steps: usize,
+) -> (Grid, Vec<Vec3>, Option<usize>) {
+    let (model, grid, rest) = over(body, faces, meet);
+    assert_eq!(model.potential.find::<BodyContact>().is_some(), faces, "the body's features are a term iff faces");
+    let mut state = flexsurf::integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], dt).unwrap();
+    let mut stepper = Stepper::new(&model, &StepParams::with_dt(dt)).unwrap();
+    let mut first = None;
+    for step in 1..=steps {
+        stepper.step(&model, &mut state).unwrap_or_else(|e| panic!("faces {faces}, step {step}: {e}"));
+        first = first.or(crossing(&model, body, &state.x).map(|_| step));
+    }
+    (grid, state.x, first)
+}
+
+/// A blade's ridge, 1.5 cm below the held sheet and halfway between two columns of nodes: the sheet sags onto
+/// it. With the nodes alone the ridge cuts through the faces (the sheet's surface over it ends below its top,
+/// and the checker finds the sheet and the blade intersecting); with the body's edges against the sheet's the
+/// ridge holds the faces above it on every step (an edge–edge contact: no vertex of the blade is under the
+/// sheet), at Δt = 10 ms and at 50 ms.
+#[test]
+fn a_blade_thinner_than_the_grid_cannot_cut_through_a_face() {
+    let top = 0.015;
+    let body = blade(0.05, top);
+    // The surface over the ridge at y = 0: the middle of the edge from node (2, 2) at (0, 0) to (3, 2).
+    let over_ridge = |grid: &Grid, x: &[Vec3]| 0.5 * (x[grid.index(2, 2)].z + x[grid.index(3, 2)].z);
+    let (grid, x, cut) = run(&body, false, Meet::Held, 0.01, 100);
+    let nodes_only = over_ridge(&grid, &x);
+    assert!(nodes_only < top - 0.005, "the scene should let the ridge through: surface at {nodes_only}, top {top}");
+    assert!(cut.is_some(), "the checker should find the ridge through the faces");
+    for dt in [0.01, 0.05] {
+        let (grid, x, cut) = run(&body, true, Meet::Held, dt, (1.0 / dt) as usize);
+        let held = over_ridge(&grid, &x);
+        println!("blade, Δt = {dt}: surface over the ridge {held:.5} m (nodes only {nodes_only:.5}), top {top}");
+        assert!(cut.is_none(), "Δt = {dt}: the sheet and the blade intersect from step {cut:?}");
+        assert!(held > top, "Δt = {dt}: the surface over the ridge is at {held}, below its top {top}");
+    }
+}
+
+/// A spike's apex (a vertex of the mesh) 1.5 cm below the held sheet under the middle of a cell's triangle: with
+/// the nodes alone it pierces the face; with the body's vertices against the sheet's triangles it holds it: the
+/// face rests on the apex, within the layer, above it.
+#[test]
+fn a_spike_between_the_nodes_cannot_pierce_a_face() {
+    let apex = Vec3::new(0.07, 0.03, 0.015);
+    let body = spike(apex);
+    let (_, _, pierced) = run(&body, false, Meet::Held, 0.01, 100);
+    assert!(pierced.is_some(), "the scene should let the spike through the face");
+    let (grid, x, pierced) = run(&body, true, Meet::Held, 0.01, 100);
+    assert!(pierced.is_none(), "the sheet and the spike intersect from step {pierced:?}");
+    // The cell from (2, 2) at (0, 0) to (3, 3): its triangle over the apex, from the triangulation's diagonal.
+    let corners = [(2, 2), (3, 2), (3, 3)].map(|(i, j)| x[grid.index(i, j)]);
+    let (a, b, c) = (corners[0], corners[1], corners[2]);
+    let normal = (b - a).cross(c - a).normalize();
+    let height = normal.dot(apex - a).abs();
+    // The face's point straight above the apex (its plane at the apex's x and y).
+    let above = a.z - (normal.x * (apex.x - a.x) + normal.y * (apex.y - a.y)) / normal.z;
+    println!("spike: the face is {height:.5} m from the apex, {:.5} m above it", above - apex.z);
+    assert!(height < OFFSET, "the face should rest on the apex, within the layer: {height}");
+    assert!(above > apex.z, "the face over the apex is at {above}, below it ({})", apex.z);
+}
+
+/// Continuous detection of the body's features: the free sheet dropped from 3 cm above the blade's ridge at
+/// Δt = 0.1 s (the first step moves it 4.9 cm, through the whole 2 mm layer and 1.9 cm past the ridge; it
+/// meets the ridge at 0.8 m/s, so the penalty is 10⁶ N/m³ for the layer to absorb that). With the nodes alone
+/// the first step ends with the blade through the sheet; with the body's features it ends with the sheet
+/// stopped on the ridge, and in 1 s of settling there no step ends with the sheet and the blade intersecting.
+#[test]
+fn a_sheet_dropped_onto_a_blade_at_a_large_step_never_crosses_its_ridge() {
+    let top = 0.015;
+    let body = blade(0.05, top);
+    let meet = Meet::Falling { height: top + 0.03, stiffness: 1e6 };
+    let (_, _, cut) = run(&body, false, meet, 0.1, 1);
+    assert_eq!(cut, Some(1), "with the nodes alone the first step should end with the blade through the sheet");
+    let (grid, x, _) = run(&body, true, meet, 0.1, 1);
+    let on_ridge = 0.5 * (x[grid.index(2, 2)].z + x[grid.index(3, 2)].z);
+    println!(
+        "dropped onto the blade at Δt = 0.1 s: the surface over the ridge at {on_ridge:.5} m after a step, top {top}"
+    );
+    assert!(on_ridge > top, "the first step should stop the sheet on the ridge: {on_ridge}");
+    let (_, _, cut) = run(&body, true, meet, 0.1, 10);
+    assert!(cut.is_none(), "the sheet and the blade intersect from step {cut:?}");
+}
+
+/// The body-feature term (records of body-vertex–sheet-triangle and body-edge–sheet-edge pairs, the body's
+/// side a constant of each) through the shared finite-difference checker: the sheet 1 mm over the blade's ridge
+/// and the spike's apex at once. As for self-contact, the gap is the distance to first order (the closest
+/// points are stationary), so the gradient is the distance penalty's exactly and the stiffness its Gauss–Newton
+/// part: the gradient is compared.
+#[test]
+fn body_contact_matches_finite_differences() {
+    let (blade, spike) = (blade(0.05, 0.029), spike(Vec3::new(-0.07, 0.03, 0.029)));
+    let mut both = blade.clone();
+    both.0.extend(&spike.0);
+    both.1.extend(spike.1.iter().map(|t| t.map(|k| k + blade.0.len() as u32)));
+    let (model, _, rest) = over(&both, true, Meet::Held);
+    let term = model.potential.find::<BodyContact>().unwrap();
+    let x: Vec<Vec3> = rest.iter().map(|p| *p + Vec3::new(0.003 * p.y, 0.0, 0.0)).collect();
+    let close = term.faces().close(&[x.as_slice(), term.vertices()].concat(), 0.5 * OFFSET);
+    let kinds = |vertex: bool| close.iter().filter(|c| matches!(c.pair, Pair::PointFace(..)) == vertex).count();
+    assert!(kinds(true) >= 1 && kinds(false) >= 5, "the ridge's and the apex's pairs should be close: {close:?}");
+    let report = check(&alone(model.nodes(), Box::new(term.clone())), &x, None, None, Operator::Projected);
+    println!("body features through the checker: {report:?}");
+    assert!(report.gradient_error < 1e-6, "{report:?}");
+}
