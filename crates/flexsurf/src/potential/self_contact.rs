@@ -195,7 +195,7 @@ impl SelfContact {
         }
     }
 
-    /// A pair against a body: the sheet's nodes of it as the stencil, half their mean area, and the reference
+    /// A pair against a body: the sheet's nodes of it as the stencil, the area its penalty takes (below), and the reference
     /// `delta − (the body's fixed share of it)`, so that the gap `distance + normal·(p − reference)` of the
     /// stencil's point `p` is the pair's.
     fn body_share(&self, c: &Closest) -> (Stencil, f64, Vec3) {
@@ -209,7 +209,10 @@ impl SelfContact {
                 body += self.fixed[k - n] * w;
             }
         }
-        let area = 0.5 * nodes.iter().map(|&k| self.area[k]).sum::<f64>() / nodes.len().max(1) as f64;
+        // A body's edge or vertex carries the load of a patch of cloth about a grid spacing `h` wide in a layer
+        // `δ` thin: the nodes' pressure law over their area, times `h/δ`, keeps its compression like theirs.
+        let mean = nodes.iter().map(|&k| self.area[k]).sum::<f64>() / nodes.len().max(1) as f64;
+        let area = mean * mean.sqrt() / self.params.thickness;
         (Stencil::of(&nodes, &weights), area, c.delta - body)
     }
 
