@@ -102,6 +102,10 @@ impl ActiveSet for BodyContact {
         self.pairs.slip_speed()
     }
 
+    fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
+        self.pairs.coulomb(x)
+    }
+
     fn violation(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
         self.pairs.violation(x, cx, scratch)
     }

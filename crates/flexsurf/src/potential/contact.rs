@@ -429,6 +429,10 @@ pub struct PenaltyContact {
     area: Vec<f64>,
     /// Points of the sheet's faces checked too ([`super::face_samples`]); `None`: nodes only.
     samples: Option<FaceSamples>,
+    /// The obstacles the samples are checked against: all but the meshes, whose own vertices and edges meet
+    /// the sheet's faces exactly ([`super::body_contact`]; frictionless samples there would hold the sheet off
+    /// them, in the thicker layer, and take their friction away).
+    sampled: Vec<Obstacle>,
 }
 
 /// The contact term's scratch: the warm-start cache of the closest-point queries and the active set.
@@ -464,10 +468,11 @@ struct StaticLag {
 }
 
 impl ContactScratch {
-    /// Whether the scratch fits a model of `obstacles` obstacles and `nodes` nodes (every vector's size, every
-    /// node index): a checkpoint's is checked before use.
-    pub(crate) fn fits(&self, obstacles: usize, nodes: usize, samples: usize) -> bool {
-        self.sample_cache.fits(obstacles, samples)
+    /// Whether the scratch fits a model of `obstacles` obstacles and `nodes` nodes, `samples` face samples checked
+    /// against `sampled` of the obstacles (every vector's size, every node index): a checkpoint's is checked
+    /// before use.
+    pub(crate) fn fits(&self, obstacles: usize, nodes: usize, (sampled, samples): (usize, usize)) -> bool {
+        self.sample_cache.fits(sampled, samples)
             && self.sample_ids.len() == self.sample_contacts.len()
             && self.sample_ids.iter().all(|&i| i < samples)
             && records_fit(&self.sample_contacts, nodes)
@@ -482,12 +487,13 @@ impl ContactScratch {
 impl PenaltyContact {
     /// Contact with `obstacles` under `params`, nodes of rest area `area`.
     pub fn new(obstacles: Vec<Obstacle>, params: ContactParams, area: Vec<f64>) -> Self {
-        Self { obstacles, params, area, samples: None }
+        Self { obstacles, params, area, samples: None, sampled: Vec::new() }
     }
 
     /// The same contact, also between the nodes: at the `samples` of the sheet's faces.
     pub fn with_samples(mut self, samples: FaceSamples) -> Self {
         self.samples = Some(samples);
+        self.sampled = self.obstacles.iter().filter(|o| !matches!(o, Obstacle::Mesh(_))).cloned().collect();
         self
     }
 
@@ -515,7 +521,7 @@ impl PenaltyContact {
             lagged: Vec::new(),
             relinearized: 0,
             statics: None,
-            sample_cache: ContactCache::new(self.obstacles.len(), self.sample_count()),
+            sample_cache: ContactCache::new(self.sampled.len(), self.sample_count()),
             sample_ids: Vec::new(),
             sample_contacts: Vec::new(),
         }
@@ -557,8 +563,9 @@ impl Term for PenaltyContact {
 
     fn restore(&self, saved: Option<&[u8]>, scratch: &mut Scratch) -> Result<(), String> {
         let (obstacles, nodes, samples) = (self.obstacles.len(), self.area.len(), self.sample_count());
+        let sampled = self.sampled.len();
         restore_scratch(saved, scratch, "contact state", |c: &ContactScratch| {
-            let fits = c.fits(obstacles, nodes, samples);
+            let fits = c.fits(obstacles, nodes, (sampled, samples));
             fits.then_some(()).ok_or_else(|| format!("{obstacles} obstacles, {nodes} nodes, {samples} face samples"))
         })
     }
@@ -618,7 +625,7 @@ impl ActiveSet for PenaltyContact {
         }
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
         if let Some(samples) = &self.samples {
-            detect_samples(&self.obstacles, &self.params, samples, y, s);
+            detect_samples(&self.sampled, &self.params, samples, y, s);
         }
         s.relinearized = 0;
         match cx.motion {
@@ -732,7 +739,7 @@ impl ActiveSet for PenaltyContact {
         }
         s.contacts.sort_by_key(|c| c.node());
         if let Some(samples) = &self.samples {
-            changed |= refine_samples(&self.obstacles, params, samples, y, delta, tolerance, largest == 0.0, s);
+            changed |= refine_samples(&self.sampled, params, samples, y, delta, tolerance, largest == 0.0, s);
         }
         // Friction whose linear model is off at the proposal is re-linearised there (at most
         // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
@@ -768,7 +775,7 @@ impl ActiveSet for PenaltyContact {
         let samples = self.samples.as_ref()?;
         samples.stencils.iter().enumerate().find_map(|(i, st)| {
             let (p, q) = (st.point(from), st.point(to));
-            passed_through(&self.obstacles, &mut s.sample_cache, i, p, q, skin).then(|| st.first())
+            passed_through(&self.sampled, &mut s.sample_cache, i, p, q, skin).then(|| st.first())
         })
     }
 

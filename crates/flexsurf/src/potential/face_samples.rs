@@ -8,7 +8,7 @@
 //! is in contact itself: on a surface the nodes touch, the nodes carry the contact as before (and the result
 //! does not change), and the samples act where the body comes between the nodes. A sample carries half the
 //! mean rest area of its nodes. Sample contacts are frictionless; their paths are checked continuously as the
-//! nodes' are.
+//! nodes' are. Mesh bodies are not sampled: their own vertices and edges meet the faces ([`super::body_contact`]).
 
 use super::contact::Stencil;
 use crate::contact::proximity::Faces;

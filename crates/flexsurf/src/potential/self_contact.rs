@@ -544,6 +544,28 @@ impl ActiveSet for SelfContact {
         }
     }
 
+    /// Against a body, each touching pair's Coulomb limit `μλ` at `x`, shared among the sheet's nodes of the
+    /// pair by their weights (the body's side is fixed): the static friction the consistent start
+    /// ([`crate::integrate::start`]) holds a node at rest with. The sheet against itself has none here (its
+    /// friction is relative: both sides move).
+    fn coulomb(&self, x: &[Vec3]) -> Vec<(usize, Vec3, f64)> {
+        if self.fixed.is_empty() || self.params.friction <= 0.0 {
+            return Vec::new();
+        }
+        let all = self.with_fixed(x);
+        let close = self.faces.close(&all, self.params.thickness);
+        close
+            .iter()
+            .map(|c| self.record(c, &all))
+            .filter(|c| c.force > 0.0)
+            .flat_map(|c| {
+                let limit = self.params.friction * c.force;
+                let total: f64 = c.stencil.terms().map(|(_, w)| w.abs()).sum();
+                c.stencil.terms().map(move |(k, w)| (k, c.normal, limit * w.abs() / total)).collect::<Vec<_>>()
+            })
+            .collect()
+    }
+
     /// Self-contact has no penetration to measure: its distances are unsigned and no crossing is accepted.
     fn violation(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
         0.0

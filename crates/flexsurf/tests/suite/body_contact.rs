@@ -227,3 +227,105 @@ fn the_shipped_tablecloth_never_has_the_table_through_it() {
     let middle = state.x[model.nodes() / 2].z;
     assert!((0.75..0.75 + offset).contains(&middle), "the cloth's middle is at {middle}");
 }
+
+/// Two wedges (the [`blade`]'s cross-section) lying along x at y = ±0.025, ridges at z = 0, from x = −0.5 to 1.5.
+fn rails() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut both: (Vec<Vec3>, Vec<[u32; 3]>) = (Vec::new(), Vec::new());
+    for y in [-0.025, 0.025] {
+        // The blade along y at x, turned to run along x at y: (x, y, z) → (y, x, z) with the winding reversed.
+        let (v, t) = blade(y, 0.0);
+        let base = both.0.len() as u32;
+        both.0.extend(v.iter().map(|p| Vec3::new(p.y * (2.0 / 0.6) + 0.5, p.x, p.z)));
+        both.1.extend(t.iter().map(|t| [t[0] + base, t[2] + base, t[1] + base]));
+    }
+    both
+}
+
+/// A stiff 0.2 × 0.1 m plate (5 × 3 nodes, 5 cm apart: rows at y = −0.05, 0 and 0.05) lying across the
+/// [`rails`], touching them only along their ridges, between its node rows (edge–edge pairs only: no node is
+/// within the layer of a rail), on an incline of angle `theta` (gravity tilted, down the rails along +x), body
+/// friction `mu`. Returns the plate's mean displacement along x after each step of 10 ms, over `seconds`.
+fn plate_on_rails(theta: f64, mu: f64, seconds: f64) -> Vec<f64> {
+    let mut fabric = Fabric::paper_cotton();
+    (fabric.bending_warp, fabric.bending_weft, fabric.damping) =
+        (100.0 * fabric.bending_warp, 100.0 * fabric.bending_weft, 0.0);
+    let stiffness = Stiffness::calibrate(&fabric, Calibration::Kes).unwrap();
+    let grid = Grid::sheet(5, 3, 0.2, 0.1).unwrap();
+    // Resting on the rails' layer (the features' thickness, half the offset, less a micrometre).
+    let rest: Vec<Vec3> = grid.flat_positions(0.5 * OFFSET - 1e-6);
+    let g = Vec3::new(9.81 * theta.sin(), 0.0, -9.81 * theta.cos());
+    let mut b = ModelBuilder::new(grid, rest.clone(), fabric, stiffness, ModelKind::Tfs, g);
+    let body = rails();
+    b.obstacles.push(Obstacle::Mesh(Arc::new(TriMeshBody::new(body.0.clone(), body.1.clone()).unwrap())));
+    b.contact = ContactParams { stiffness: 2e4, offset: OFFSET, friction: mu, ..ContactParams::default() };
+    b.contact_faces = true;
+    let model = b.build().unwrap();
+    let dt = 0.01;
+    let mut state = flexsurf::integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], dt).unwrap();
+    let mut stepper = Stepper::new(&model, &StepParams::with_dt(dt)).unwrap();
+    let mean_x = |x: &[Vec3]| x.iter().map(|p| p.x).sum::<f64>() / x.len() as f64;
+    let x0 = mean_x(&state.x);
+    let mut path = Vec::new();
+    for step in 1..=(seconds / dt).round() as usize {
+        stepper.step(&model, &mut state).unwrap();
+        assert_eq!(crossing(&model, &body, &state.x), None, "step {step}: the plate and a rail intersect");
+        path.push(mean_x(&state.x) - x0);
+    }
+    path
+}
+
+/// Coulomb friction on a body's edges, against its closed form: the plate resting on the two rails (held by
+/// the rails' edges alone, the cloth–obstacle `μ = 0.3` on each edge–edge pair) on an incline with
+/// tan θ = 0.2 < μ sticks: drift under 1 mm in 2 s (measured 0.085 mm, the slip speed's creep). Also the
+/// regression of the consistent start (`integrate::start`), which took no friction of the body's features: the
+/// plate started with the acceleration of a frictionless slide and crept down at 1.4 cm/s (2.8 cm in 2 s).
+#[test]
+fn a_plate_on_two_rails_sticks_as_coulomb_says() {
+    let path = plate_on_rails(0.2f64.atan(), 0.3, 2.0);
+    let drift = path.iter().fold(0.0f64, |a, s| a.max(s.abs()));
+    println!("plate on rails, tan θ = 0.2, μ = 0.3: drift {drift:.2e} m in 2 s");
+    assert!(drift < 1e-3, "held by friction, the plate moved {drift:e} m");
+}
+
+/// The slide of the same plate on an incline with tan θ = 0.5 > μ = 0.3, against g (sin θ − μ cos θ) within 2 %
+/// (a least-squares parabola through its path from 0.2 to 1 s). A known failure, kept to reproduce it
+/// (`cargo test --profile ci -p flexsurf --test suite -- --ignored body_contact::a_plate_on_two_rails_slides`):
+/// the plate starts down at the right acceleration for about 50 ms, then lifts off the rails' layer (up to
+/// 4.3 mm instead of 2) and chatters, forwards and back: 0.083 m/s² against 1.755 (docs/design.md).
+#[test]
+#[ignore = "known failure: sliding friction on a body's edges chatters (docs/design.md, body features)"]
+fn a_plate_on_two_rails_slides_as_coulomb_says() {
+    let (theta, mu) = (0.5f64.atan(), 0.3);
+    let path = plate_on_rails(theta, mu, 1.0);
+    // Least squares of x = c + v t + ½ a t² over t = 0.2 … 1.0 s.
+    let samples: Vec<(f64, f64)> = path.iter().enumerate().skip(19).map(|(k, &x)| (0.01 * (k + 1) as f64, x)).collect();
+    let a = quadratic_fit(&samples);
+    let expected = 9.81 * (theta.sin() - mu * theta.cos());
+    println!("plate on rails, tan θ = 0.5, μ = 0.3: slides at {a:.4} m/s² against {expected:.4}");
+    assert!((a / expected - 1.0).abs() < 0.02, "the plate slides at {a} m/s², Coulomb says {expected}");
+}
+
+/// The second-order coefficient `a` of the least-squares parabola `c + v t + ½ a t²` through `(t, x)` samples.
+fn quadratic_fit(samples: &[(f64, f64)]) -> f64 {
+    // Normal equations of the basis (1, t, t²/2).
+    let basis = |t: f64| [1.0, t, 0.5 * t * t];
+    let (mut m, mut r) = ([[0.0; 3]; 3], [0.0; 3]);
+    for &(t, x) in samples {
+        let b = basis(t);
+        for i in 0..3 {
+            r[i] += b[i] * x;
+            for j in 0..3 {
+                m[i][j] += b[i] * b[j];
+            }
+        }
+    }
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let mut m2 = m;
+    for (row, value) in m2.iter_mut().zip(r) {
+        row[2] = value;
+    }
+    det(m2) / det(m)
+}
