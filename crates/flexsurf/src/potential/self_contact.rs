@@ -195,9 +195,9 @@ impl SelfContact {
         }
     }
 
-    /// A pair against a body: the sheet's nodes of it as the stencil, the area its penalty takes (below), and the reference
-    /// `delta − (the body's fixed share of it)`, so that the gap `distance + normal·(p − reference)` of the
-    /// stencil's point `p` is the pair's.
+    /// A pair against a body: the sheet's nodes of it as the stencil, the area its penalty takes (below), and
+    /// the reference `delta − (the body's fixed share of it)`, so that the gap `distance + normal·(p −
+    /// reference)` of the stencil's point `p` is the pair's.
     fn body_share(&self, c: &Closest) -> (Stencil, f64, Vec3) {
         let n = self.area.len();
         let (mut nodes, mut weights, mut body) = (Vec::with_capacity(4), Vec::with_capacity(4), Vec3::ZERO);
@@ -423,9 +423,10 @@ impl ActiveSet for SelfContact {
         s.pairs.clear();
         s.contacts.clear();
         s.relinearized = 0;
-        if let Some(m) = cx.motion.filter(|m| m.predict) {
+        let target = cx.motion.filter(|m| m.predict).map(|m| self.with_fixed(m.target));
+        if let Some(target) = &target {
             let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
-            let boxes = Faces::node_boxes(&s.start, Some(&self.with_fixed(m.target)));
+            let boxes = Faces::node_boxes(&s.start, Some(target));
             let pairs = self.faces.candidates_of(&mut s.broad, &boxes, radius);
             s.candidates = Some((pairs, boxes));
         } else if cx.motion.is_none() {
@@ -435,10 +436,10 @@ impl ActiveSet for SelfContact {
         match cx.motion {
             Some(m) if m.predict => {
                 lag_friction(&self.params, s, &m, cx.fixed);
-                let target = self.with_fixed(m.target);
-                self.add_close(s, &target, y);
+                let target = target.as_deref().unwrap_or(m.target);
+                self.add_close(s, target, y);
                 if !self.fixed.is_empty() {
-                    self.add_entered(s, &target);
+                    self.add_entered(s, target);
                 }
             }
             // A Newton iteration linearises the friction about the iterate.
