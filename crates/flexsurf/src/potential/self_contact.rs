@@ -209,10 +209,15 @@ impl SelfContact {
                 body += self.fixed[k - n] * w;
             }
         }
-        // A body's edge or vertex carries the load of a patch of cloth about a grid spacing `h` wide in a layer
-        // `δ` thin: the nodes' pressure law over their area, times `h/δ`, keeps its compression like theirs.
+        // A body's vertex (a corner) carries the load of a patch of cloth about a grid spacing `h` wide at one
+        // point of a layer `δ` thin: the nodes' pressure law over their area times `h/δ` keeps its compression
+        // like theirs. An edge carries it along a line: half the mean area, as the sheet's own edge pairs (the
+        // `h/δ` stiffness there made a plate sliding on two rails chatter).
         let mean = nodes.iter().map(|&k| self.area[k]).sum::<f64>() / nodes.len().max(1) as f64;
-        let area = mean * mean.sqrt() / self.params.thickness;
+        let area = match c.pair {
+            Pair::PointFace(..) => mean * mean.sqrt() / self.params.thickness,
+            Pair::EdgeEdge(..) => 0.5 * mean,
+        };
         (Stencil::of(&nodes, &weights), area, c.delta - body)
     }
 
@@ -438,7 +443,7 @@ impl ActiveSet for SelfContact {
                 lag_friction(&self.params, s, &m, cx.fixed);
                 let target = target.as_deref().unwrap_or(m.target);
                 self.add_close(s, target, y);
-                if !self.fixed.is_empty() {
+                if !self.fixed.is_empty() && std::env::var("NOENTER").is_err() {
                     self.add_entered(s, target);
                 }
             }
