@@ -314,7 +314,10 @@ fn a_plate_on_two_rails_slides_as_coulomb_says() {
     let samples: Vec<(f64, f64)> = path.iter().enumerate().skip(19).map(|(k, &x)| (0.01 * (k + 1) as f64, x)).collect();
     let a = quadratic_fit(&samples);
     let expected = 9.81 * (theta.sin() - mu * theta.cos());
-    println!("plate on rails, tan θ = 0.5, μ = 0.3: slides at {a:.6} m/s² against {expected:.6} ({:+.1e})", a / expected - 1.0);
+    println!(
+        "plate on rails, tan θ = 0.5, μ = 0.3: slides at {a:.6} m/s² against {expected:.6} ({:+.1e})",
+        a / expected - 1.0
+    );
     assert!((a / expected - 1.0).abs() < 0.02, "the plate slides at {a} m/s², Coulomb says {expected}");
 }
 
