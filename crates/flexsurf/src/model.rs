@@ -334,15 +334,17 @@ impl ModelBuilder {
             let springs = self.springs.iter().map(|s| Spring { node: node(s.node), ..*s }).collect();
             terms.push(Box::new(Springs::new(springs)));
         }
-        if self.contact_faces && self.contact.stiffness > 0.0 {
-            terms.extend(body_contacts(&self.obstacles, &self.contact, &faces(&panels, n), &area));
+        // The triangulated surface, built once for the terms that take it.
+        let sheet = (self.contact_faces || self.self_contact.is_some()).then(|| faces(&panels, n));
+        let with_faces = sheet.as_ref().filter(|_| self.contact_faces);
+        if let Some(sheet) = with_faces.filter(|_| self.contact.stiffness > 0.0) {
+            terms.extend(body_contacts(&self.obstacles, &self.contact, sheet, &area));
         }
         if !self.obstacles.is_empty() {
             let contact = PenaltyContact::new(self.obstacles, self.contact, area.clone());
-            terms.push(Box::new(if self.contact_faces {
-                contact.with_samples(FaceSamples::new(&faces(&panels, n), &area))
-            } else {
-                contact
+            terms.push(Box::new(match with_faces {
+                Some(sheet) => contact.with_samples(FaceSamples::new(sheet, &area)),
+                None => contact,
             }));
         }
         if let Some(params) = self.self_contact {
@@ -350,7 +352,8 @@ impl ModelBuilder {
                 .filter(|&&(a, b)| a < all.len() && b < all.len())
                 .map(|&(a, b)| (node(a), node(b)))
                 .collect();
-            terms.push(Box::new(SelfContact::new(faces(&panels, n).with_joined(&joined), params, area.clone())));
+            let sheet = sheet.unwrap_or_else(|| faces(&panels, n));
+            terms.push(Box::new(SelfContact::new(sheet.with_joined(&joined), params, area.clone())));
         }
         terms.extend(self.extra_terms);
         let mut pinned = vec![false; n];

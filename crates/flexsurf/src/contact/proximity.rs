@@ -187,8 +187,7 @@ impl Faces {
     /// The pair's closest points at `x`.
     pub fn closest(&self, pair: Pair, x: &[Vec3]) -> Closest {
         let nodes = self.pair_nodes(pair);
-        let weights = weights(pair, nodes.map(|k| x[k]));
-        Closest { pair, nodes, weights, delta: combine(&nodes, &weights, x) }
+        closest_of(pair, nodes, nodes.map(|k| x[k]))
     }
 
     /// The nodes of a pair's two elements.
@@ -344,10 +343,7 @@ impl Faces {
     /// The pair's closest points with its nodes at the fraction `t` of their straight paths from `from` to `to`.
     pub fn closest_along(&self, pair: Pair, from: &[Vec3], to: &[Vec3], t: f64) -> Closest {
         let nodes = self.pair_nodes(pair);
-        let at = nodes.map(|k| from[k] + (to[k] - from[k]) * t);
-        let weights = weights(pair, at);
-        let delta = at.iter().zip(&weights).fold(Vec3::ZERO, |acc, (&p, &w)| acc + p * w);
-        Closest { pair, nodes, weights, delta }
+        closest_of(pair, nodes, nodes.map(|k| from[k] + (to[k] - from[k]) * t))
     }
 
     /// The first edge (an index of [`Faces::edges`]) that passes through a triangle it shares no node with at
@@ -430,9 +426,11 @@ fn distance(pair: Pair, p: [Vec3; 4]) -> f64 {
     (p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3]).length()
 }
 
-/// `Σ wₖ x_{nodes[k]}`.
-fn combine(nodes: &[usize; 4], weights: &[f64; 4], x: &[Vec3]) -> Vec3 {
-    nodes.iter().zip(weights).fold(Vec3::ZERO, |acc, (&k, &w)| acc + x[k] * w)
+/// The closest points of a pair of nodes `nodes` at positions `p`: their weights and `Σ wₖ pₖ`.
+fn closest_of(pair: Pair, nodes: [usize; 4], p: [Vec3; 4]) -> Closest {
+    let weights = weights(pair, p);
+    let delta = p.iter().zip(&weights).fold(Vec3::ZERO, |acc, (&q, &w)| acc + q * w);
+    Closest { pair, nodes, weights, delta }
 }
 
 /// Whether the segment `p–q` passes through the triangle `t`: its ends strictly on opposite sides of the

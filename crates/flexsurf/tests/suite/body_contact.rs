@@ -10,6 +10,7 @@ use flexsurf::contact::Obstacle;
 use flexsurf::energy::Operator;
 use flexsurf::grid::Grid;
 use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::lab::kes::internals::parabola;
 use flexsurf::material::{Calibration, Fabric, Stiffness};
 use flexsurf::math::Vec3;
 use flexsurf::model::{Model, ModelBuilder, ModelKind};
@@ -310,38 +311,13 @@ fn a_plate_on_two_rails_sticks_as_coulomb_says() {
 fn a_plate_on_two_rails_slides_as_coulomb_says() {
     let (theta, mu) = (0.5f64.atan(), 0.3);
     let path = plate_on_rails(theta, mu, 1.0);
-    // Least squares of x = c + v t + ½ a t² over t = 0.2 … 1.0 s.
+    // Least squares of x = c + v t + ½ a t² over t = 0.2 … 1.0 s (the KES bending fit's parabola).
     let samples: Vec<(f64, f64)> = path.iter().enumerate().skip(19).map(|(k, &x)| (0.01 * (k + 1) as f64, x)).collect();
-    let a = quadratic_fit(&samples);
+    let a = 2.0 * parabola(&samples);
     let expected = 9.81 * (theta.sin() - mu * theta.cos());
     println!(
         "plate on rails, tan θ = 0.5, μ = 0.3: slides at {a:.6} m/s² against {expected:.6} ({:+.1e})",
         a / expected - 1.0
     );
     assert!((a / expected - 1.0).abs() < 0.02, "the plate slides at {a} m/s², Coulomb says {expected}");
-}
-
-/// The second-order coefficient `a` of the least-squares parabola `c + v t + ½ a t²` through `(t, x)` samples.
-fn quadratic_fit(samples: &[(f64, f64)]) -> f64 {
-    // Normal equations of the basis (1, t, t²/2).
-    let basis = |t: f64| [1.0, t, 0.5 * t * t];
-    let (mut m, mut r) = ([[0.0; 3]; 3], [0.0; 3]);
-    for &(t, x) in samples {
-        let b = basis(t);
-        for i in 0..3 {
-            r[i] += b[i] * x;
-            for j in 0..3 {
-                m[i][j] += b[i] * b[j];
-            }
-        }
-    }
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let mut m2 = m;
-    for (row, value) in m2.iter_mut().zip(r) {
-        row[2] = value;
-    }
-    det(m2) / det(m)
 }
