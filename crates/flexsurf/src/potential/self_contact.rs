@@ -443,7 +443,7 @@ impl ActiveSet for SelfContact {
                 lag_friction(&self.params, s, &m, cx.fixed);
                 let target = target.as_deref().unwrap_or(m.target);
                 self.add_close(s, target, y);
-                if !self.fixed.is_empty() && std::env::var("NOENTER").is_err() {
+                if !self.fixed.is_empty() {
                     self.add_entered(s, target);
                 }
             }
