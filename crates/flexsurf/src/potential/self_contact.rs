@@ -163,8 +163,11 @@ impl SelfContact {
         &self.scratch(scratch).contacts
     }
 
-    /// The contact of a close pair, its direction from `start`.
-    fn record(&self, c: &Closest, start: &[Vec3]) -> Contact {
+    /// The contact of a close pair, its direction from `start`, its force that of its linear gap at `at` (the
+    /// configuration the step's system is linearised at, wherever the pair was found: a pair found at the
+    /// step's target or at a proposal carries there the force it would have where the solve starts from, as
+    /// an obstacle's contact does, not the force at the place it was found).
+    fn record(&self, c: &Closest, start: &[Vec3], at: &[Vec3]) -> Contact {
         let full = Stencil::of(&c.nodes, &c.weights);
         let before = full.point(start);
         let normal = if before.length() > 1e-12 * self.params.thickness {
@@ -184,15 +187,17 @@ impl SelfContact {
             self.body_share(c)
         };
         let stiffness = self.params.stiffness * area;
-        Contact {
+        let mut contact = Contact {
             stencil,
             other: if self.fixed.is_empty() { Other::Sheet } else { Other::Obstacle },
             normal,
-            force: stiffness * (self.params.thickness - distance),
+            force: 0.0,
             stiffness,
             distance,
             reference,
-        }
+        };
+        contact.force = stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at)));
+        contact
     }
 
     /// A pair against a body: the sheet's nodes of it as the stencil, the area its penalty takes (below), and
@@ -256,13 +261,13 @@ impl SelfContact {
         true
     }
 
-    /// Adds the close pairs of `x` not yet held, as contacts; returns the largest force one would have had at
-    /// `at` (the proposal a solve missed them at).
-    fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], at: &[Vec3]) -> f64 {
+    /// Adds the close pairs of `x` not yet held, as contacts linearised at `y`; returns the largest force one
+    /// would have had at `at` (the proposal a solve missed them at).
+    fn add_close(&self, s: &mut SelfScratch, x: &[Vec3], y: &[Vec3], at: &[Vec3]) -> f64 {
         let mut missed: f64 = 0.0;
         let fresh = self.close(s, x);
         for c in &fresh {
-            let contact = self.record(c, &s.start);
+            let contact = self.record(c, &s.start, y);
             missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
             s.contacts.push(contact);
             s.pairs.push(c.pair);
@@ -278,12 +283,12 @@ impl SelfContact {
     /// points where it first does (continuous detection, as the nodes' obstacle contact enters at the first
     /// point of a path inside the layer): a sheet that would pass a body's edge or vertex within one step is
     /// caught where it reaches it, whatever its speed.
-    fn add_entered(&self, s: &mut SelfScratch, to: &[Vec3]) {
+    fn add_entered(&self, s: &mut SelfScratch, to: &[Vec3], y: &[Vec3]) {
         let Some((pairs, _)) = &s.candidates else { return };
         let (from, thickness) = (&s.start, self.params.thickness);
         let entered: Vec<(Pair, Contact)> = (self.faces.touching_among(pairs, from, to, thickness).into_iter())
             .filter(|(pair, _)| s.pairs.binary_search(pair).is_err())
-            .map(|(pair, t)| (pair, self.record(&self.faces.closest_along(pair, from, to, t), from)))
+            .map(|(pair, t)| (pair, self.record(&self.faces.closest_along(pair, from, to, t), from, y)))
             .collect();
         if !entered.is_empty() {
             for (pair, c) in entered {
@@ -437,14 +442,14 @@ impl ActiveSet for SelfContact {
         } else if cx.motion.is_none() {
             s.candidates = None;
         }
-        self.add_close(s, &self.with_fixed(y), y);
+        self.add_close(s, &self.with_fixed(y), y, y);
         match cx.motion {
             Some(m) if m.predict => {
                 lag_friction(&self.params, s, &m, cx.fixed);
                 let target = target.as_deref().unwrap_or(m.target);
-                self.add_close(s, target, y);
+                self.add_close(s, target, y, y);
                 if !self.fixed.is_empty() {
-                    self.add_entered(s, target);
+                    self.add_entered(s, target, y);
                 }
             }
             // A Newton iteration linearises the friction about the iterate.
@@ -493,7 +498,7 @@ impl ActiveSet for SelfContact {
             }
         }
         (s.pairs, s.contacts) = kept.into_iter().unzip();
-        let missed = self.add_close(s, &self.with_fixed(&z), &z);
+        let missed = self.add_close(s, &self.with_fixed(&z), y, &z);
         let relinearized = cx.motion.is_some_and(|m| self.relinearize(s, &z, &m));
         changed || relinearized || (missed > tolerance && missed > 0.0)
     }
@@ -562,7 +567,7 @@ impl ActiveSet for SelfContact {
         let close = self.faces.close(&all, self.params.thickness);
         close
             .iter()
-            .map(|c| self.record(c, &all))
+            .map(|c| self.record(c, &all, x))
             .filter(|c| c.force > 0.0)
             .flat_map(|c| {
                 let limit = self.params.friction * c.force;
