@@ -566,6 +566,7 @@ impl Potential {
     ) -> Values {
         ws.grad.fill(Vec3::ZERO);
         if want.hess.is_some() {
+            ws.matrix.extra.prune();
             ws.matrix.clear();
         }
         let pass = Pass { x, cx, want };
@@ -646,7 +647,8 @@ impl Potential {
             ws.matrix.blocks[id as usize] = blk;
         }
         ws.journal.clear();
-        // Pairs the contact stage created stay (the set only grows), with the blocks they had before it: zero.
+        // Pairs the contact stage created stay (the set does not shrink within an assembly), with the blocks they
+        // had before it: zero.
         let extra = &mut ws.matrix.extra.blocks;
         extra[..ws.base_extra.len()].copy_from_slice(&ws.base_extra);
         extra[ws.base_extra.len()..].fill(Mat3::ZERO);

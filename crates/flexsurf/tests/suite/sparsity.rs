@@ -106,7 +106,7 @@ fn every_solver_solves_the_stencil_plus_the_extra_blocks() {
 }
 
 #[test]
-fn the_analysis_is_redone_only_when_the_extra_set_grows() {
+fn the_analysis_is_redone_only_when_the_extra_set_changes() {
     let (pattern, base, b) = grid_system();
     let fixed = vec![false; 25];
     let mut solver = LinearSolver::new(SolverKind::Cholesky, &pattern, &[]).unwrap();
@@ -131,6 +131,53 @@ fn the_analysis_is_redone_only_when_the_extra_set_grows() {
     assert!(!again.analysed && !again.factorized, "{again:?}");
     couple(&pattern, &mut a, 7, 17, 1.0);
     assert!(solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap().analysed, "a second pair");
+}
+
+/// Pairs that no term coupled in the last assembly leave the set once they are the majority: the structure is
+/// analysed again without them (its factor as small as if they had never been), the solution is the dense one,
+/// and while the pairs left at zero are at most half of the set nothing changes.
+#[test]
+fn pairs_left_at_zero_are_pruned_once_they_are_the_majority() {
+    let (pattern, base, b) = grid_system();
+    let fixed = vec![false; 25];
+    let mut solver = LinearSolver::new(SolverKind::Cholesky, &pattern, &[]).unwrap();
+    let mut x = vec![Vec3::ZERO; 25];
+    let mut a = base.clone();
+    solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
+    let plain = solver.factor_nnz();
+    for (p, q) in [(0, 24), (3, 20), (4, 21), (1, 23)] {
+        couple(&pattern, &mut a, p, q, 2.0);
+    }
+    assert!(solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap().analysed);
+    let coupled = solver.factor_nnz();
+    assert!(coupled > plain, "the far couplings add fill: {coupled} against {plain}");
+    // The next assembly couples two of the four again: half the set is live, nothing is pruned.
+    let refill = |a: &mut BlockMatrix, pairs: &[(usize, usize)]| {
+        a.clear();
+        a.blocks.copy_from_slice(&base.blocks);
+        for &(p, q) in pairs {
+            couple(&pattern, a, p, q, 3.0);
+        }
+    };
+    refill(&mut a, &[(0, 24), (3, 20)]);
+    let generation = a.extra.generation();
+    assert!(!a.extra.prune());
+    assert_eq!(a.extra.generation(), generation);
+    assert_eq!(a.extra.pairs().len(), 4);
+    // One live pair of four: the three others go, and the solver analyses the smaller structure.
+    refill(&mut a, &[(3, 20)]);
+    assert!(a.extra.prune());
+    assert_ne!(a.extra.generation(), generation);
+    assert_eq!(a.extra.pairs(), &[(3, 20)]);
+    let stats = solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
+    assert!(stats.analysed && stats.factorized, "{stats:?}");
+    assert!(solver.factor_nnz() < coupled);
+    let reference = dense_solve(a.to_dense(&pattern), flat(&b));
+    let err = flat(&x).iter().zip(&reference).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+    assert!(err < 1e-9, "{err:e}");
+    // A pruned pair that comes back is a new pair.
+    couple(&pattern, &mut a, 0, 24, 1.0);
+    assert!(solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap().analysed);
 }
 
 /// A spring joining two nodes of the sheet that no stencil joins: its off-diagonal Hessian block goes into the

@@ -6,7 +6,7 @@
 //! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
 //!
 //! A matrix with extra blocks outside the static pattern ([`crate::sparse::ExtraBlocks`]) is factorised on the
-//! union of both, whose symbolic analysis is redone only when the extra set has grown since the last one.
+//! union of both, whose symbolic analysis is redone only when the extra set has changed since the last one.
 
 use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
@@ -85,7 +85,7 @@ impl Cholesky {
         })
     }
 
-    /// Re-analyses on the union of the static pattern and `a`'s extra pairs when they have grown since the last
+    /// Re-analyses on the union of the static pattern and `a`'s extra pairs when they have changed since the last
     /// analysis; true when it did.
     fn follow_extra(&mut self, a: &BlockMatrix) -> Result<bool, LinearError> {
         let analysed = self.union.as_ref().map_or(0, |u| u.generation);

@@ -133,7 +133,7 @@ pub struct SolveStats {
     pub iterations: usize,
     /// True when the solve factorised the matrix (or rebuilt the hierarchy's coarsest factor).
     pub factorized: bool,
-    /// True when the solve redid the symbolic analysis (the step's extra block pairs grew).
+    /// True when the solve redid the symbolic analysis (the step's extra block pairs changed).
     pub analysed: bool,
 }
 
