@@ -3,7 +3,8 @@
 //! triangle–triangle intersection checker (`flexsurf::testing::intersecting_triangles`, independent of the
 //! contact code): `cargo run --release -p flexsurf --example pile_check -- N STEPS [EVERY]` prints every EVERY-th
 //! step's time, solves, factorisations, contacts and self-contact pairs, and stops at the first intersecting
-//! step. Issue 19's 161² pile of 300 steps: `-- 161 300 10`.
+//! step. Issue 19's 161² pile of 300 steps: `-- 161 300 10`. With `COONS=k` the displayed surface (the Coons
+//! surface with `k` subdivisions, as the frames write it) is checked too, at every EVERY-th step.
 use flexsurf::integrate::Stepper;
 use flexsurf::testing::intersecting_triangles;
 use std::time::Instant;
@@ -12,6 +13,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let arg = |i: usize, default: usize| args.get(i).and_then(|s| s.parse().ok()).unwrap_or(default);
     let (n, steps, every) = (arg(1, 41), arg(2, 60), arg(3, 10).max(1));
+    let coons: Option<usize> = std::env::var("COONS").ok().and_then(|v| v.parse().ok());
     let scene = flexsurf::bench::pile(n, true).expect("the pile scene");
     let (model, mut state) = (&scene.model, scene.state.clone());
     let triangles = model.faces().triangles;
@@ -35,6 +37,13 @@ fn main() {
             std::process::exit(1);
         }
         if step % every == 0 {
+            if let Some(k) = coons {
+                let mesh = flexsurf::runner::fields::display_mesh(&model.panels, &state.x, k);
+                let tris: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
+                if let Some((a, b)) = intersecting_triangles(&tris, &mesh.positions) {
+                    println!("step {step}: display triangles {a} and {b} intersect ({k} subdivisions)");
+                }
+            }
             let c = stepper.counters;
             println!(
                 "step {step:4}  {:7.2} s a step (last {every})  contacts {:6}  self-contact pairs {:6}  solves {:6}  \
