@@ -6,8 +6,8 @@
 //! A step may also couple node pairs outside the static pattern (contact between two faces of the sheet): those
 //! go into the matrix's [`ExtraBlocks`], a set of off-diagonal blocks keyed by node pair (its values are cleared
 //! with the matrix, its pairs kept), so a solver re-analyses its structure only when the set changes
-//! ([`ExtraBlocks::generation`]): when a pair joins, or when [`ExtraBlocks::prune`] drops the pairs the last
-//! assembly left at zero once they are the majority (a pile's layers that have parted would otherwise stay
+//! ([`ExtraBlocks::generation`]): when a pair joins, or when clearing the matrix drops the pairs the last
+//! assembly left at zero once they are the majority ([`ExtraBlocks::prune`]) (a pile's layers that have parted would otherwise stay
 //! in the factor's structure for the rest of the run). Products include the extra blocks; with none, every
 //! operation is the static pattern's alone, in the same order.
 
@@ -187,8 +187,10 @@ impl BlockMatrix {
         Self { blocks: vec![Mat3::ZERO; pattern.blocks()], extra: ExtraBlocks::default() }
     }
 
-    /// Sets every block to zero (the extra pairs stay, with zero blocks).
+    /// Sets every block to zero. The extra pairs stay, with zero blocks, except that those the values being
+    /// cleared left at zero go once they are the majority ([`ExtraBlocks::prune`]).
     pub fn clear(&mut self) {
+        self.extra.prune();
         self.blocks.fill(Mat3::ZERO);
         self.extra.blocks.fill(Mat3::ZERO);
     }

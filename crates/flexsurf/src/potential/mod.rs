@@ -566,7 +566,6 @@ impl Potential {
     ) -> Values {
         ws.grad.fill(Vec3::ZERO);
         if want.hess.is_some() {
-            ws.matrix.extra.prune();
             ws.matrix.clear();
         }
         let pass = Pass { x, cx, want };
