@@ -3,8 +3,9 @@
 //! triangle–triangle intersection checker (`flexsurf::testing::intersecting_triangles`, independent of the
 //! contact code): `cargo run --release -p flexsurf --example pile_check -- N STEPS [EVERY]` prints every EVERY-th
 //! step's time, solves, factorisations, contacts and self-contact pairs, and stops at the first intersecting
-//! step. Issue 19's 161² pile of 300 steps: `-- 161 300 10`. With `COONS=k` the displayed surface (the Coons
-//! surface with `k` subdivisions, as the frames write it) is checked too, at every EVERY-th step.
+//! step. Issue 19's 161² pile of 300 steps: `-- 161 300 10`. With `COONS=k`, at every EVERY-th step, the Coons
+//! surface with `k` subdivisions is checked (reported when it crosses) and the displayed surface, the Coons
+//! surface kept apart as the frames write it (`runner::apart`), too: the run stops if that one crosses.
 use flexsurf::integrate::Stepper;
 use flexsurf::testing::intersecting_triangles;
 use std::time::Instant;
@@ -38,10 +39,23 @@ fn main() {
         }
         if step % every == 0 {
             if let Some(k) = coons {
-                let mesh = flexsurf::runner::fields::display_mesh(&model.panels, &state.x, k);
-                let tris: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
-                if let Some((a, b)) = intersecting_triangles(&tris, &mesh.positions) {
-                    println!("step {step}: display triangles {a} and {b} intersect ({k} subdivisions)");
+                use flexsurf::runner::fields::{coons_mesh, display_mesh};
+                let tris = |m: &flexsurf::surface::TriMesh| -> Vec<[usize; 3]> {
+                    m.triangles.iter().map(|t| t.map(|v| v as usize)).collect()
+                };
+                let coons = coons_mesh(&model.panels, &state.x, k);
+                if let Some((a, b)) = intersecting_triangles(&tris(&coons), &coons.positions) {
+                    println!("step {step}: the Coons surface's triangles {a} and {b} intersect ({k} subdivisions)");
+                }
+                let t = Instant::now();
+                let mut shown = coons.clone();
+                let apart = flexsurf::runner::apart::keep_apart(model, &state.x, k, &mut shown);
+                let took = t.elapsed().as_secs_f64();
+                println!("step {step}: display kept apart in {took:.3} s: {apart:?}");
+                assert_eq!(shown, display_mesh(model, &state.x, k), "keep_apart is what display_mesh shows");
+                if let Some((a, b)) = intersecting_triangles(&tris(&shown), &shown.positions) {
+                    println!("step {step}: DISPLAY triangles {a} and {b} intersect ({k} subdivisions)");
+                    std::process::exit(1);
                 }
             }
             let c = stepper.counters;

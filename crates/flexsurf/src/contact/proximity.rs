@@ -99,6 +99,20 @@ impl Faces {
         faces
     }
 
+    /// The faces of a triangle mesh over `nodes` nodes: its triangles and their edges, each once (the
+    /// display mesh kept apart, [`crate::runner::apart`]).
+    pub fn of_triangles(nodes: usize, triangles: &[[usize; 3]]) -> Self {
+        let mut edges: Vec<[usize; 2]> = triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .filter(|&(a, b)| a != b)
+            .map(|(a, b)| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        Faces { triangles: triangles.to_vec(), edges, nodes, joined: Vec::new(), fixed_from: nodes }
+    }
+
     /// Number of nodes.
     pub fn nodes(&self) -> usize {
         self.nodes
@@ -351,6 +365,12 @@ impl Faces {
     /// Only proper crossings count ([`segment_crosses`]): an edge touching a triangle or lying in its plane
     /// does not.
     pub fn crossing(&self, x: &[Vec3]) -> Option<(usize, usize)> {
+        self.crossings(x).into_iter().next()
+    }
+
+    /// Every edge that passes through a triangle it shares no node with at `x`, as [`Faces::crossing`]
+    /// finds the first: `(edge, triangle)`, sorted.
+    pub fn crossings(&self, x: &[Vec3]) -> Vec<(usize, usize)> {
         let Near { edges, triangles: tris, .. } = Near::new(self, Self::node_boxes(x, None), 0.0);
         let mut tree = Tree::default();
         tree.update(&tris);
@@ -359,10 +379,12 @@ impl Faces {
             let [a, b] = self.edges[e];
             !self.triangles[t].iter().any(|&k| r(k) == r(a) || r(k) == r(b))
         };
-        tree.overlaps(&edges, &tris, apart).into_iter().find(|&(e, t)| {
+        let mut pairs = tree.overlaps(&edges, &tris, apart);
+        pairs.retain(|&(e, t)| {
             let [a, b] = self.edges[e];
             segment_crosses(x[a], x[b], self.triangles[t].map(|k| x[k]))
-        })
+        });
+        pairs
     }
 
     /// Most conservative-advancement steps for one pair.

@@ -1,6 +1,7 @@
 //! The display surface of a run and its per-vertex fields at an output step, for the frames, the pictures,
 //! the animated glTF, the VTK series and the viewer: every panel Coons-tessellated and merged into one mesh
-//! ([`display_mesh`], the panels' vertices one after the other in panel order), its positions and normals, the pattern coordinates (UVs in metres), and the node
+//! ([`coons_mesh`], the panels' vertices one after the other in panel order; what is shown is [`display_mesh`],
+//! its bulges cut where the surface would meet itself, [`super::apart`]), its positions and normals, the pattern coordinates (UVs in metres), and the node
 //! fields interpolated onto the display vertices: velocity, engineering strain and contact pressure.
 //!
 //! Node fields (on the simulation grid):
@@ -14,6 +15,7 @@
 //! values are the bilinear blend of the cell's four corner nodes, and its UV is `((ci + t1)·h1, (cj + t2)·h2)`,
 //! the pattern coordinates along warp (u1) and weft (u2).
 
+pub use super::apart::display_mesh;
 use crate::contact::{self, Look};
 use crate::grid::Grid;
 use crate::io::render::{checkered_square, uv_sphere};
@@ -141,13 +143,20 @@ where
     panels.iter().flat_map(|p| to_display(&p.grid, k, &p.gather(values))).collect()
 }
 
-/// The display mesh of the node positions `x`: every one of `panels` Coons-tessellated with `k`
-/// subdivisions, merged in panel order (for one panel, its tessellation itself).
-pub fn display_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
+/// The Coons surface of the node positions `x`: every one of `panels` Coons-tessellated with `k`
+/// subdivisions, merged in panel order (for one panel, its tessellation itself). What the outputs show is
+/// [`display_mesh`], this with its bulges cut where self-contact needs it.
+pub fn coons_mesh(panels: &[Panel], x: &[Vec3], k: usize) -> TriMesh {
     let mut meshes = panels.iter().map(|p| CoonsSurface::new(&p.grid, &p.gather(x)).tessellate(k));
     let mut mesh = meshes.next().unwrap_or_default();
     meshes.for_each(|m| mesh.append(&m));
     mesh
+}
+
+/// Each panel's display vertices (of [`coons_mesh`] with `k` subdivisions) as their cells' corners (the
+/// panel's local nodes) and bilinear weights.
+pub(crate) fn display_stencils(panels: &[Panel], k: usize) -> Vec<Vec<([usize; 4], [f64; 4])>> {
+    panels.iter().map(|p| display_stencil(&p.grid, k).into_iter().map(|(c, w, _)| (c, w)).collect()).collect()
 }
 
 /// The display vertices of `edge` of a panel's tessellation with `k` subdivisions (within the panel), in the
@@ -162,13 +171,10 @@ fn edge_vertices(grid: &Grid, k: usize, edge: Edge) -> Vec<usize> {
     }
 }
 
-/// One welded garment mesh: [`display_mesh`] with the display vertices of every seam's two edges merged, so
-/// the garment is one surface (a seam's two edges have the same nodes and the same tangents along them, so
-/// their display curves agree up to rounding; the merged vertex takes the first panel's position and the mean
-/// normal).
-pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+/// The pairs of display vertices (of [`coons_mesh`] with `k` subdivisions) that lie on the two sides of a
+/// seam at the same point of it, one pair per point.
+pub(crate) fn seam_vertex_pairs(model: &Model, k: usize) -> Vec<(usize, usize)> {
     let k = k.max(1);
-    let mesh = display_mesh(&model.panels, x, k);
     let starts: Vec<usize> = model
         .panels
         .iter()
@@ -177,14 +183,6 @@ pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
             Some(std::mem::replace(o, *o + na * nb))
         })
         .collect();
-    let mut parent: Vec<usize> = (0..mesh.positions.len()).collect();
-    fn root(parent: &mut [usize], mut v: usize) -> usize {
-        while parent[v] != v {
-            parent[v] = parent[parent[v]];
-            v = parent[v];
-        }
-        v
-    }
     let side = |s: &crate::seam::SeamSide| -> Vec<usize> {
         let grid = &model.panels[s.panel].grid;
         let [lo, hi] = s.range(grid);
@@ -196,11 +194,27 @@ pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
         }
         v.into_iter().map(|i| starts[s.panel] + i).collect()
     };
-    for seam in &model.seams {
-        for (a, b) in side(&seam.a).into_iter().zip(side(&seam.b)) {
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            parent[ra.max(rb)] = ra.min(rb);
+    model.seams.iter().flat_map(|seam| side(&seam.a).into_iter().zip(side(&seam.b))).collect()
+}
+
+/// One welded garment mesh: [`display_mesh`] with the display vertices of every seam's two edges merged, so
+/// the garment is one surface (a seam's two edges have the same nodes and the same tangents along them, so
+/// their display curves agree up to rounding; the merged vertex takes the first panel's position and the mean
+/// normal).
+pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+    let k = k.max(1);
+    let mesh = display_mesh(model, x, k);
+    let mut parent: Vec<usize> = (0..mesh.positions.len()).collect();
+    fn root(parent: &mut [usize], mut v: usize) -> usize {
+        while parent[v] != v {
+            parent[v] = parent[parent[v]];
+            v = parent[v];
         }
+        v
+    }
+    for (a, b) in seam_vertex_pairs(model, k) {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra.max(rb)] = ra.min(rb);
     }
     let mut index = vec![u32::MAX; parent.len()];
     let mut out = TriMesh { positions: Vec::new(), normals: Vec::new(), triangles: Vec::new() };

@@ -16,6 +16,7 @@
 //!
 //! `energy.csv` is appended and flushed row by row as the run goes, so a kill keeps the history so far.
 
+pub mod apart;
 pub mod checkpoint;
 pub mod fields;
 pub mod manifest;

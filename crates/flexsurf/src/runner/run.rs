@@ -231,7 +231,7 @@ fn complete(
 ) -> Result<RunOutput, RunError> {
     let scene = run.scene;
     let Ended { state, stats, timings, static_report, interrupted } = ended;
-    let final_mesh = display_mesh(&scene.model.panels, &state.x, scene.output.coons_subdivisions);
+    let final_mesh = display_mesh(&scene.model, &state.x, scene.output.coons_subdivisions);
     let provenance = Provenance::of(scene, run.options, &run.fingerprint, resumed_from);
     let done = Finished { stats, timings, static_report, interrupted, provenance };
     let mut output = RunOutput { summary: summary::summarize(scene, &state, &final_mesh, done), snapshots: Vec::new() };

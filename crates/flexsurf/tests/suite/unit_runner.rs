@@ -96,12 +96,12 @@ mod fields {
         let k = 2;
         // 2 × 2 cells × 2 subdivisions: 5 × 5 display vertices; 3 × 2 cells: 7 × 5.
         let (na, nb) = (25, 35);
-        let mesh = display_mesh(&panels, &x, k);
+        let mesh = coons_mesh(&panels, &x, k);
         assert_eq!(mesh.vertex_count(), na + nb);
         assert_eq!(mesh.triangles.len(), 2 * (4 * 4) + 2 * (6 * 4));
         let first = CoonsSurface::new(&a, &x[..9]).tessellate(k);
         let second = CoonsSurface::new(&b, &x[9..]).tessellate(k);
-        assert_eq!(display_mesh(&panels[..1], &x[..9], k), first);
+        assert_eq!(coons_mesh(&panels[..1], &x[..9], k), first);
         assert_eq!(mesh.positions[na..], second.positions[..]);
         assert_eq!(mesh.triangles[first.triangles.len()], second.triangles[0].map(|v| v + na as u32));
         let topo = display_topology(&panels, k);

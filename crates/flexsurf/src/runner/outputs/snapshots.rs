@@ -88,7 +88,7 @@ impl Output for Snapshots<'_> {
         self.snapshots = self
             .pictured
             .iter()
-            .map(|(step, time, x)| Snapshot { step: *step, time: *time, mesh: display_mesh(&model.panels, x, k) })
+            .map(|(step, time, x)| Snapshot { step: *step, time: *time, mesh: display_mesh(model, x, k) })
             .collect();
         Ok(())
     }
