@@ -570,7 +570,8 @@ fn read_obj_frame(path: &std::path::Path) -> (Vec<Vec3>, Vec<[usize; 3]>) {
 /// step of the first 45, four Coons subdivisions, the default) never hold two intersecting triangles that share
 /// no vertex, by the exact checker, while the plain Coons surface through the same nodes crosses itself in
 /// some of them (the scene tests what it should): where two layers lie a thickness apart in a sharp fold,
-/// the surface's bulges are cut back towards the grid's triangles, which self-contact keeps apart.
+/// the surface's bulges are cut back towards the grid's triangles, which self-contact keeps apart. The nodes
+/// stay where the state has them.
 #[test]
 fn the_frames_written_of_a_folding_pile_never_intersect() {
     let mut scene = flexsurf::bench::pile(21, true).unwrap();
@@ -584,6 +585,10 @@ fn the_frames_written_of_a_folding_pile_never_intersect() {
         assert_eq!(triangles.len(), 2 * 20 * 20 * 16);
         if let Some(pair) = intersecting_triangles(&triangles, &x) {
             panic!("step {}: the written frame's triangles {pair:?} intersect", state.step);
+        }
+        // The nodes are where the state has them, to the bit (a frame serves as `initial.positions`).
+        for (node, p) in state.x.iter().enumerate() {
+            assert_eq!(x[4 * (node % 21) + 81 * 4 * (node / 21)], *p, "step {}: node {node} moved", state.step);
         }
         let coons = flexsurf::runner::fields::coons_mesh(&scene.model.panels, &state.x, 4);
         coons_crossed += usize::from(intersecting_triangles(&triangles, &coons.positions).is_some());
