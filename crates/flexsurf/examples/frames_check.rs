@@ -4,29 +4,7 @@
 //! `cargo run --release -p flexsurf --example frames_check -- DIR...`: checks the welded garment meshes
 //! (`garment/*.obj`) of a garment and the frames (`frames/*.obj`) of anything else, one line per folder, and
 //! exits non-zero at the first crossing.
-use flexsurf::math::Vec3;
-use flexsurf::testing::intersecting_triangles;
-use std::path::Path;
-
-fn read_obj(path: &Path) -> (Vec<Vec3>, Vec<[usize; 3]>) {
-    let text = std::fs::read_to_string(path).expect("a readable frame");
-    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    for line in text.lines() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let c: Vec<f64> = words.map(|w| w.parse().expect("a coordinate")).collect();
-                vertices.push(Vec3::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let v: Vec<usize> = words.map(|w| w.split('/').next().unwrap().parse::<usize>().unwrap() - 1).collect();
-                triangles.push([v[0], v[1], v[2]]);
-            }
-            _ => {}
-        }
-    }
-    (vertices, triangles)
-}
+use flexsurf::testing::{intersecting_triangles, read_obj_frame};
 
 fn main() {
     for dir in std::env::args().skip(1).map(std::path::PathBuf::from) {
@@ -39,7 +17,7 @@ fn main() {
             .collect();
         files.sort();
         for f in &files {
-            let (x, triangles) = read_obj(f);
+            let (x, triangles) = read_obj_frame(f);
             if let Some((a, b)) = intersecting_triangles(&triangles, &x) {
                 println!("{}: triangles {a} and {b} intersect", f.display());
                 std::process::exit(1);

@@ -396,3 +396,26 @@ fn coplanar_meet(p: &[Vec3], q: &[Vec3]) -> bool {
         || q.iter().any(|&v| inside(v, &p))
         || p.iter().any(|&v| inside(v, &q))
 }
+
+/// The vertices and triangles of an OBJ mesh as the runner writes its frames (`v x y z`, `f a//a b//b c//c`,
+/// 1-based; other lines skipped), for checking written frames. Panics on a malformed line (test input).
+pub fn read_obj_frame(path: &std::path::Path) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let c: Vec<f64> = words.map(|w| w.parse().expect("a coordinate")).collect();
+                vertices.push(Vec3::new(c[0], c[1], c[2]));
+            }
+            Some("f") => {
+                let index = |w: &str| w.split('/').next().and_then(|i| i.parse::<usize>().ok()).expect("an index") - 1;
+                let v: Vec<usize> = words.map(index).collect();
+                triangles.push([v[0], v[1], v[2]]);
+            }
+            _ => {}
+        }
+    }
+    (vertices, triangles)
+}

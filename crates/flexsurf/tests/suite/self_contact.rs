@@ -16,7 +16,7 @@ use flexsurf::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
 use flexsurf::potential::contact::ContactParams;
 use flexsurf::potential::self_contact::{SelfContact, SelfContactParams};
 use flexsurf::state::State;
-use flexsurf::testing::{alone, check, intersecting_triangles};
+use flexsurf::testing::{alone, check, intersecting_triangles, read_obj_frame};
 
 const G: Vec3 = Vec3::new(0.0, 0.0, -9.81);
 const THICKNESS: f64 = 0.005;
@@ -543,27 +543,6 @@ fn the_refit_broad_phase_finds_every_pair_a_brute_force_search_finds() {
     tree.update(&boxes);
     assert_eq!((tree.builds, tree.refits), (2, 1), "{tree:?}: the degraded tree was not rebuilt");
     eprintln!("{tree:?}");
-}
-
-/// The vertices and triangles of an OBJ frame as the runner writes it (`v x y z`, `f a//a b//b c//c`, 1-based).
-fn read_obj_frame(path: &std::path::Path) -> (Vec<Vec3>, Vec<[usize; 3]>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    for line in text.lines() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let c: Vec<f64> = words.map(|w| w.parse().unwrap()).collect();
-                vertices.push(Vec3::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let v: Vec<usize> = words.map(|w| w.split('/').next().unwrap().parse::<usize>().unwrap() - 1).collect();
-                triangles.push([v[0], v[1], v[2]]);
-            }
-            _ => {}
-        }
-    }
-    (vertices, triangles)
 }
 
 /// Issue 19 item 1, the shown surface: the frames a run writes of the 21² pile folding onto itself (every
