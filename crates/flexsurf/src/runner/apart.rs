@@ -96,7 +96,7 @@ fn offending(faces: &Faces, x: &[Vec3], tolerance: f64) -> Vec<usize> {
 /// What keeping a display mesh apart did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Apart {
-    /// Passes of the search (1: the Coons surface was apart as it was).
+    /// Passes of the search (1: the Coons surface was apart as it was; 0: nothing to search, one subdivision).
     pub passes: usize,
     /// Model nodes whose share of the bulge was cut below 1.
     pub flattened: usize,
@@ -118,6 +118,10 @@ pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
 /// moved mesh's face-averaged ones.
 pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Apart {
     let k = k.max(1);
+    if k == 1 {
+        // One sub-quad a cell: every display vertex is a node, with no bulge to cut.
+        return Apart::default();
+    }
     let spacing = model.panels.iter().map(|p| p.grid.h1.min(p.grid.h2)).fold(f64::INFINITY, f64::min);
     let tolerance = 1e-6 * spacing / k as f64;
     let triangles: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
