@@ -10,11 +10,12 @@
 //! continuous across cells. All shares start at 1 (the Coons surface itself). While two display elements
 //! that share no vertex (a vertex and a triangle, two edges) are closer than a tolerance, or a display edge
 //! passes through a display triangle, the shares of every node of the cells of both elements are halved, and
-//! set to 0 below 1/16. With every share at 0 the display mesh is the flat refinement of the grid's
-//! triangles: each display triangle lies in one grid triangle (its sub-quads are split along the same
-//! diagonal), so where the grid's triangles are apart the display's are too, and the loop ends there at the
-//! latest. Where the guaranteed surface itself touches (two grid triangles that share a node, which
-//! self-contact does not hold apart, folded onto each other), the shares reach 0 and that is what is shown.
+//! set to 0 below 1/16 (at once after eight passes; after sixteen every share is 0). With every share at 0
+//! the display mesh is the flat refinement of the grid's triangles: each display triangle lies in one grid
+//! triangle (its sub-quads are split along the same diagonal), so where the grid's triangles are apart the
+//! display's are too, and the loop ends there at the latest. Where the guaranteed surface itself touches (two
+//! grid triangles that share a node, which self-contact does not hold apart, folded onto each other), the
+//! shares reach 0 and that is what is shown.
 //!
 //! The tolerance, a millionth of the display's finest parameter spacing (`min(h1, h2) / k`), covers the
 //! rounding of the floating-point crossing test: a crossing it misses passes within rounding of an element's
@@ -32,8 +33,9 @@ use crate::surface::TriMesh;
 /// Most halvings of a node's share before it is set to 0 (1 → 1/16 → 0).
 const HALVINGS: usize = 4;
 
-/// Passes after which the nodes of elements still meeting lose their whole bulge at once (so a search ends
-/// within this many passes plus one per node in the worst case; a fold usually settles in two or three).
+/// Passes after which the nodes of elements still meeting lose their whole bulge at once; after twice as
+/// many every node does (the flat refinement), so a search ends within `2 PATIENCE + 1` passes. A fold
+/// usually settles in two.
 const PATIENCE: usize = 8;
 
 /// Each display vertex's model nodes and bilinear weights, its point on the grid's triangle and its bulge
@@ -138,6 +140,13 @@ pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Ap
             .filter(|&n| share[n] > 0.0)
             .collect();
         if nodes.is_empty() {
+            break;
+        }
+        if report.passes > 2 * PATIENCE {
+            // Still meeting after the nodes of every offending pair were cut at once for as many passes
+            // again: show the grid's own triangles everywhere (the surface self-contact guarantees).
+            share.fill(0.0);
+            positions = bulges.positions(&share);
             break;
         }
         nodes.sort_unstable();
