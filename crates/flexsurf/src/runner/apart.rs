@@ -23,7 +23,7 @@
 //! self-contact's own proximity ([`Faces::close`], [`Faces::crossings`]); the test suite checks the result
 //! with an exact intersection test written apart from it.
 
-use super::fields::{coons_mesh, display_stencils, seam_vertex_pairs};
+use super::fields::{coons_mesh, display_counts, display_stencils, seam_vertex_pairs};
 use crate::contact::proximity::Faces;
 use crate::math::Vec3;
 use crate::model::Model;
@@ -117,10 +117,15 @@ pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
 
 /// Cuts the bulges of `mesh`, the Coons display mesh of `x` with `k` subdivisions ([`coons_mesh`]), until no
 /// two of its elements that share no vertex meet (module docs); the normals of the vertices moved are the
-/// moved mesh's face-averaged ones.
+/// moved mesh's face-averaged ones. A mesh or positions of another size than the model's (not its display
+/// mesh) are left as they are.
 pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Apart {
     let k = k.max(1);
-    if k == 1 {
+    let fits = x.len() == model.nodes()
+        && mesh.positions.len()
+            == model.panels.iter().map(|p| display_counts(&p.grid, k)).map(|(a, b)| a * b).sum::<usize>()
+        && mesh.normals.len() == mesh.positions.len();
+    if k == 1 || !fits {
         // One sub-quad a cell: every display vertex is a node, with no bulge to cut.
         return Apart::default();
     }

@@ -1,8 +1,9 @@
 //! The display surface of a run and its per-vertex fields at an output step, for the frames, the pictures,
 //! the animated glTF, the VTK series and the viewer: every panel Coons-tessellated and merged into one mesh
 //! ([`coons_mesh`], the panels' vertices one after the other in panel order; what is shown is [`display_mesh`],
-//! its bulges cut where the surface would meet itself, [`super::apart`]), its positions and normals, the pattern coordinates (UVs in metres), and the node
-//! fields interpolated onto the display vertices: velocity, engineering strain and contact pressure.
+//! its bulges cut where the surface would meet itself, [`super::apart`]), its positions and normals, the
+//! pattern coordinates (UVs in metres), and the node fields interpolated onto the display vertices: velocity,
+//! engineering strain and contact pressure.
 //!
 //! Node fields (on the simulation grid):
 //! - strain: the largest `|ℓ/ℓ₀ − 1|` over the grid edges at the node (the per-node form of
@@ -75,7 +76,7 @@ fn locate(v: usize, k: usize, cells: usize) -> (usize, f64) {
 }
 
 /// Display vertices per direction of [`CoonsSurface::tessellate`] with `k` subdivisions.
-fn display_counts(grid: &Grid, k: usize) -> (usize, usize) {
+pub(crate) fn display_counts(grid: &Grid, k: usize) -> (usize, usize) {
     let count = |d: usize| grid.spans(d) * k + usize::from(!grid.periodic(d));
     (count(0), count(1))
 }
