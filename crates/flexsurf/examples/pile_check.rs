@@ -39,7 +39,7 @@ fn main() {
         }
         if step % every == 0 {
             if let Some(k) = coons {
-                use flexsurf::runner::fields::{coons_mesh, display_mesh};
+                use flexsurf::runner::fields::coons_mesh;
                 let tris = |m: &flexsurf::surface::TriMesh| -> Vec<[usize; 3]> {
                     m.triangles.iter().map(|t| t.map(|v| v as usize)).collect()
                 };
@@ -52,7 +52,6 @@ fn main() {
                 let apart = flexsurf::runner::apart::keep_apart(model, &state.x, k, &mut shown);
                 let took = t.elapsed().as_secs_f64();
                 println!("step {step}: display kept apart in {took:.3} s: {apart:?}");
-                assert_eq!(shown, display_mesh(model, &state.x, k), "keep_apart is what display_mesh shows");
                 if let Some((a, b)) = intersecting_triangles(&tris(&shown), &shown.positions) {
                     println!("step {step}: DISPLAY triangles {a} and {b} intersect ({k} subdivisions)");
                     std::process::exit(1);

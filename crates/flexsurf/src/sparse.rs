@@ -7,9 +7,9 @@
 //! go into the matrix's [`ExtraBlocks`], a set of off-diagonal blocks keyed by node pair (its values are cleared
 //! with the matrix, its pairs kept), so a solver re-analyses its structure only when the set changes
 //! ([`ExtraBlocks::generation`]): when a pair joins, or when clearing the matrix drops the pairs the last
-//! assembly left at zero once they are the majority ([`ExtraBlocks::prune`]) (a pile's layers that have parted would otherwise stay
-//! in the factor's structure for the rest of the run). Products include the extra blocks; with none, every
-//! operation is the static pattern's alone, in the same order.
+//! assembly left at zero once they are the majority ([`ExtraBlocks::prune`]; a pile's layers that have parted
+//! would otherwise stay in the factor's structure for the rest of the run). Products include the extra blocks;
+//! with none, every operation is the static pattern's alone, in the same order.
 
 use crate::math::{Mat3, Vec3};
 use std::collections::HashMap;

@@ -196,8 +196,13 @@ impl SelfContact {
             distance,
             reference,
         };
-        contact.force = stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at)));
+        contact.force = self.force_at(&contact, at);
         contact
+    }
+
+    /// The force of a contact's linear gap with the nodes at `x` (negative outside the layer).
+    fn force_at(&self, c: &Contact, x: &[Vec3]) -> f64 {
+        c.stiffness * (self.params.thickness - c.gap(c.stencil.point(x)))
     }
 
     /// A pair against a body: the sheet's nodes of it as the stencil, the area its penalty takes (below), and
@@ -268,7 +273,7 @@ impl SelfContact {
         let fresh = self.close(s, x);
         for c in &fresh {
             let contact = self.record(c, &s.start, y);
-            missed = missed.max(contact.stiffness * (self.params.thickness - contact.gap(contact.stencil.point(at))));
+            missed = missed.max(self.force_at(&contact, at));
             s.contacts.push(contact);
             s.pairs.push(c.pair);
         }

@@ -82,6 +82,20 @@ fn flat(v: &[Vec3]) -> Vec<f64> {
     v.iter().flat_map(|p| p.to_array()).collect()
 }
 
+/// The largest difference of `x` from the dense elimination's solution of `a x = b`.
+fn off_dense(pattern: &BlockPattern, a: &BlockMatrix, b: &[Vec3], x: &[Vec3]) -> f64 {
+    let reference = dense_solve(a.to_dense(pattern), flat(b));
+    flat(x).iter().zip(&reference).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max)
+}
+
+/// The grid system ([`grid_system`]: pattern, matrix, right-hand side) with nothing fixed, a Cholesky solver of
+/// its pattern and a zero solution to start from.
+fn cholesky_of_grid() -> (BlockPattern, BlockMatrix, Vec<Vec3>, Vec<bool>, LinearSolver, Vec<Vec3>) {
+    let (pattern, base, b) = grid_system();
+    let solver = LinearSolver::new(SolverKind::Cholesky, &pattern, &[]).unwrap();
+    (pattern, base, b, vec![false; 25], solver, vec![Vec3::ZERO; 25])
+}
+
 #[test]
 fn every_solver_solves_the_stencil_plus_the_extra_blocks() {
     let (pattern, mut a, b) = grid_system();
@@ -95,7 +109,7 @@ fn every_solver_solves_the_stencil_plus_the_extra_blocks() {
         let mut solver = LinearSolver::new(kind, &pattern, &panels).unwrap();
         let mut x = vec![Vec3::ZERO; 25];
         solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
-        let err = flat(&x).iter().zip(&reference).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        let err = off_dense(&pattern, &a, &b, &x);
         assert!(err < 1e-9, "{kind:?}: {err:e} from the dense solution");
     }
     // Without the extra blocks the answer is another one: the test sees them.
@@ -107,24 +121,18 @@ fn every_solver_solves_the_stencil_plus_the_extra_blocks() {
 
 #[test]
 fn the_analysis_is_redone_only_when_the_extra_set_changes() {
-    let (pattern, base, b) = grid_system();
-    let fixed = vec![false; 25];
-    let mut solver = LinearSolver::new(SolverKind::Cholesky, &pattern, &[]).unwrap();
-    let mut x = vec![Vec3::ZERO; 25];
+    let (pattern, base, b, fixed, mut solver, mut x) = cholesky_of_grid();
     let mut a = base.clone();
     assert!(!solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap().analysed, "no extra blocks yet");
     couple(&pattern, &mut a, 0, 24, 2.0);
     assert!(solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap().analysed, "a new pair");
     // The next step: the matrix is cleared (the pair stays, zero) and the same pair is coupled again, stiffer.
     a.clear();
-    for (blk, m) in a.blocks.iter_mut().zip(&base.blocks) {
-        *blk = *m;
-    }
+    a.blocks.copy_from_slice(&base.blocks);
     couple(&pattern, &mut a, 24, 0, 3.0);
     let stats = solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
     assert!(!stats.analysed && stats.factorized, "{stats:?}");
-    let reference = dense_solve(a.to_dense(&pattern), flat(&b));
-    let err = flat(&x).iter().zip(&reference).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+    let err = off_dense(&pattern, &a, &b, &x);
     assert!(err < 1e-9, "{err:e}");
     // A re-solve after a change of the coupling reuses the factor on the same structure.
     let again = solver.solve(&a, &fixed, &b, &mut x, Reuse::Nearby).unwrap();
@@ -138,10 +146,7 @@ fn the_analysis_is_redone_only_when_the_extra_set_changes() {
 /// and while the pairs left at zero are at most half of the set nothing changes.
 #[test]
 fn pairs_left_at_zero_are_pruned_once_they_are_the_majority() {
-    let (pattern, base, b) = grid_system();
-    let fixed = vec![false; 25];
-    let mut solver = LinearSolver::new(SolverKind::Cholesky, &pattern, &[]).unwrap();
-    let mut x = vec![Vec3::ZERO; 25];
+    let (pattern, base, b, fixed, mut solver, mut x) = cholesky_of_grid();
     let mut a = base.clone();
     solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
     let plain = solver.factor_nnz();
@@ -172,8 +177,7 @@ fn pairs_left_at_zero_are_pruned_once_they_are_the_majority() {
     let stats = solver.solve(&a, &fixed, &b, &mut x, Reuse::Fresh).unwrap();
     assert!(stats.analysed && stats.factorized, "{stats:?}");
     assert!(solver.factor_nnz() < coupled);
-    let reference = dense_solve(a.to_dense(&pattern), flat(&b));
-    let err = flat(&x).iter().zip(&reference).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+    let err = off_dense(&pattern, &a, &b, &x);
     assert!(err < 1e-9, "{err:e}");
     // A pruned pair that comes back is a new pair.
     couple(&pattern, &mut a, 0, 24, 1.0);
