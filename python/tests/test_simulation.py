@@ -130,16 +130,22 @@ def test_the_gil_is_released_while_stepping(small_drop):
             ticks.append(time.perf_counter())
             time.sleep(0.001)
 
+    # Size the call from one timed step so that it lasts about half a second on any machine
+    # (a fixed count took 0.198 s on a fast CI machine, too short to tell).
+    s0 = time.perf_counter()
+    sim.step(1)
+    per_step = max(time.perf_counter() - s0, 1e-4)
+    n = min(max(8, math.ceil(0.5 / per_step)), 2000)
     thread = threading.Thread(target=ticker)
     thread.start()
     time.sleep(0.05)
     t0 = time.perf_counter()
-    sim.step(8)
+    sim.step(n)
     t1 = time.perf_counter()
     stop.set()
     thread.join()
     during = [t for t in ticks if t0 < t < t1]
-    assert t1 - t0 > 0.2, "the step should be long enough to tell"
+    assert t1 - t0 > 0.2, f"the step should be long enough to tell ({n} steps took {t1 - t0:.3f} s)"
     # With the GIL held the other thread would not tick at all during the call.
     assert len(during) >= 10, f"{len(during)} ticks in {t1 - t0:.2f} s"
-    assert sim.step_count == 8
+    assert sim.step_count == 1 + n
