@@ -22,29 +22,29 @@ mod lines {
 
     #[test]
     fn banded_cholesky_solves_a_banded_system() {
-        // A pentadiagonal SPD matrix, w = 2.
-        let n = 12;
-        let w = 2;
-        let a = |i: usize, j: usize| -> f64 {
-            match i.abs_diff(j) {
-                0 => 6.0 + i as f64 * 0.1,
-                1 => -2.0,
-                2 => 0.5,
-                _ => 0.0,
+        // Diagonally dominant SPD band matrices of half-bandwidths 1, 2 (pentadiagonal), 5 and 8 (the
+        // smoother's, for couplings two nodes apart): odd and even numbers of terms in a row's sums.
+        for (n, w) in [(7, 1), (12, 2), (17, 5), (30, 8)] {
+            let a = |i: usize, j: usize| -> f64 {
+                match i.abs_diff(j) {
+                    0 => 2.0 * w as f64 + 2.0 + i as f64 * 0.1,
+                    d if d <= w => (-1.0f64).powi(d as i32) * (1.0 + 0.3 * ((i + j) as f64).sin()),
+                    _ => 0.0,
+                }
+            };
+            let mut band = vec![0.0; n * (w + 1)];
+            for i in 0..n {
+                for d in 0..=w.min(i) {
+                    band[i * (w + 1) + d] = a(i, i - d);
+                }
             }
-        };
-        let mut band = vec![0.0; n * (w + 1)];
-        for i in 0..n {
-            for d in 0..=w.min(i) {
-                band[i * (w + 1) + d] = a(i, i - d);
+            band_factor(&mut band, w, n);
+            let x_true: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum()).collect();
+            band_solve(&band, w, &mut b);
+            for (x, t) in b.iter().zip(&x_true) {
+                assert!((x - t).abs() < 1e-12, "w = {w}: {x} vs {t}");
             }
-        }
-        band_factor(&mut band, w, n);
-        let x_true: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
-        let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a(i, j) * x_true[j]).sum()).collect();
-        band_solve(&band, w, &mut b);
-        for (x, t) in b.iter().zip(&x_true) {
-            assert!((x - t).abs() < 1e-12, "{x} vs {t}");
         }
     }
 }

@@ -81,14 +81,25 @@ impl RowMatrix {
         self.start[p] as usize..self.start[p + 1] as usize
     }
 
-    /// `Σ_c A_pc x_c` over row `p`.
+    /// `Σ_c A_pc x_c` over row `p`, the even and the odd entries in two sums added at the end (two chains of
+    /// additions instead of one: the row's latency halves, and the order stays fixed).
     #[inline]
     fn row_dot(&self, p: usize, x: &[Vec3]) -> Vec3 {
-        let mut acc = Vec3::ZERO;
-        for e in self.row(p) {
-            acc += self.blocks[e].as_dmat3() * x[self.col[e] as usize];
+        let r = self.row(p);
+        let (blocks, cols) = (&self.blocks[r.clone()], &self.col[r]);
+        let term = |m: &glam::Mat3, c: u32| m.as_dmat3() * x[c as usize];
+        let (mut even, mut odd) = (Vec3::ZERO, Vec3::ZERO);
+        let mut pairs = blocks.chunks_exact(2).zip(cols.chunks_exact(2));
+        for (m, c) in pairs.by_ref() {
+            even += term(&m[0], c[0]);
+            odd += term(&m[1], c[1]);
         }
-        acc
+        if let (Some(m), Some(&c)) =
+            (blocks.chunks_exact(2).remainder().first(), cols.chunks_exact(2).remainder().first())
+        {
+            even += term(m, c);
+        }
+        even + odd
     }
 
     /// The block `(p, c)`, zero when not stored.
@@ -121,7 +132,10 @@ impl RowMatrix {
 #[derive(Debug, Clone)]
 struct Segment {
     nodes: Vec<u32>,
-    /// Lower band of the scalar Cholesky factor, `(3 len) × (w + 1)`: entry `(i, i − d)` at `i (w + 1) + d`.
+    /// Where each node's residual is in its colour's [`Family::sorted`] order.
+    gather: Vec<u32>,
+    /// Lower band of the scalar Cholesky factor, `(3 len) × (w + 1)`: entry `(i, i − d)` at `i (w + 1) + d`, each
+    /// diagonal entry as its reciprocal.
     band: Vec<f64>,
 }
 
@@ -132,6 +146,10 @@ struct Family {
     segments: Vec<Segment>,
     /// The colours' ranges in `segments`.
     colors: Vec<std::ops::Range<usize>>,
+    /// Each colour's nodes in increasing order: a colour's residuals are computed in this order, through the
+    /// matrix's rows as they lie in memory (a line across the rows' order, node by node, would jump a grid row
+    /// at every node).
+    sorted: Vec<Vec<u32>>,
     /// Half-bandwidth in scalars, `3 R + 2` for couplings `R` nodes apart along a line.
     w: usize,
     /// Scalars of scratch per segment (three per node of the longest).
@@ -243,16 +261,28 @@ impl Family {
             colors.push(begin..end);
             begin = end;
         }
-        let segments = tagged
+        let mut segments: Vec<Segment> = tagged
             .into_iter()
-            .map(|(_, nodes)| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], nodes })
+            .map(|(_, nodes)| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], gather: Vec::new(), nodes })
             .collect();
-        Self { segments, colors, w, stride }
+        let sorted = colors
+            .iter()
+            .map(|c| {
+                let mut nodes: Vec<u32> = segments[c.clone()].iter().flat_map(|s| s.nodes.iter().copied()).collect();
+                nodes.sort_unstable();
+                for seg in &mut segments[c.clone()] {
+                    seg.gather = seg.nodes.iter().map(|p| nodes.binary_search(p).unwrap_or(0) as u32).collect();
+                }
+                nodes
+            })
+            .collect();
+        Self { segments, colors, sorted, w, stride }
     }
 
-    /// Scratch scalars for relaxing the largest colour.
+    /// Scratch scalars for relaxing the largest colour: its segments' right-hand sides, then its residuals in
+    /// node order.
     fn scratch_len(&self) -> usize {
-        self.colors.iter().map(|c| c.len()).max().unwrap_or(0) * self.stride
+        self.colors.iter().zip(&self.sorted).map(|(c, s)| c.len() * self.stride + 3 * s.len()).max().unwrap_or(0)
     }
 }
 
@@ -309,9 +339,10 @@ impl LineSmoother {
     /// least [`LineSmoother::scratch_len`] scalars.
     pub(crate) fn pre(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         x.iter_mut().for_each(|v| *v = Vec3::ZERO);
-        for family in &self.families {
-            for c in family.colors.iter() {
-                self.relax(family, c.clone(), b, x, scratch);
+        for (f, family) in self.families.iter().enumerate() {
+            for k in 0..family.colors.len() {
+                // The first colour sees `x = 0`: its residual is `b`, without a product.
+                self.relax(family, k, b, x, scratch, f == 0 && k == 0);
             }
         }
     }
@@ -320,29 +351,47 @@ impl LineSmoother {
     /// in reverse order).
     pub(crate) fn post(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
         for family in self.families.iter().rev() {
-            for c in family.colors.iter().rev() {
-                self.relax(family, c.clone(), b, x, scratch);
+            for k in (0..family.colors.len()).rev() {
+                self.relax(family, k, b, x, scratch, false);
             }
         }
     }
 
-    /// Block Gauss–Seidel on the segments of one colour: `x_l += A_ll⁻¹ (b − A x)_l` for each.
-    fn relax(&self, family: &Family, color: std::ops::Range<usize>, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
-        let segs = &family.segments[color];
-        let buf = &mut scratch[..segs.len() * family.stride];
+    /// Block Gauss–Seidel on the segments of colour `color`: `x_l += A_ll⁻¹ (b − A x)_l` for each (`x = 0` on
+    /// entry when `zero`, so the residual is `b`).
+    fn relax(&self, family: &Family, color: usize, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64], zero: bool) {
+        let segs = &family.segments[family.colors[color].clone()];
+        let order = &family.sorted[color];
+        let (buf, rest) = scratch.split_at_mut(segs.len() * family.stride);
+        let residuals = &mut rest[..3 * order.len()];
         let (w, rows, masked) = (family.w, &self.rows, &self.masked);
         let xr: &[Vec3] = x;
+        let fill = |(out, nodes): (&mut [f64], &[u32])| {
+            for (o, &p) in out.chunks_exact_mut(3).zip(nodes) {
+                let p = p as usize;
+                let r = match (masked[p], zero) {
+                    (true, _) => Vec3::ZERO,
+                    (false, true) => b[p],
+                    (false, false) => b[p] - rows.row_dot(p, xr),
+                };
+                o.copy_from_slice(&r.to_array());
+            }
+        };
+        let parallel = segs.len() > 1 && order.len() > 4 * ROW_CHUNK;
+        if parallel {
+            residuals.par_chunks_mut(3 * ROW_CHUNK).zip(order.par_chunks(ROW_CHUNK)).for_each(fill);
+        } else {
+            fill((residuals, order));
+        }
+        let residuals: &[f64] = residuals;
         let solve = |(seg, out): (&Segment, &mut [f64])| {
             let rhs = &mut out[..3 * seg.nodes.len()];
-            for (k, &p) in seg.nodes.iter().enumerate() {
-                let p = p as usize;
-                let r = if masked[p] { Vec3::ZERO } else { b[p] - rows.row_dot(p, xr) };
-                rhs[3 * k..3 * k + 3].copy_from_slice(&r.to_array());
+            for (r, &g) in rhs.chunks_exact_mut(3).zip(&seg.gather) {
+                r.copy_from_slice(&residuals[3 * g as usize..3 * g as usize + 3]);
             }
             band_solve(&seg.band, w, rhs);
         };
-        let nodes: usize = segs.iter().map(|s| s.nodes.len()).sum();
-        if segs.len() > 1 && nodes > 4 * ROW_CHUNK {
+        if parallel {
             segs.par_iter().zip(buf.par_chunks_mut(family.stride)).for_each(solve);
         } else {
             segs.iter().zip(buf.chunks_mut(family.stride)).for_each(solve);
@@ -391,9 +440,9 @@ fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize
     band_factor(&mut seg.band, w, 3 * len);
 }
 
-/// In-place banded Cholesky `A = L Lᵀ` (lower band, `(i, i − d)` at `i (w + 1) + d`). A pivot that is not
-/// positive (a node with no stiffness) is replaced by the unit pivot, which keeps the smoother symmetric and
-/// positive definite.
+/// In-place banded Cholesky `A = L Lᵀ` (lower band, `(i, i − d)` at `i (w + 1) + d`), each diagonal entry
+/// stored as its reciprocal, so that the solves multiply. A pivot that is not positive (a node with no
+/// stiffness) is replaced by the unit pivot, which keeps the smoother symmetric and positive definite.
 fn band_factor(band: &mut [f64], w: usize, n: usize) {
     let stride = w + 1;
     for i in 0..n {
@@ -404,31 +453,49 @@ fn band_factor(band: &mut [f64], w: usize, n: usize) {
                 s -= band[i * stride + (i - k)] * band[j * stride + (j - k)];
             }
             if i == j {
-                band[i * stride] = if s > 0.0 && s.is_finite() { s.sqrt() } else { 1.0 };
+                band[i * stride] = if s > 0.0 && s.is_finite() { 1.0 / s.sqrt() } else { 1.0 };
             } else {
-                band[i * stride + (i - j)] = s / band[j * stride];
+                band[i * stride + (i - j)] = s * band[j * stride];
             }
         }
     }
 }
 
-/// `x = (L Lᵀ)⁻¹ x` with a [`band_factor`] factor.
+/// `Σ_k coef(k) x[k]` over `ks` in two sums (even and odd terms) added at the end: two chains of additions.
+#[inline]
+fn paired_sum(ks: std::ops::Range<usize>, coef: impl Fn(usize) -> f64, x: &[f64]) -> f64 {
+    let (mut even, mut odd) = (0.0, 0.0);
+    let mut k = ks.start;
+    while k + 1 < ks.end {
+        even += coef(k) * x[k];
+        odd += coef(k + 1) * x[k + 1];
+        k += 2;
+    }
+    if k < ks.end {
+        even += coef(k) * x[k];
+    }
+    even + odd
+}
+
+/// `x = (L Lᵀ)⁻¹ x` with a [`band_factor`] factor. The term of the unknown found just before is added last,
+/// after the others' sums, so each unknown waits on one product of the one before it (the solve is a chain).
 fn band_solve(band: &[f64], w: usize, x: &mut [f64]) {
     let n = x.len();
     let stride = w + 1;
     for i in 0..n {
-        let mut s = x[i];
-        for k in i.saturating_sub(w)..i {
-            s -= band[i * stride + (i - k)] * x[k];
+        let row = i * stride;
+        let mut s = x[i] - paired_sum(i.saturating_sub(w)..i.saturating_sub(1), |k| band[row + (i - k)], x);
+        if i > 0 {
+            s -= band[row + 1] * x[i - 1];
         }
-        x[i] = s / band[i * stride];
+        x[i] = s * band[row];
     }
     for i in (0..n).rev() {
-        let mut s = x[i];
-        for k in i + 1..n.min(i + w + 1) {
-            s -= band[k * stride + (k - i)] * x[k];
+        let mut s = x[i] - paired_sum((i + 2).min(n)..n.min(i + w + 1), |k| band[k * stride + (k - i)], x);
+        if i + 1 < n {
+            s -= band[(i + 1) * stride + 1] * x[i + 1];
         }
-        x[i] = s / band[i * stride];
+        x[i] = s * band[i * stride];
     }
 }
 

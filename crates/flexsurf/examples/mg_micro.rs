@@ -1,0 +1,58 @@
+//! The multigrid solve's cost per conjugate-gradient iteration in matrix streams (issue 23, item 5): the
+//! touching `N × N` sheet's step matrix after a few steps, solved by multigrid-preconditioned conjugate
+//! gradients from zero, against one product with the same matrix in full block rows on one thread (the bench's
+//! matrix stream).
+//!
+//!     cargo run --release -p flexsurf --example mg_micro -- 321 [solves]
+//!
+//! Prints the median solve's iterations, seconds per iteration and streams per iteration.
+use flexsurf::bench::{product_time, scene, Workload};
+use flexsurf::integrate::linsolve::{BlockSolver, Multigrid, Reuse};
+use flexsurf::integrate::{StepParams, Stepper};
+use flexsurf::math::Vec3;
+use flexsurf::sparse::BlockRows;
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let n: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(161);
+    let solves: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(5);
+    let scene = scene(n, Workload::Touching).expect("the touching scene builds");
+    let mut state = scene.state.clone();
+    let mut stepper = Stepper::new(&scene.model, &StepParams { ..scene.step_params() }).expect("stepper");
+    for _ in 0..2 {
+        stepper.step(&scene.model, &mut state).expect("a step");
+    }
+    stepper.assemble(&scene.model, &state);
+    let pattern = scene.model.potential.pattern();
+    let a = stepper.matrix().clone();
+    let fixed = scene.model.pinned().to_vec();
+    let b: Vec<Vec3> = stepper.rhs().to_vec();
+    let mut mg = Multigrid::new(pattern, &scene.model.panels).expect("multigrid");
+    mg.set_positions(&state.x);
+    let product = product_time(&BlockRows::from_symmetric(&a, pattern));
+    let mut rows = Vec::new();
+    for _ in 0..solves {
+        let mut x = vec![Vec3::ZERO; b.len()];
+        let t = std::time::Instant::now();
+        let (iters, setup) = match mg.solve(&a, &fixed, &b, &mut x, Reuse::Fresh) {
+            Ok(s) => (s.iterations, s.setup_seconds),
+            Err(e) => {
+                println!("{e}");
+                (Multigrid::MAX_ITERATIONS, 0.0)
+            }
+        };
+        rows.push(((t.elapsed().as_secs_f64() - setup) / iters.max(1) as f64, iters, setup));
+    }
+    rows.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let (per_iter, iters, setup) = rows[rows.len() / 2];
+    println!(
+        "{n}²: {} levels, {iters} iterations, {:.3} ms an iteration, product {:.3} ms: {:.2} streams an iteration; \
+         set-up {:.1} ms ({:.1} streams)",
+        mg.levels(),
+        1e3 * per_iter,
+        1e3 * product,
+        per_iter / product,
+        1e3 * setup,
+        setup / product
+    );
+}
