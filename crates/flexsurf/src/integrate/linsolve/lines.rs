@@ -89,8 +89,7 @@ impl RowMatrix {
         let (blocks, cols) = (&self.blocks[r.clone()], &self.col[r]);
         let term = |m: &glam::Mat3, c: u32| m.as_dmat3() * x[c as usize];
         let (mut even, mut odd) = (Vec3::ZERO, Vec3::ZERO);
-        let mut pairs = blocks.chunks_exact(2).zip(cols.chunks_exact(2));
-        for (m, c) in pairs.by_ref() {
+        for (m, c) in blocks.chunks_exact(2).zip(cols.chunks_exact(2)) {
             even += term(&m[0], c[0]);
             odd += term(&m[1], c[1]);
         }

@@ -75,10 +75,11 @@ pub enum SolverKind {
 }
 
 /// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`]. Measured with contact
-/// from the first step (docs/performance.md): Cholesky is as fast or faster up to 321² (103k nodes: 7.7 s a step
-/// against 8.6 s, but 1.6 GB against 0.6 GB); at 641² its factor alone would take about 4 GB (a 6.7 GB peak
-/// measured), multigrid's whole run 2.3 GB.
-pub const AUTO_MULTIGRID_NODES: usize = 120_000;
+/// from the first step (docs/performance.md, "Which solver `auto` takes"): the two are even at 161² and 281²
+/// (1.0 and 4.3 s a step), multigrid is faster from 321² (103k nodes: 6.1–6.8 s a step against 7.5–7.6 s, and
+/// 0.9 GB against 1.9 GB); at 641² Cholesky's factor alone would take about 4 GB (a 6.7 GB peak measured),
+/// multigrid's whole run 2.3 GB.
+pub const AUTO_MULTIGRID_NODES: usize = 90_000;
 
 impl SolverKind {
     /// Name as in scene files and summaries.
