@@ -12,7 +12,9 @@
 //! matrices are factorised by a banded Cholesky at each refill. Masked nodes (pinned) are never changed.
 //!
 //! The matrix is kept here by rows (both triangles), so the residuals of a line and the products run row by
-//! row, split over rayon's threads with each row summed in a fixed order.
+//! row, split over rayon's threads with each row summed in a fixed order. A colour's residuals are computed
+//! through the rows in node order and then gathered line by line: a `u2` line visited node by node would jump a
+//! grid row between its rows, which memory prefetching does not follow (docs/performance.md).
 
 use crate::grid::Topology;
 use crate::math::{Mat3, Vec3};
