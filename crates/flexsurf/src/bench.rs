@@ -106,6 +106,10 @@ pub struct BenchRow {
     /// The mean step (`wall_seconds / steps`) in matrix streams: how many products with the step matrix a
     /// step costs, independently of the machine's speed.
     pub streams_per_step: f64,
+    /// For the iterative solvers (multigrid, block-Jacobi CG): the mean preconditioned iteration (the solve
+    /// stage's time over the iterations) in the same products, the cost issue 23 item 5 bounds; `None` for
+    /// Cholesky, whose solve stage is mostly triangular solves.
+    pub streams_per_iteration: Option<f64>,
 }
 
 /// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
@@ -152,6 +156,10 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
         product_seconds,
         product_bytes: full.bytes(),
         streams_per_step: if product_seconds > 0.0 { wall_seconds / s / product_seconds } else { 0.0 },
+        streams_per_iteration: (stepper.solver_kind() != SolverKind::Cholesky
+            && c.iterations > 0
+            && product_seconds > 0.0)
+            .then(|| c.solve / c.iterations as f64 / product_seconds),
     })
 }
 
