@@ -162,3 +162,19 @@ fn multigrid_steps_are_the_same_on_any_number_of_threads() {
     assert_eq!(one, run(2), "1 and 2 threads differ");
     assert_eq!(one, run(5), "1 and 5 threads differ");
 }
+
+/// `flexsurf bench` states an iteration's cost in matrix streams for the iterative solvers (issue 23, item 5)
+/// and not for Cholesky, whose solve stage is triangular solves; its streams a step are the mean step over one
+/// product.
+#[test]
+fn bench_states_streams_an_iteration_for_the_iterative_solvers_only() {
+    use flexsurf::bench::{run, Workload};
+    let mg = run(21, 2, Workload::Touching, SolverKind::Multigrid).unwrap();
+    let chol = run(21, 2, Workload::Touching, SolverKind::Cholesky).unwrap();
+    let per_iteration = mg.streams_per_iteration.expect("multigrid reports streams an iteration");
+    assert!(mg.per_step.iterations > 0 && per_iteration > 0.0 && per_iteration.is_finite(), "{mg:?}");
+    let expected = mg.per_step.solve * mg.steps as f64 / mg.per_step.iterations as f64 / mg.product_seconds;
+    assert!((per_iteration - expected).abs() <= 1e-12 * expected, "{per_iteration} against {expected}");
+    assert_eq!(chol.streams_per_iteration, None);
+    assert!(chol.streams_per_step > 0.0, "{chol:?}");
+}
