@@ -30,8 +30,8 @@ use crate::model::Model;
 use crate::potential::self_contact::SelfContact;
 use crate::surface::TriMesh;
 
-/// Most halvings of a node's share before it is set to 0 (1 → 1/16 → 0).
-const HALVINGS: usize = 4;
+/// The least share a halving leaves; a share at or below it goes to 0 next (1 → 1/2 → … → 1/16 → 0).
+const LEAST: f64 = 1.0 / 16.0;
 
 /// Passes after which the nodes of elements still meeting lose their whole bulge at once; after twice as
 /// many every node does (the flat refinement), so a search ends within `2 PATIENCE + 1` passes. A fold
@@ -157,9 +157,8 @@ pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Ap
         nodes.sort_unstable();
         nodes.dedup();
         // Halve (after a few passes that have not settled it, cut at once), down to 0 below the last halving.
-        let least = 0.5_f64.powi(HALVINGS as i32);
         for n in nodes {
-            share[n] = if share[n] > least && report.passes <= PATIENCE { share[n] * 0.5 } else { 0.0 };
+            share[n] = if share[n] > LEAST && report.passes <= PATIENCE { share[n] * 0.5 } else { 0.0 };
         }
         positions = bulges.positions(&share);
     }

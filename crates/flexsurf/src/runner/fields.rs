@@ -203,8 +203,13 @@ pub(crate) fn seam_vertex_pairs(model: &Model, k: usize) -> Vec<(usize, usize)> 
 /// their display curves agree up to rounding; the merged vertex takes the first panel's position and the mean
 /// normal).
 pub fn welded_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+    weld(model, &display_mesh(model, x, k.max(1)), k)
+}
+
+/// [`welded_mesh`] of `mesh`, the model's display mesh with `k` subdivisions already made (an output frame's),
+/// so it is not made again.
+pub fn weld(model: &Model, mesh: &TriMesh, k: usize) -> TriMesh {
     let k = k.max(1);
-    let mesh = display_mesh(model, x, k);
     let mut parent: Vec<usize> = (0..mesh.positions.len()).collect();
     fn root(parent: &mut [usize], mut v: usize) -> usize {
         while parent[v] != v {

@@ -1,9 +1,9 @@
 //! The welded garment: at every output step of a model with seams, one mesh of the whole garment with the
-//! seams' vertices merged ([`crate::runner::fields::welded_mesh`]), as `garment/garment_NNNNN.obj`. Models
+//! seams' vertices merged (the frame's display mesh through [`crate::runner::fields::weld`]), as `garment/garment_NNNNN.obj`. Models
 //! without seams write nothing.
 
 use super::{Context, Frame, Output, OutputState};
-use crate::runner::fields::welded_mesh;
+use crate::runner::fields::weld;
 use crate::runner::{io_err, RunError};
 use crate::scene::{FrameFormat, Scene};
 use std::path::PathBuf;
@@ -49,10 +49,11 @@ impl Output for Garment<'_> {
     }
 
     fn record(&mut self, frame: &Frame<'_>) -> Result<(), RunError> {
-        if frame.mesh.is_none() || self.steps.binary_search(&frame.state.step).is_err() {
+        let Some(display) = frame.mesh.filter(|_| self.steps.binary_search(&frame.state.step).is_ok()) else {
             return Ok(());
-        }
-        let mesh = welded_mesh(&self.scene.model, &frame.state.x, self.scene.output.coons_subdivisions);
+        };
+        // The frame's display mesh (bulges already cut apart), welded along the seams.
+        let mesh = weld(&self.scene.model, display, self.scene.output.coons_subdivisions);
         let path = self.out.join(garment_file(frame.state.step));
         super::frames::write_mesh(&path, &mesh, FrameFormat::Obj).map_err(io_err(&path))
     }
