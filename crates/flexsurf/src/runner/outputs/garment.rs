@@ -1,6 +1,6 @@
 //! The welded garment: at every output step of a model with seams, one mesh of the whole garment with the
-//! seams' vertices merged (the frame's display mesh through [`crate::runner::fields::weld`]), as `garment/garment_NNNNN.obj`. Models
-//! without seams write nothing.
+//! seams' vertices merged (the frame's display mesh through [`crate::runner::fields::weld`]), as
+//! `garment/garment_NNNNN.obj`. Models without seams write nothing.
 
 use super::{Context, Frame, Output, OutputState};
 use crate::runner::fields::weld;
