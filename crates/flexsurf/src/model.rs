@@ -7,6 +7,7 @@
 
 use crate::contact::proximity::Faces;
 use crate::contact::Obstacle;
+use crate::energy::frame::Warp;
 use crate::grid::Grid;
 use crate::material::{Fabric, Stiffness};
 use crate::math::{finite, Vec3};
@@ -311,7 +312,7 @@ impl ModelBuilder {
             .panels
             .iter()
             .zip(&welds.maps)
-            .map(|(p, map)| Panel { grid: p.grid, nodes: map.clone(), rest: p.rest.clone() })
+            .map(|(p, map)| Panel { grid: p.grid, nodes: map.clone(), rest: p.rest.clone(), warp: p.options.warp() })
             .collect();
         let welded = |p: &[f64]| -> Vec<f64> { scatter_add(&panels, p, n) };
         let areas: Vec<Vec<f64>> = self.panels.iter().map(|p| rest_areas(&p.grid, &p.rest)).collect();
@@ -472,12 +473,24 @@ pub struct Panel {
     /// The panel's own rest shape (two panels joined by a seam may place the joined node differently: flat
     /// pieces sewn together).
     rest: Vec<Vec3>,
+    /// Where the warp runs in the rest shape (the display's UVs follow it).
+    warp: Warp,
 }
 
 impl Panel {
     /// A panel of `grid` over the model's nodes `offset..offset + grid.len()`, with rest shape `rest`.
     pub fn contiguous(grid: Grid, offset: usize, rest: Vec<Vec3>) -> Self {
-        Self { grid, nodes: (offset..offset + grid.len()).collect(), rest }
+        Self { grid, nodes: (offset..offset + grid.len()).collect(), rest, warp: Warp::default() }
+    }
+
+    /// The same panel with its warp running as `warp` says (the default: along `u1`).
+    pub fn with_warp(self, warp: Warp) -> Self {
+        Self { warp, ..self }
+    }
+
+    /// Where the warp runs in the rest shape.
+    pub fn warp(&self) -> Warp {
+        self.warp
     }
 
     /// The model's node of each local node.

@@ -31,6 +31,51 @@ pub fn write_obj_to(w: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
     Ok(())
 }
 
+/// Writes `mesh` with texture coordinates to an OBJ file at `path`, atomically: `vt` lines from `uv` and faces
+/// `f a/ta/na …` whose texture corners are `uv_triangles` (one per triangle of `mesh`), so a vertex shared by
+/// two texture islands (a garment's seam, welded) keeps a texture coordinate on each side. Normals as in
+/// [`write_obj_to`].
+pub fn write_obj_textured(
+    path: impl AsRef<Path>,
+    mesh: &TriMesh,
+    uv: &[[f32; 2]],
+    uv_triangles: &[[u32; 3]],
+) -> io::Result<()> {
+    mesh.validate().map_err(invalid)?;
+    if uv_triangles.len() != mesh.triangles.len() || uv_triangles.iter().flatten().any(|&t| t as usize >= uv.len()) {
+        return Err(invalid(format!(
+            "{} texture triangles into {} texture coordinates for a mesh of {} triangles",
+            uv_triangles.len(),
+            uv.len(),
+            mesh.triangles.len()
+        )));
+    }
+    write_atomic_with(path, |w| {
+        writeln!(w, "# flexsurf mesh: {} vertices, {} triangles", mesh.vertex_count(), mesh.triangle_count())?;
+        for p in &mesh.positions {
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for t in uv {
+            writeln!(w, "vt {} {}", t[0], t[1])?;
+        }
+        let normals = mesh.has_normals();
+        if normals {
+            for n in &mesh.normals {
+                writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+            }
+        }
+        for (t, u) in mesh.triangles.iter().zip(uv_triangles) {
+            let ([a, b, c], [ta, tb, tc]) = (t.map(|v| v + 1), u.map(|v| v + 1));
+            if normals {
+                writeln!(w, "f {a}/{ta}/{a} {b}/{tb}/{b} {c}/{tc}/{c}")?;
+            } else {
+                writeln!(w, "f {a}/{ta} {b}/{tb} {c}/{tc}")?;
+            }
+        }
+        Ok(())
+    })
+}
+
 /// OBJ frames: `.obj`, [`write_obj`].
 pub const WRITER: MeshWriter = MeshWriter { extension: "obj", write: |path, mesh| write_obj(path, mesh) };
 

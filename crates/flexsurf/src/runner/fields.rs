@@ -13,11 +13,15 @@
 //! - velocity: the central-difference estimate `(x_t − x_{t−Δt})/Δt` of [`State::velocity`].
 //!
 //! Display vertex `(a, b)` of [`CoonsSurface::tessellate`] lies at `(t1, t2)` in cell `(ci, cj)`; its field
-//! values are the bilinear blend of the cell's four corner nodes, and its UV is `((ci + t1)·h1, (cj + t2)·h2)`,
-//! the pattern coordinates along warp (u1) and weft (u2).
+//! values are the bilinear blend of the cell's four corner nodes. Its UV is in metres along the warp and the
+//! weft: for a panel whose warp is at an angle `a` from `u1`, the grid metres `((ci + t1)·h1, (cj + t2)·h2)`
+//! turned by `−a`; for a panel whose warp is a direction of a flat rest shape (a pattern piece, a Cusick
+//! disc), the vertex's place on the rest surface along the grain and across it, so a garment's texture shows
+//! each panel's grain as it was cut.
 
 pub use super::apart::display_mesh;
 use crate::contact::{self, Look};
+use crate::energy::frame::Warp;
 use crate::grid::Grid;
 use crate::io::render::{checkered_square, uv_sphere};
 use crate::math::Vec3;
@@ -241,11 +245,30 @@ pub fn weld(model: &Model, mesh: &TriMesh, k: usize) -> TriMesh {
     out
 }
 
-/// The triangles and UVs shared by every frame of `grid` tessellated with `k` subdivisions.
-fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
-    let uv = display_stencil(grid, k).into_iter().map(|(_, _, uv)| [uv[0] as f32, uv[1] as f32]).collect();
-    // The triangles are those of any tessellation; take them from the flat pattern.
+/// The triangles and UVs shared by every frame of `panel` tessellated with `k` subdivisions.
+fn panel_topology(panel: &Panel, k: usize) -> DisplayTopology {
+    let grid = &panel.grid;
+    // The triangles are those of any tessellation; take them from the flat grid.
     let triangles = CoonsSurface::new(grid, &grid.flat_positions(0.0)).tessellate(k).triangles;
+    let uv = match panel.warp() {
+        // Grid metres (along u1, along u2) turned so that u runs along the warp.
+        Warp::Angle(a) => {
+            let (s, c) = a.sin_cos();
+            let turn = |m: [f64; 2]| [(c * m[0] + s * m[1]) as f32, (c * m[1] - s * m[0]) as f32];
+            display_stencil(grid, k).into_iter().map(|(_, _, m)| turn(m)).collect()
+        }
+        // A flat pattern (or a flat disc of fabric): each display vertex's place on the rest surface, in metres
+        // along the grain and across it, so that a texture shows the grain as it was cut.
+        Warp::Direction(d) => {
+            let warp = Vec3::new(d.x, d.y, 0.0).normalize_or(Vec3::X);
+            let weft = Vec3::Z.cross(warp);
+            let rest = CoonsSurface::try_new(grid, panel.rest()).map(|s| s.tessellate(k).positions);
+            match rest {
+                Ok(rest) => rest.iter().map(|p| [p.dot(warp) as f32, p.dot(weft) as f32]).collect(),
+                Err(_) => display_stencil(grid, k).into_iter().map(|(_, _, m)| m.map(|v| v as f32)).collect(),
+            }
+        }
+    };
     DisplayTopology { triangles, uv }
 }
 
@@ -255,7 +278,7 @@ pub fn display_topology(panels: &[Panel], k: usize) -> DisplayTopology {
     let mut all = DisplayTopology { triangles: Vec::new(), uv: Vec::new() };
     for p in panels {
         let base = all.uv.len() as u32;
-        let DisplayTopology { triangles, uv } = grid_topology(&p.grid, k);
+        let DisplayTopology { triangles, uv } = panel_topology(p, k);
         all.triangles.extend(triangles.iter().map(|t| t.map(|v| v + base)));
         all.uv.extend(uv);
     }
@@ -313,14 +336,15 @@ pub fn frame_fields(model: &Model, state: &State, mesh: &TriMesh, k: usize) -> F
 pub mod internals {
     use super::DisplayTopology;
     use crate::grid::Grid;
+    use crate::model::Panel;
 
     /// `display_counts`.
     pub fn display_counts(grid: &Grid, k: usize) -> (usize, usize) {
         super::display_counts(grid, k)
     }
 
-    /// `grid_topology`.
-    pub fn grid_topology(grid: &Grid, k: usize) -> DisplayTopology {
-        super::grid_topology(grid, k)
+    /// `panel_topology`.
+    pub fn panel_topology(panel: &Panel, k: usize) -> DisplayTopology {
+        super::panel_topology(panel, k)
     }
 }

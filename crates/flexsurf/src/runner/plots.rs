@@ -20,7 +20,12 @@ pub fn model_label(kind: &str) -> &'static str {
 
 /// What `animation.glb` records about the run besides the frames.
 pub fn run_info(scene: &Scene, summary: &Summary) -> serde_json::Value {
+    // The viewer's warp and weft lines, one a grid spacing apart (the UVs are metres along the grain).
+    let panels = &scene.model.panels;
+    let mean =
+        |h: fn(&crate::grid::Grid) -> f64| panels.iter().map(|p| h(&p.grid)).sum::<f64>() / panels.len().max(1) as f64;
     serde_json::json!({
+        "line_spacing": [mean(|g| g.h1), mean(|g| g.h2)],
         "scene": scene.name,
         "model": summary.model,
         "integrator": summary.integrator,

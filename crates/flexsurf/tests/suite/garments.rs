@@ -903,3 +903,91 @@ fn regression_a_seam_of_two_nodes_panicked_the_seam_strip() {
     assert!(e.contains("`seam[") && e.contains("have 2 nodes at edge_length = 4294967296 m"), "{e}");
     assert!(e.contains("panel `") && e.contains("a seam needs 3 or more: a smaller edge_length"), "{e}");
 }
+
+/// Two rectangles side by side: the left one's grain along pattern `x`, the right one's along pattern `y`.
+fn crossed_grains() -> String {
+    let right = rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("grain = [1.0, 0.0]", "grain = [0.0, 1.0]");
+    format!(
+        "edge_length = 0.05\n{}{right}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    )
+}
+
+/// The display's UVs are the pattern's metres along each panel's grain and across it: the left panel (grain
+/// `x`) maps pattern `(x, y)` to `(x, y)`, the right one (grain `y`) to `(y, −x)` (the weft is the grain turned
+/// a quarter counter-clockwise); every display triangle keeps its flat pattern area in UV, and the seam's
+/// display vertices have one UV on each side.
+#[test]
+fn display_uvs_run_along_each_panels_grain() {
+    let built = build(&crossed_grains());
+    let (fabric, stiffness) = cotton();
+    let [l, r] = [&built.panels[0], &built.panels[1]];
+    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
+        .options(l.options)
+        .panel(r.grid, r.flat.clone(), r.options);
+    let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
+    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
+    let k = 2;
+    let topology = flexsurf::runner::fields::display_topology(&sewn.model.panels, k);
+    let rows = 2 * 6 + 1; // display vertices along x per panel (6 cells of 5 cm at k = 2)
+    assert_eq!(topology.uv.len(), 2 * rows * (2 * 12 + 1));
+    let uv = |panel: usize, a: usize, b: usize| topology.uv[panel * rows * 25 + a + rows * b];
+    let near = |got: [f32; 2], want: [f64; 2]| (got[0] as f64 - want[0]).hypot(got[1] as f64 - want[1]) < 1e-6;
+    // Corners and the centre of a display cell of each panel, from the outlines' numbers.
+    for (a, b, x, y) in [(0, 0, -0.3, -0.3), (12, 24, 0.0, 0.3), (3, 5, -0.225, -0.175)] {
+        assert!(near(uv(0, a, b), [x, y]), "left ({a}, {b}): {:?}", uv(0, a, b));
+    }
+    for (a, b, x, y) in [(0, 0, 0.0, -0.3), (12, 24, 0.3, 0.3), (3, 5, 0.075, -0.175)] {
+        assert!(near(uv(1, a, b), [y, -x]), "right ({a}, {b}): {:?}", uv(1, a, b));
+    }
+    // The seam (the left's last column, the right's first) has two UVs per vertex, a quarter turn apart.
+    assert!(near(uv(0, 12, 10), [0.0, -0.05]) && near(uv(1, 0, 10), [-0.05, 0.0]));
+    let area = |t: &[u32; 3]| {
+        let [p, q, s] = t.map(|v| topology.uv[v as usize].map(f64::from));
+        0.5 * ((q[0] - p[0]) * (s[1] - p[1]) - (q[1] - p[1]) * (s[0] - p[0]))
+    };
+    let total: f64 = topology.triangles.iter().map(area).sum();
+    assert!(
+        topology.triangles.iter().all(|t| (area(t) - 0.025f64.powi(2) / 2.0).abs() < 1e-9),
+        "a triangle is not flat-sized"
+    );
+    assert!((total - 0.36).abs() < 1e-6, "UV area {total}"); // f32 UVs
+}
+
+/// The welded garment mesh a run writes carries the pattern's UVs: one `vt` per display vertex, the faces'
+/// texture corners those of the unwelded display mesh, so the seam's welded vertices have two.
+#[test]
+fn the_written_garment_mesh_has_the_patterns_uvs() {
+    let dir = crate::scratch_dir("garment-uv");
+    std::fs::write(dir.join("pattern.toml"), crossed_grains()).unwrap();
+    let scene = "name = \"uv\"\ngravity = [0.0, 0.0, -9.81]\n[pattern]\nfile = \"pattern.toml\"\n\
+                 [material]\npreset = \"paper-cotton\"\n[time]\ndt = 0.01\nsteps = 1\noutput_every = 1\n\
+                 [output]\ncoons_subdivisions = 2\n";
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let scene = flexsurf::scene::load(&dir.join("scene.toml")).unwrap();
+    let out = dir.join("out");
+    flexsurf::runner::run_scene(&scene, &out, |_| {}).unwrap();
+    let text = std::fs::read_to_string(out.join("garment/garment_00001.obj")).unwrap();
+    let count = |tag: &str| text.lines().filter(|l| l.starts_with(tag)).count();
+    // 2 × 13 × 25 display vertices, the seam's 25 welded.
+    assert_eq!((count("v "), count("vt "), count("vn "), count("f ")), (625, 650, 625, 1152));
+    let faces: Vec<Vec<[usize; 2]>> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("f "))
+        .map(|f| {
+            f.split(' ')
+                .map(|c| c.split('/').map(|n| n.parse().unwrap()))
+                .map(|mut c| [c.next().unwrap(), c.next().unwrap()])
+                .collect()
+        })
+        .collect();
+    // Some welded vertex is used with two texture coordinates (the seam), none with three.
+    let mut uvs: std::collections::BTreeMap<usize, std::collections::BTreeSet<usize>> = Default::default();
+    faces.iter().flatten().for_each(|[v, t]| {
+        uvs.entry(*v).or_default().insert(*t);
+    });
+    assert_eq!(uvs.values().filter(|s| s.len() == 2).count(), 25);
+    assert!(uvs.values().all(|s| s.len() <= 2));
+}

@@ -49,11 +49,12 @@ mod checkpoint {
 // Node loops index several arrays by node (the library allows the lint for the same reason, `src/lib.rs`).
 #[allow(clippy::needless_range_loop)]
 mod fields {
+    use flexsurf::energy::frame::Warp;
     use flexsurf::grid::Grid;
     use flexsurf::grid::Topology;
     use flexsurf::math::Vec3;
     use flexsurf::model::Panel;
-    use flexsurf::runner::fields::internals::{display_counts, grid_topology};
+    use flexsurf::runner::fields::internals::{display_counts, panel_topology};
     use flexsurf::runner::fields::*;
     use flexsurf::surface::CoonsSurface;
 
@@ -69,7 +70,14 @@ mod fields {
                 .collect();
             let k = 3;
             let mesh = CoonsSurface::new(&g, &x).tessellate(k);
-            let topo = grid_topology(&g, k);
+            let panel = Panel::contiguous(g, 0, g.flat_positions(0.0));
+            let topo = panel_topology(&panel, k);
+            // Warp a quarter turn from u1: u along u2, v against u1.
+            let turned = panel_topology(&panel.with_warp(Warp::Angle(std::f64::consts::FRAC_PI_2)), k);
+            assert_eq!(turned.triangles, topo.triangles);
+            for (t, u) in turned.uv.iter().zip(&topo.uv) {
+                assert!((t[0] - u[1]).abs() < 1e-6 && (t[1] + u[0]).abs() < 1e-6, "{t:?} against {u:?}");
+            }
             assert_eq!(topo.uv.len(), mesh.vertex_count());
             assert_eq!(topo.triangles, mesh.triangles);
             // Blending the node positions gives the display vertex at the grid nodes exactly.
