@@ -7,6 +7,7 @@
 //!   girth at the bottom and the given length along every generatrix, used as the flat pattern.
 //! - [`pattern`]: sewing patterns: panels from 2D outlines (Coons grids), seams between their edges.
 //! - [`sewing`]: the sewing phase that pulls the placed panels' seams closed and joins them.
+//! - [`wrap`]: a placed panel moved onto the body's offset surface along the lines to its placement's axis.
 //! - [`fit`]: the waist row fitted onto the body, and the clearance of the straight generatrices from it to the
 //!   hem.
 
@@ -14,6 +15,7 @@ pub mod fit;
 pub mod pattern;
 pub mod sewing;
 pub mod skirt;
+pub mod wrap;
 
 pub use fit::{WaistFit, GENERATRIX_SAMPLES, MAX_WAIST_FIT, MIN_WAIST_SAMPLES, WAIST_SAMPLES_PER_NODE};
 pub use skirt::{Cone, SkirtPattern};

@@ -113,6 +113,29 @@ pub enum Placement {
 }
 
 impl Placement {
+    /// The foot of `q` on the placement's axis (the point of the axis closest to `q`; for the vertical cylinder
+    /// and the cone, the axis point at `q`'s height); `None` for a flat placement.
+    pub fn axis_point(&self, q: Vec3) -> Option<Vec3> {
+        match *self {
+            Placement::Flat { .. } => None,
+            Placement::Cylinder { axis, .. } | Placement::Cone { axis, .. } => Some(Vec3::new(axis[0], axis[1], q.z)),
+            Placement::Tilted { origin, direction, .. } => {
+                let e3 = direction.normalize_or(Vec3::Z);
+                Some(origin + e3 * e3.dot(q - origin))
+            }
+        }
+    }
+
+    /// The direction of the placement's axis (vertical for the vertical cylinder and the cone); `None` for a
+    /// flat placement.
+    pub fn axis_direction(&self) -> Option<Vec3> {
+        match *self {
+            Placement::Flat { .. } => None,
+            Placement::Cylinder { .. } | Placement::Cone { .. } => Some(Vec3::Z),
+            Placement::Tilted { direction, .. } => Some(direction.normalize_or(Vec3::Z)),
+        }
+    }
+
     /// The placed position of pattern point `p`.
     pub fn place(&self, p: [f64; 2]) -> Vec3 {
         match *self {
@@ -157,6 +180,9 @@ pub struct PanelPattern {
     pub grain: [f64; 2],
     /// Where it goes before sewing.
     pub placement: Placement,
+    /// After the placement's wrap, each node moved along its line to the axis onto the body's offset surface at
+    /// this distance (m) outside the obstacles ([`crate::garment::wrap`]); `None`: left on the cylinder or cone.
+    pub onto_body: Option<f64>,
 }
 
 /// A part of a panel's edge named by its end points (corners or marks of one edge), in the sense the seam
@@ -586,6 +612,9 @@ pub struct BuiltPanel {
     pub flat: Vec<Vec3>,
     /// The placed positions (before sewing).
     pub placed: Vec<Vec3>,
+    /// Where it was placed, and the offset from the body it is to be wrapped onto, if any
+    /// ([`PanelPattern::onto_body`]: the scene does it, knowing the obstacles).
+    pub placement: (Placement, Option<f64>),
     /// Warp along the grain in the flat pattern, zero rest curvature.
     pub options: ElasticOptions,
     /// Smallest and largest Jacobian of the Coons map over the cells' corners (m² per unit square).
@@ -936,6 +965,7 @@ fn build_panel(
         grid,
         flat: pattern.iter().map(|q| Vec3::new(q[0], q[1], 0.0)).collect(),
         placed: pattern.iter().map(|q| panel.placement.place(*q)).collect(),
+        placement: (panel.placement, panel.onto_body),
         options,
         jacobian,
         corners: outline.corners.clone(),
@@ -947,6 +977,14 @@ fn build_panel(
 fn check_placement(p: usize, panel: &PanelPattern) -> Result<(), PatternError> {
     let bad =
         |message: String| Err(error(format!("panel[{p}].placement"), format!("panel `{}`: {message}", panel.name)));
+    if let Some(offset) = panel.onto_body {
+        if matches!(panel.placement, Placement::Flat { .. }) {
+            return bad("`onto_body` needs a cylinder or a cone (its axis gives the lines the nodes move along)".into());
+        }
+        if !(offset >= 0.0 && offset.is_finite()) {
+            return bad(format!("`onto_body` {offset} m is not a distance (a finite number, 0 or more)"));
+        }
+    }
     let (radius, direction) = match panel.placement {
         Placement::Flat { .. } => return Ok(()),
         Placement::Cylinder { radius, .. } => (radius, Vec3::Z),

@@ -160,6 +160,10 @@ pub struct ConeEntry {
     pub center: [f64; 2],
     /// The pattern point placed at the cone's apex (m).
     pub apex: [f64; 2],
+    /// Then each node moved along its line to the axis onto the body's offset surface at this distance (m)
+    /// outside the scene's obstacles (coming in from the wrap; out, if the wrap is inside it); default: none.
+    #[serde(default)]
+    pub onto_body: Option<f64>,
 }
 
 /// A flat placement.
@@ -193,6 +197,10 @@ pub struct CylinderEntry {
     /// The axis direction `[x, y, z]`, default vertical (`[0, 0, 1]`).
     #[serde(default)]
     pub direction: Option<[f64; 3]>,
+    /// Then each node moved along its line to the axis onto the body's offset surface at this distance (m)
+    /// outside the scene's obstacles (coming in from the wrap; out, if the wrap is inside it); default: none.
+    #[serde(default)]
+    pub onto_body: Option<f64>,
 }
 
 /// An edge, by its panel and end corners, in the sense the seam runs.
@@ -467,7 +475,12 @@ impl PanelEntry {
                 apex: c.apex,
             },
         };
-        PanelPattern { name: self.name.clone(), outline, grain: self.grain, placement }
+        let onto_body = match &self.placement {
+            PlacementEntry::Flat(_) => None,
+            PlacementEntry::Cylinder(c) => c.onto_body,
+            PlacementEntry::Cone(c) => c.onto_body,
+        };
+        PanelPattern { name: self.name.clone(), outline, grain: self.grain, placement, onto_body }
     }
 }
 

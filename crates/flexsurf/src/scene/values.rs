@@ -162,7 +162,8 @@ impl SceneSpec {
         // Sheet or garment, then the initial condition, pins and springs on its grid, then output.
         let mut body = match &self.pattern {
             Some(p) if self.sheet.is_none() && self.garment.is_none() => {
-                let pattern = p.load(v, dt, &material.name, self.calibration)?;
+                let mut pattern = p.load(v, dt, &material.name, self.calibration)?;
+                wrap_panels(&mut pattern, &obstacles)?;
                 // The sizes are known now: the memory estimate of the panels (the cadences do not change).
                 let sizes = pattern.built.panels.iter().map(|q| ("pattern.file".to_string(), [q.grid.m, q.grid.n]));
                 estimate = budget::check_sizes(self, v, limits, Some(sizes.collect()))?.estimate;
@@ -323,6 +324,22 @@ impl SceneSpec {
             format!("[{w}, {h}]: each side must be between 16 and 8192 pixels")
         })
     }
+}
+
+/// The panels of `pattern` whose placement says `onto_body` moved onto the obstacles' offset surface
+/// ([`crate::garment::wrap`]); an error naming the pattern file's key when there is no obstacle to wrap onto.
+fn wrap_panels(pattern: &mut LoadedPattern, obstacles: &[Obstacle]) -> Result<(), SceneError> {
+    for (p, panel) in pattern.built.panels.iter_mut().enumerate() {
+        let (placement, Some(offset)) = panel.placement else { continue };
+        if obstacles.is_empty() {
+            let key = format!("panel[{p}].placement");
+            let message =
+                format!("panel `{}`: `onto_body` wraps onto the scene's obstacles, and it has none", panel.name);
+            return Err(SceneError::invalid(&pattern.file, key, message));
+        }
+        crate::garment::wrap::wrap_onto_body(&mut panel.placed, &panel.grid, &placement, offset, obstacles);
+    }
+    Ok(())
 }
 
 /// The sheet must not start inside an obstacle deeper than the contact offset (the penalty would throw it out

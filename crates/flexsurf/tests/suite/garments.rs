@@ -991,3 +991,112 @@ fn the_written_garment_mesh_has_the_patterns_uvs() {
     assert_eq!(uvs.values().filter(|s| s.len() == 2).count(), 25);
     assert!(uvs.values().all(|s| s.len() <= 2));
 }
+
+/// A 0.6 m tall band wrapped onto the body's offset surface (`onto_body`): around a sphere of radius 0.2 m with
+/// an offset of 0.01 m, every node within 0.21 m of the sphere's equatorial plane ends on the offset sphere at
+/// the horizontal distance `√(0.21² − z²)` from the axis, at its angle and height on the cylinder, whether the
+/// cylinder was wider than the body (0.35 m: the nodes come in) or cut through it (0.1 m: the nodes that were
+/// inside move out, those above the body's narrowing come in); the nodes above and below the body stay on
+/// the cylinder. The same about a tilted (horizontal) axis.
+#[test]
+fn a_panel_wrapped_onto_the_body_lies_on_its_offset_surface() {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::garment::wrap::wrap_onto_body;
+    let sphere = [Obstacle::Sphere { center: Vec3::ZERO, radius: 0.2 }];
+    let reach = 0.21;
+    let grid = Grid::sheet(12, 25, 0.3, 0.6).unwrap();
+    let band = |radius: f64| -> Vec<Vec3> {
+        // 12 × 25 points of a band of the cylinder, angles 0.1..1.2 rad, heights −0.3..0.3 m.
+        (0..12 * 25)
+            .map(|k| {
+                Vec3::new(
+                    radius * (0.1 * (1 + k % 12) as f64).cos(),
+                    radius * (0.1 * (1 + k % 12) as f64).sin(),
+                    -0.3 + 0.025 * (k / 12) as f64,
+                )
+            })
+            .collect()
+    };
+    for radius in [0.35, 0.1] {
+        let placement = Placement::Cylinder { axis: [0.0, 0.0], radius, angle: 0.0, height: 0.0, center: [0.0, 0.0] };
+        let before = band(radius);
+        let mut x = before.clone();
+        let moved = wrap_onto_body(&mut x, &grid, &placement, 0.01, &sphere);
+        let mut expected_moves = 0;
+        for (p, q) in x.iter().zip(&before) {
+            let (rho, angle) = (p.x.hypot(p.y), p.y.atan2(p.x));
+            assert!((angle - q.y.atan2(q.x)).abs() < 1e-12 && p.z == q.z, "{q:?} moved off its line to {p:?}");
+            if q.z.abs() < reach - 1e-9 {
+                let want = (reach * reach - q.z * q.z).sqrt();
+                assert!((rho - want).abs() < 2e-5, "radius {radius}, z {}: at {rho} m from the axis, not {want}", q.z);
+                expected_moves += usize::from((want - radius).abs() > 1e-9);
+            } else {
+                assert_eq!(p, q, "radius {radius}: a node beyond the body moved");
+            }
+        }
+        assert_eq!(moved, expected_moves);
+    }
+    // A sleeve-like tilted cylinder about the x axis: the same, distances measured from the x axis.
+    let placement =
+        Placement::Tilted { origin: Vec3::ZERO, direction: Vec3::X, radius: 0.3, angle: 0.0, center: [0.0, 0.0] };
+    let mut x: Vec<Vec3> = band(0.3).iter().map(|q| Vec3::new(q.z, q.x, q.y)).collect();
+    let before = x.clone();
+    wrap_onto_body(&mut x, &grid, &placement, 0.01, &sphere);
+    for (p, q) in x.iter().zip(&before) {
+        let want = if q.x.abs() < reach { (reach * reach - q.x * q.x).sqrt() } else { 0.3 };
+        assert!((p.y.hypot(p.z) - want).abs() < 2e-5 && p.x == q.x, "{q:?} went to {p:?}, not {want} m from the axis");
+    }
+}
+
+/// `onto_body` on a flat placement, a negative offset, or a scene without obstacles is an error naming the
+/// panel's placement.
+#[test]
+fn onto_body_errors_name_the_panels_placement() {
+    let cylinder = |offset: &str| {
+        rectangle("band", [0.0, 0.0, 0.3, 0.2]).replace(
+            "placement = { flat = {} }",
+            &format!("placement = {{ cylinder = {{ radius = 0.3, angle_deg = 0.0, height = 1.0, center = [0.0, 0.0]{offset} }} }}"),
+        )
+    };
+    let e = failure(&format!("edge_length = 0.05\n{}", cylinder(", onto_body = -0.01")));
+    assert!(e.contains("panel[0].placement") && e.contains("`onto_body` -0.01 m is not a distance"), "{e}");
+    let mut pattern = parse(&format!("edge_length = 0.05\n{}", rectangle("flat", [0.0, 0.0, 0.3, 0.2]))).pattern();
+    pattern.panels[0].onto_body = Some(0.01);
+    let e = pattern.build().unwrap_err().to_string();
+    assert!(e.contains("panel[0].placement") && e.contains("needs a cylinder or a cone"), "{e}");
+    let dir = crate::scratch_dir("onto-body-no-obstacle");
+    std::fs::write(dir.join("pattern.toml"), format!("edge_length = 0.05\n{}", cylinder(", onto_body = 0.01")))
+        .unwrap();
+    let scene = "name = \"wrap\"\n[pattern]\nfile = \"pattern.toml\"\n[material]\npreset = \"paper-cotton\"\n\
+                 [time]\ndt = 0.01\nsteps = 1\n";
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
+    assert!(e.contains("pattern.toml") && e.contains("panel[0].placement") && e.contains("has none"), "{e}");
+}
+
+/// A row wrapped onto two bodies side by side (two legs: spheres of radius 0.08 m at `x = ±0.12` m, offset
+/// 0.01 m) is pulled taut across the gap between them: the front of the row, wrapped from a cylinder of 0.35 m,
+/// lies on the two offset circles' common tangent `y = −0.09` m between them (the node straight in front, whose
+/// line passes between the legs, included), and no two neighbours are farther apart than on the cylinder.
+#[test]
+fn a_row_wrapped_onto_two_bodies_is_taut_across_the_gap() {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::garment::wrap::wrap_onto_body;
+    let legs = [-0.12, 0.12].map(|x| Obstacle::Sphere { center: Vec3::new(x, 0.0, 0.0), radius: 0.08 });
+    let m = 49; // angles −150° … −30° every 2.5°
+    let grid = Grid::sheet(m, 3, 0.3, 0.01).unwrap();
+    let placement = Placement::Cylinder { axis: [0.0, 0.0], radius: 0.35, angle: 0.0, height: 0.0, center: [0.0, 0.0] };
+    let angle = |i: usize| (-150.0 + 2.5 * i as f64).to_radians();
+    let mut x: Vec<Vec3> = (0..3 * m)
+        .map(|k| Vec3::new(0.35 * angle(k % m).cos(), 0.35 * angle(k % m).sin(), 0.001 * (k / m) as f64))
+        .collect();
+    wrap_onto_body(&mut x, &grid, &placement, 0.01, &legs);
+    let front = &x[..m];
+    let straight = front[m / 2];
+    assert!(straight.x.abs() < 1e-12 && (straight.y + 0.09).abs() < 5e-4, "straight in front: {straight:?}");
+    for p in front.iter().filter(|p| p.x.abs() < 0.11) {
+        assert!((p.y + 0.09).abs() < 5e-4, "{p:?} is off the tangent between the legs");
+    }
+    let step = front.windows(2).map(|w| (w[1] - w[0]).length()).fold(0.0, f64::max);
+    assert!(step < 0.35 * 2.5f64.to_radians(), "neighbours {step} m apart");
+}
