@@ -34,6 +34,11 @@ pub struct SewingParams {
     pub closing: Option<f64>,
 }
 
+/// How many closings a gradual sewing lets its seams out by after a step the contact could not take
+/// ([`StepError::Tunnelled`]: the springs pressed two layers of cloth, or the cloth and the body, together harder
+/// than the penalty holds), at the first, second, … such failure in a row; the phase fails at the next.
+pub const BACK_OFF: [usize; 4] = [4, 8, 16, 32];
+
 /// What the sewing phase did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SewReport {
@@ -43,6 +48,8 @@ pub struct SewReport {
     pub gaps: Vec<f64>,
     /// Wall time of the phase (s).
     pub seconds: f64,
+    /// Times a gradual closing was let out after a step that the contact could not take ([`BACK_OFF`]).
+    pub backoffs: usize,
 }
 
 impl SewReport {
@@ -160,13 +167,26 @@ pub fn sew_observed(
     let mut stepper = Stepper::new(&open, &StepParams::with_dt(params.dt))?;
     observe(&open, &state.x);
     let mut steps = 0;
+    // Closing increments taken (the rest lengths' fraction is `1 − closed/ramp`), let-outs in a row and in all.
+    let (mut closed, mut in_a_row, mut backoffs) = (0usize, 0usize, 0usize);
     while steps < params.steps && gap(&state.x).iter().any(|&g| g >= params.gap) {
         if let Some(sewing) = open.potential.find_mut::<Sewing>() {
-            sewing.set_fraction(1.0 - (steps + 1) as f64 / ramp);
+            sewing.set_fraction(1.0 - (closed + 1) as f64 / ramp);
         }
-        stepper.step(&open, &mut state)?;
-        steps += 1;
-        observe(&open, &state.x);
+        match stepper.step(&open, &mut state) {
+            Ok(_) => {
+                (steps, closed, in_a_row) = (steps + 1, closed + 1, 0);
+                observe(&open, &state.x);
+            }
+            // The springs press the cloth together (or onto the body) harder than the contact holds: let the
+            // seams out by a few closings, more at each failure in a row, and go on from the same state (a
+            // failed step leaves it as it was).
+            Err(StepError::Tunnelled { .. }) if params.closing.is_some() && in_a_row < BACK_OFF.len() => {
+                closed = closed.saturating_sub(BACK_OFF[in_a_row]);
+                (in_a_row, backoffs) = (in_a_row + 1, backoffs + 1);
+            }
+            Err(e) => return Err(e.into()),
+        }
     }
     let gaps = gap(&state.x);
     let mut sewn = builder.clone();
@@ -176,7 +196,7 @@ pub fn sew_observed(
     }
     let model = sewn.build()?;
     let x = joined_positions(&model, &state.x);
-    Ok(Sewn { model, x, report: SewReport { steps, gaps, seconds: clock.elapsed().as_secs_f64() } })
+    Ok(Sewn { model, x, report: SewReport { steps, gaps, seconds: clock.elapsed().as_secs_f64(), backoffs } })
 }
 
 /// Panel-node positions onto the model's nodes, a joined node at the mean of its panel nodes.

@@ -269,6 +269,8 @@ pub struct SewingSummary {
     pub steps: usize,
     /// Wall time of the sewing phase (s).
     pub seconds: f64,
+    /// Times the gradual closing let the seams out after a step the contact could not take.
+    pub backoffs: usize,
     /// The largest gap between two sewn nodes when the seams were joined (m).
     pub gap_max: f64,
     /// Per panel.
@@ -334,6 +336,7 @@ impl SewingSummary {
             file: info.file.display().to_string(),
             steps: info.report.steps,
             seconds: info.report.seconds,
+            backoffs: info.report.backoffs,
             gap_max: info.report.largest_gap(),
             panels,
             seams,
