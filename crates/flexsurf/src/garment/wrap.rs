@@ -172,11 +172,13 @@ fn wrap_row(
     points.push([0.0, 0.0]);
     let hull = convex_hull(points);
     let mut moved = 0;
-    for (k, foot, phi, _) in lines {
-        if phi < lo || phi > hi {
+    for (k, foot, phi, traced) in lines {
+        // A hull of fewer than three points (one traced line, or all on one line through the axis) has no
+        // edge a line leaves it by: a traced node then keeps its traced point.
+        let r = reach_of(&hull, [phi.cos(), phi.sin()]).max(traced.unwrap_or(0.0));
+        if phi < lo || phi > hi || r <= 0.0 {
             continue;
         }
-        let r = reach_of(&hull, [phi.cos(), phi.sin()]);
         let phi = phi + reference;
         let p = foot + r * (phi.cos() * frame.e1 + phi.sin() * frame.e2);
         moved += usize::from(p != placed[k]);

@@ -163,10 +163,10 @@ impl SceneSpec {
         let mut body = match &self.pattern {
             Some(p) if self.sheet.is_none() && self.garment.is_none() => {
                 let mut pattern = p.load(v, dt, &material.name, self.calibration)?;
-                wrap_panels(&mut pattern, &obstacles)?;
                 // The sizes are known now: the memory estimate of the panels (the cadences do not change).
                 let sizes = pattern.built.panels.iter().map(|q| ("pattern.file".to_string(), [q.grid.m, q.grid.n]));
                 estimate = budget::check_sizes(self, v, limits, Some(sizes.collect()))?.estimate;
+                wrap_panels(&mut pattern, &obstacles)?;
                 let initial = pattern.built.panels.iter().flat_map(|q| q.placed.iter().copied()).collect();
                 Body::Pattern { pattern, initial }
             }

@@ -1151,3 +1151,28 @@ fn a_seam_pulled_through_a_layer_of_cloth_is_let_out_not_pushed_through() {
     assert!(sewn.report.largest_gap() > 0.002, "the seam closed through the wall: {:?}", sewn.report);
     assert!(sides.0 < 0.04 && sides.1 > 0.04, "an edge went through the wall: {sides:?}");
 }
+
+/// A row that meets the body along one line only (a narrow post in front of one node) keeps that node's traced
+/// point and leaves the others on the cylinder; nothing falls onto the axis.
+#[test]
+fn a_row_meeting_the_body_once_moves_only_that_node() {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::garment::wrap::wrap_onto_body;
+    // A sphere of 1 cm at 0.2 m along +x: only the line of the node at angle 0 meets its 2 cm offset sphere.
+    let post = [Obstacle::Sphere { center: Vec3::new(0.2, 0.0, 0.0), radius: 0.01 }];
+    let grid = Grid::sheet(5, 3, 0.3, 0.01).unwrap();
+    let placement = Placement::Cylinder { axis: [0.0, 0.0], radius: 0.35, angle: 0.0, height: 0.0, center: [0.0, 0.0] };
+    let angle = |i: usize| -0.6 + 0.3 * i as f64;
+    let before: Vec<Vec3> = (0..15)
+        .map(|k| Vec3::new(0.35 * angle(k % 5).cos(), 0.35 * angle(k % 5).sin(), 0.001 * (k / 5) as f64))
+        .collect();
+    let mut x = before.clone();
+    assert_eq!(wrap_onto_body(&mut x, &grid, &placement, 0.01, &post), 3);
+    for (k, (p, q)) in x.iter().zip(&before).enumerate() {
+        if k % 5 == 2 {
+            assert!((p.x.hypot(p.y) - (0.2 + (0.02f64.powi(2) - q.z * q.z).sqrt())).abs() < 2e-5, "{p:?}");
+        } else {
+            assert_eq!(p, q);
+        }
+    }
+}
