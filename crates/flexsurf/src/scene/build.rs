@@ -293,6 +293,23 @@ impl SceneSpec {
                 SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
             },
         )?;
+        let (report, sewing) = (&sewn.report, &pattern.sewing);
+        if report.largest_gap() >= sewing.gap {
+            let (seam, gap) =
+                report.gaps.iter().enumerate().fold((0, 0.0), |a, (k, &g)| if g > a.1 { (k, g) } else { a });
+            v.warn(
+                "pattern.sewing_steps",
+                format!(
+                    "the seams did not close in {} sewing steps: seam {seam} was joined {:.2} mm apart (`sewing_gap` \
+                     {:.2} mm; let out {} times where the contact held it open), which moves its nodes half that \
+                     at the join; give more `sewing_steps` or stiffer sewing springs, or check the placement",
+                    report.steps,
+                    gap * 1e3,
+                    sewing.gap * 1e3,
+                    report.backoffs
+                ),
+            );
+        }
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }

@@ -1176,3 +1176,35 @@ fn a_row_meeting_the_body_once_moves_only_that_node() {
         }
     }
 }
+
+/// A sewing phase whose steps run out before the seams close warns, naming `pattern.sewing_steps`, the seam, its
+/// gap at the join and `sewing_gap`; one that closes does not.
+#[test]
+fn seams_joined_open_when_the_steps_run_out_are_a_warning() {
+    let dir = crate::scratch_dir("sewing-open");
+    let text = format!(
+        "edge_length = 0.05\n{}{}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    );
+    std::fs::write(dir.join("pattern.toml"), text).unwrap();
+    let scene = |steps: usize| {
+        format!(
+            "name = \"open\"\n[pattern]\nfile = \"pattern.toml\"\nsewing_stiffness = 100.0\nsewing_steps = {steps}\n\
+             sewing_gap = 0.0005\nsewing_closing = 0.005\n[material]\npreset = \"paper-cotton\"\n[time]\ndt = 0.01\n\
+             steps = 1\n[self_contact]\nthickness = 0.004\n"
+        )
+    };
+    for (steps, warned) in [(3, true), (200, false)] {
+        std::fs::write(dir.join("scene.toml"), scene(steps)).unwrap();
+        let built = flexsurf::scene::load(&dir.join("scene.toml")).unwrap();
+        let warning = built.warnings.iter().find(|w| w.key.contains("sewing_steps"));
+        assert_eq!(warning.is_some(), warned, "{steps} steps: {:?}", built.warnings);
+        if let Some(w) = warning {
+            let text = w.to_string();
+            assert!(text.contains("did not close in 3 sewing steps") && text.contains("seam 0"), "{text}");
+            assert!(text.contains("`sewing_gap` 0.50 mm"), "{text}");
+        }
+    }
+}
