@@ -293,23 +293,7 @@ impl SceneSpec {
                 SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
             },
         )?;
-        let (report, sewing) = (&sewn.report, &pattern.sewing);
-        if report.largest_gap() >= sewing.gap {
-            let (seam, gap) =
-                report.gaps.iter().enumerate().fold((0, 0.0), |a, (k, &g)| if g > a.1 { (k, g) } else { a });
-            v.warn(
-                "pattern.sewing_steps",
-                format!(
-                    "the seams did not close in {} sewing steps: seam {seam} was joined {:.2} mm apart (`sewing_gap` \
-                     {:.2} mm; let out {} times where the contact held it open), which moves its nodes half that \
-                     at the join; give more `sewing_steps` or stiffer sewing springs, or check the placement",
-                    report.steps,
-                    gap * 1e3,
-                    sewing.gap * 1e3,
-                    report.backoffs
-                ),
-            );
-        }
+        warn_if_open(v, &sewn.report, pattern.sewing.gap);
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
     }
@@ -335,6 +319,27 @@ fn pattern_model(
         spec.material = *material;
     }
     Some(model)
+}
+
+/// Warns when the sewing phase's steps ran out before every seam's gap was below `gap` (the seams are joined
+/// anyway, each pair at its midpoint).
+fn warn_if_open(v: &Validator<'_>, report: &SewReport, gap: f64) {
+    if report.largest_gap() < gap {
+        return;
+    }
+    let (seam, widest) = report.gaps.iter().enumerate().fold((0, 0.0), |a, (k, &g)| if g > a.1 { (k, g) } else { a });
+    v.warn(
+        "pattern.sewing_steps",
+        format!(
+            "the seams did not close in {} sewing steps: seam {seam} was joined {:.2} mm apart (`sewing_gap` {:.2} \
+             mm; let out {} times where the contact held it open), which moves its nodes half that at the join; \
+             give more `sewing_steps` or stiffer sewing springs, or check the placement",
+            report.steps,
+            widest * 1e3,
+            gap * 1e3,
+            report.backoffs
+        ),
+    );
 }
 
 /// Pins the nodes of `pins` and adds the springs of `springs` (an `"initial"` target at `initial`) to `model`.
