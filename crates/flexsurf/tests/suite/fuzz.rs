@@ -88,6 +88,7 @@ fn corpus() -> Vec<Seed> {
     add(&root.join("fuzz/corpus/materials"), Role::Material, "toml");
     add(&root.join("fuzz/corpus/meshes"), Role::Mesh, "obj");
     add(&root.join("garments"), Role::Pattern, "toml");
+    add(&root.join("fuzz/corpus/patterns"), Role::Pattern, "toml");
     add(&root.join("examples/fit"), Role::Fit, "toml");
     // A fit file names its material relative to itself: the mutated copy is written elsewhere.
     let materials = format!("{:?}", root.join("materials").display().to_string());
@@ -282,7 +283,10 @@ const MATERIAL_SCENE: &str =
     "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\n[material]\nfile = \"material.toml\"\n[time]\nsteps = 2\n";
 const BODY_SCENE: &str = "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\ncenter = [0, 0, 1.5]\n[time]\nsteps = 2\n[[obstacle]]\nnurbs = { file = \"body.toml\" }\n";
 const MESH_SCENE: &str = "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\ncenter = [0, 0, 1.5]\n[time]\nsteps = 2\n[[obstacle]]\nmesh = { file = \"mesh.obj\" }\n[contact]\nfaces = true\n";
-const PATTERN_SCENE: &str = "[pattern]\nfile = \"pattern.toml\"\nsewing_steps = 2\n[time]\nsteps = 2\n";
+/// The pattern scene's ball, far below the shipped garments, is what `fuzz/corpus/patterns/wrapped.toml` wraps
+/// onto (`onto_body`).
+const PATTERN_SCENE: &str = "[pattern]\nfile = \"pattern.toml\"\nsewing_steps = 2\n[time]\nsteps = 2\n\
+                             [[obstacle]]\nsphere = { center = [0.0, 0.0, -5.0], radius = 0.1 }\n";
 
 struct Findings {
     dir: PathBuf,
