@@ -10,16 +10,7 @@ use std::path::Path;
 /// vertex. Numbers use Rust's shortest round-trip formatting, so reading them back gives the same `f64`.
 pub fn write_obj_to(w: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
     mesh.validate().map_err(invalid)?;
-    writeln!(w, "# flexsurf mesh: {} vertices, {} triangles", mesh.vertex_count(), mesh.triangle_count())?;
-    for p in &mesh.positions {
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
-    }
-    let normals = mesh.has_normals();
-    if normals {
-        for n in &mesh.normals {
-            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
-        }
-    }
+    let normals = write_vertices(w, mesh, &[])?;
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|v| v + 1);
         if normals {
@@ -51,19 +42,7 @@ pub fn write_obj_textured(
         )));
     }
     write_atomic_with(path, |w| {
-        writeln!(w, "# flexsurf mesh: {} vertices, {} triangles", mesh.vertex_count(), mesh.triangle_count())?;
-        for p in &mesh.positions {
-            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
-        }
-        for t in uv {
-            writeln!(w, "vt {} {}", t[0], t[1])?;
-        }
-        let normals = mesh.has_normals();
-        if normals {
-            for n in &mesh.normals {
-                writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
-            }
-        }
+        let normals = write_vertices(w, mesh, uv)?;
         for (t, u) in mesh.triangles.iter().zip(uv_triangles) {
             let ([a, b, c], [ta, tb, tc]) = (t.map(|v| v + 1), u.map(|v| v + 1));
             if normals {
@@ -74,6 +53,25 @@ pub fn write_obj_textured(
         }
         Ok(())
     })
+}
+
+/// The header, `v`, `vt` (from `uv`) and `vn` lines (normals when the mesh has one per vertex); returns whether
+/// it wrote normals.
+fn write_vertices(w: &mut dyn Write, mesh: &TriMesh, uv: &[[f32; 2]]) -> io::Result<bool> {
+    writeln!(w, "# flexsurf mesh: {} vertices, {} triangles", mesh.vertex_count(), mesh.triangle_count())?;
+    for p in &mesh.positions {
+        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in uv {
+        writeln!(w, "vt {} {}", t[0], t[1])?;
+    }
+    let normals = mesh.has_normals();
+    if normals {
+        for n in &mesh.normals {
+            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
+    }
+    Ok(normals)
 }
 
 /// OBJ frames: `.obj`, [`write_obj`].
