@@ -79,9 +79,16 @@ pub fn wrap_onto_body(
 ) -> usize {
     let Some(axis) = placement.axis_direction().filter(|_| placed.len() == grid.len()) else { return 0 };
     let frame = Frame::about(axis);
+    // Each node's foot on the axis and its angle about it, once.
+    let mut about = Vec::with_capacity(placed.len());
+    for q in placed.iter() {
+        let Some(foot) = placement.axis_point(*q) else { return 0 };
+        let across = [(*q - foot).dot(frame.e1), (*q - foot).dot(frame.e2)];
+        about.push((foot, across[1].atan2(across[0])));
+    }
     let mut moved = 0;
-    for row in rows_around(placed, grid, placement, &frame) {
-        moved += wrap_row(placed, &row, placement, &frame, offset, obstacles);
+    for row in rows_around(&about, grid) {
+        moved += wrap_row(placed, &row, &about, &frame, offset, obstacles);
     }
     moved
 }
@@ -97,24 +104,17 @@ impl Frame {
         let e1 = e3.any_orthonormal_vector();
         Self { e1, e2: e3.cross(e1) }
     }
+}
 
-    /// `v` (across the axis) in the plane's coordinates.
-    fn flat(&self, v: Vec3) -> [f64; 2] {
-        [v.dot(self.e1), v.dot(self.e2)]
-    }
+/// An angle turned into `[−π, π]`.
+fn turned(a: f64) -> f64 {
+    a - std::f64::consts::TAU * (a / std::f64::consts::TAU).round()
 }
 
 /// The grid's lines of nodes that run around the axis (of its two directions, the one whose steps turn most
-/// about it), each in order.
-fn rows_around(placed: &[Vec3], grid: &Grid, placement: &Placement, frame: &Frame) -> Vec<Vec<usize>> {
-    let angle = |k: usize| {
-        let q = placement.axis_point(placed[k]).map_or([0.0, 0.0], |a| frame.flat(placed[k] - a));
-        q[1].atan2(q[0])
-    };
-    let turn = |a: usize, b: usize| {
-        let d = angle(b) - angle(a);
-        (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round()).abs()
-    };
+/// about it, from each node's angle in `about`), each in order.
+fn rows_around(about: &[(Vec3, f64)], grid: &Grid) -> Vec<Vec<usize>> {
+    let turn = |a: usize, b: usize| turned(about[b].1 - about[a].1).abs();
     let (m, n) = (grid.m, grid.n);
     let along_u1: f64 = (0..n)
         .flat_map(|j| (1..m).map(move |i| (i, j)))
@@ -139,40 +139,33 @@ fn rows_around(placed: &[Vec3], grid: &Grid, placement: &Placement, frame: &Fram
 fn wrap_row(
     placed: &mut [Vec3],
     row: &[usize],
-    placement: &Placement,
+    about: &[(Vec3, f64)],
     frame: &Frame,
     offset: f64,
     obstacles: &[Obstacle],
 ) -> usize {
-    // Each node's foot on the axis, its direction across the axis (as an angle from the row's middle node's)
-    // and its traced point's distance from the axis.
-    let mid = row[row.len() / 2];
-    let reference = placement.axis_point(placed[mid]).map_or([1.0, 0.0], |a| frame.flat(placed[mid] - a));
-    let reference = reference[1].atan2(reference[0]);
-    let mut lines = Vec::with_capacity(row.len());
-    for &k in row {
-        let Some(foot) = placement.axis_point(placed[k]) else { return 0 };
-        let across = frame.flat(placed[k] - foot);
-        let phi = across[1].atan2(across[0]) - reference;
-        let phi = phi - std::f64::consts::TAU * (phi / std::f64::consts::TAU).round();
-        let traced = onto_offset_surface(placed[k], foot, offset, obstacles).map(|p| (p - foot).length());
-        lines.push((k, foot, phi, traced));
-    }
-    let hits: Vec<[f64; 2]> =
-        lines.iter().filter_map(|&(_, _, phi, r)| r.map(|r| [r * phi.cos(), r * phi.sin()])).collect();
-    let Some((lo, hi)) = lines
+    // Each node's angle from the row's middle node's, and its traced point's distance from the axis.
+    let reference = about[row[row.len() / 2]].1;
+    let lines: Vec<(usize, f64, Option<f64>)> = row
         .iter()
-        .filter(|l| l.3.is_some())
-        .map(|l| l.2)
-        .fold(None, |s: Option<(f64, f64)>, p| Some(s.map_or((p, p), |(a, b)| (a.min(p), b.max(p)))))
-    else {
-        return 0;
-    };
-    let mut points = hits;
-    points.push([0.0, 0.0]);
+        .map(|&k| {
+            let foot = about[k].0;
+            let traced = onto_offset_surface(placed[k], foot, offset, obstacles).map(|p| (p - foot).length());
+            (k, turned(about[k].1 - reference), traced)
+        })
+        .collect();
+    // The hull of the traced points and the axis (the origin), and the angles the traced lines span.
+    let mut points = vec![[0.0, 0.0]];
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &(_, phi, traced) in &lines {
+        if let Some(r) = traced {
+            points.push([r * phi.cos(), r * phi.sin()]);
+            (lo, hi) = (lo.min(phi), hi.max(phi));
+        }
+    }
     let hull = convex_hull(points);
     let mut moved = 0;
-    for (k, foot, phi, traced) in lines {
+    for (k, phi, traced) in lines {
         // A hull of fewer than three points (one traced line, or all on one line through the axis) has no
         // edge a line leaves it by: a traced node then keeps its traced point.
         let r = reach_of(&hull, [phi.cos(), phi.sin()]).max(traced.unwrap_or(0.0));
@@ -180,7 +173,7 @@ fn wrap_row(
             continue;
         }
         let phi = phi + reference;
-        let p = foot + r * (phi.cos() * frame.e1 + phi.sin() * frame.e2);
+        let p = about[k].0 + r * (phi.cos() * frame.e1 + phi.sin() * frame.e2);
         moved += usize::from(p != placed[k]);
         placed[k] = p;
     }
