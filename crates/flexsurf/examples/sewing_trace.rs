@@ -3,28 +3,16 @@
 //! move, whether it is one of a sewn pair, and the nearest triangles of the sheet that do not hold it; sewn,
 //! the same for the first drape step that fails (of three). Run:
 //! `cargo run --release -p flexsurf --example sewing_trace -- SCENE.toml`.
+use flexsurf::contact::proximity::Pair;
+use flexsurf::integrate::StepError;
 use flexsurf::math::Vec3;
 use flexsurf::model::Model;
 use flexsurf::potential::sewing::Sewing;
 use std::path::PathBuf;
 
-/// Distance from `p` to the triangle `a b c` (by projection onto its plane, else its edges).
-fn to_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> f64 {
-    let n = (b - a).cross(c - a);
-    let area = n.length();
-    if area > 0.0 {
-        let n = n / area;
-        let q = p - n * n.dot(p - a);
-        let inside = [(a, b), (b, c), (c, a)].iter().all(|&(u, v)| (v - u).cross(q - u).dot(n) >= 0.0);
-        if inside {
-            return n.dot(p - a).abs();
-        }
-    }
-    let seg = |u: Vec3, v: Vec3| {
-        let t = ((p - u).dot(v - u) / (v - u).length_squared().max(1e-300)).clamp(0.0, 1.0);
-        (p - (u + (v - u) * t)).length()
-    };
-    seg(a, b).min(seg(b, c)).min(seg(c, a))
+/// The node a failure's message names (`… node N …`).
+fn node_in(message: &str) -> Option<usize> {
+    message.split("node ").nth(1)?.split(' ').next()?.parse().ok()
 }
 
 fn report(model: &Model, x: &[Vec3], before: &[Vec3], node: usize) {
@@ -39,11 +27,10 @@ fn report(model: &Model, x: &[Vec3], before: &[Vec3], node: usize) {
         }
     }
     let faces = model.faces();
-    let mut near: Vec<(f64, [usize; 3])> = faces
-        .triangles
-        .iter()
-        .filter(|t| !t.contains(&node))
-        .map(|t| (to_triangle(x[node], t.map(|k| x[k])), *t))
+    // The self-contact's own closest points, node against each triangle that does not hold it.
+    let mut near: Vec<(f64, [usize; 3])> = (faces.triangles.iter().enumerate())
+        .filter(|(_, t)| !t.contains(&node))
+        .map(|(k, t)| (faces.closest(Pair::PointFace(node, k), x).distance(), *t))
         .collect();
     near.sort_by(|a, b| a.0.total_cmp(&b.0));
     for (d, t) in near.iter().take(4) {
@@ -70,8 +57,7 @@ fn main() {
         Ok(scene) => scene,
         Err(e) => {
             println!("{e}");
-            let node = e.to_string().split("node ").nth(1).and_then(|s| s.split(' ').next()?.parse::<usize>().ok());
-            if let (Some(node), [.., (_, before), (model, x)]) = (node, frames.as_slice()) {
+            if let (Some(node), [.., (_, before), (model, x)]) = (node_in(&e.to_string()), frames.as_slice()) {
                 report(model, x, before, node);
             }
             return;
@@ -86,8 +72,7 @@ fn main() {
             Ok(_) => println!("drape step {step} taken"),
             Err(e) => {
                 println!("drape step {step}: {e}");
-                let node = e.to_string().split("node ").nth(1).and_then(|s| s.split(' ').next()?.parse::<usize>().ok());
-                if let Some(node) = node {
+                if let StepError::Tunnelled { node, .. } = e {
                     report(model, &before, &before, node);
                 }
                 return;
