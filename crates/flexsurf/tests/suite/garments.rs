@@ -154,6 +154,31 @@ fn run(model: &Model, x: Vec<Vec3>, dt: f64, steps: usize) -> State {
     state
 }
 
+/// The open model of a built pattern's panels (each on its flat rest shape, with its options) in cotton under
+/// `G`, and the panels' placed positions in the model's order.
+fn open_panels(built: &BuiltPattern) -> (ModelBuilder, Vec<Vec3>) {
+    let (fabric, stiffness) = cotton();
+    let [first, rest @ ..] = built.panels.as_slice() else { panic!("a pattern without panels") };
+    let mut builder =
+        ModelBuilder::new(first.grid, first.flat.clone(), fabric, stiffness, ModelKind::Tfs, G).options(first.options);
+    for p in rest {
+        builder = builder.panel(p.grid, p.flat.clone(), p.options);
+    }
+    (builder, built.panels.iter().flat_map(|p| p.placed.iter().copied()).collect())
+}
+
+/// Two 0.3 × 0.6 m rectangles placed flat `gap` apart along x, the left one's right side sewn to the right one's
+/// left side, with `extra` (more panels' text) between the rectangles and the seam.
+fn two_halves(gap: f64, extra: &str) -> String {
+    format!(
+        "edge_length = 0.05\n{}{}{extra}{}",
+        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
+        rectangle("right", [0.0, -0.3, 0.3, 0.3])
+            .replace("flat = {}", &format!("flat = {{ offset = [{gap:?}, 0.0, 0.0] }}")),
+        seam(("left", "b", "c"), ("right", "a", "d"))
+    )
+}
+
 fn curved(p: Vec3) -> Vec3 {
     Vec3::new(p.x, p.y, 0.05 + 0.4 * p.x * p.x - 0.2 * p.x * p.y)
 }
@@ -163,22 +188,14 @@ fn curved(p: Vec3) -> Vec3 {
 /// from a curved start (bending across the seam) agree to 1e-10 m.
 #[test]
 fn flat_pattern_sewn_into_a_square_equals_the_sheet() {
-    let text = format!(
-        "edge_length = 0.05\n{}{}{}",
-        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
-        rectangle("right", [0.0, -0.3, 0.3, 0.3]),
-        seam(("left", "b", "c"), ("right", "a", "d"))
-    );
-    let built = build(&text);
+    let built = build(&two_halves(0.0, ""));
     let (fabric, stiffness) = cotton();
     let grid = Grid::sheet(13, 13, 0.6, 0.6).unwrap();
     let whole =
         ModelBuilder::new(grid, grid.flat_positions(0.0), fabric, stiffness, ModelKind::Tfs, G).build().unwrap();
-    let [l, r] = [&built.panels[0], &built.panels[1]];
-    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
-        .options(l.options)
-        .panel(r.grid, r.flat.clone(), r.options);
-    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).map(|p| curved(*p)).collect();
+    let (l, r) = (&built.panels[0], &built.panels[1]);
+    let (builder, placed) = open_panels(&built);
+    let x0: Vec<Vec3> = placed.into_iter().map(curved).collect();
     let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     assert_eq!(sewn.report.steps, 0);
@@ -380,19 +397,9 @@ fn the_straight_skirt_sews_closed_on_the_mannequin() {
 /// square's 169 nodes.
 #[test]
 fn sewing_pulls_a_gap_closed_and_keeps_the_centre_of_mass() {
-    let text = format!(
-        "edge_length = 0.05\n{}{}{}",
-        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
-        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
-        seam(("left", "b", "c"), ("right", "a", "d"))
-    );
-    let built = build(&text);
-    let (fabric, stiffness) = cotton();
-    let [l, r] = [&built.panels[0], &built.panels[1]];
-    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
-        .options(l.options)
-        .panel(r.grid, r.flat.clone(), r.options);
-    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
+    let built = build(&two_halves(0.04, ""));
+    let (l, r) = (&built.panels[0], &built.panels[1]);
+    let (builder, x0) = open_panels(&built);
     assert!((x0[l.grid.index(6, 0)] - x0[91 + r.grid.index(0, 0)]).length() > 0.039);
     let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4, closing: None };
     let sewn = sew(&builder, &built.seams, x0.clone(), &[], &params).unwrap();
@@ -435,20 +442,9 @@ pub fn identified(n: usize, pairs: &[(usize, usize)]) -> Vec<usize> {
 /// the joined model is the square's 169 nodes.
 #[test]
 fn gradual_sewing_closes_a_gap_no_faster_than_its_rest_lengths_shrink() {
-    let text = format!(
-        "edge_length = 0.05\n{}{}{}",
-        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
-        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
-        seam(("left", "b", "c"), ("right", "a", "d"))
-    );
-    let built = build(&text);
-    let (fabric, stiffness) = cotton();
-    let [l, r] = [&built.panels[0], &built.panels[1]];
-    let mut builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
-        .options(l.options)
-        .panel(r.grid, r.flat.clone(), r.options);
+    let built = build(&two_halves(0.04, ""));
+    let (mut builder, x0) = open_panels(&built);
     builder.self_contact = Some(SelfContactParams::frictionless(2e4, 0.004));
-    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
     let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 200, gap: 5e-4, closing: Some(0.005) };
     let (mut last, mut moved, mut frames): (Vec<Vec3>, f64, usize) = (x0.clone(), 0.0, 0);
     let mut observe = |model: &Model, x: &[Vec3]| {
@@ -921,13 +917,8 @@ fn crossed_grains() -> String {
 #[test]
 fn display_uvs_run_along_each_panels_grain() {
     let built = build(&crossed_grains());
-    let (fabric, stiffness) = cotton();
-    let [l, r] = [&built.panels[0], &built.panels[1]];
-    let builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
-        .options(l.options)
-        .panel(r.grid, r.flat.clone(), r.options);
+    let (builder, x0) = open_panels(&built);
     let params = SewingParams { stiffness: 10.0, dt: 0.005, steps: 10, gap: 1e-9, closing: None };
-    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).copied().collect();
     let sewn = sew(&builder, &built.seams, x0, &[], &params).unwrap();
     let k = 2;
     let topology = flexsurf::runner::fields::display_topology(&sewn.model.panels, k);
@@ -1112,23 +1103,12 @@ fn a_seam_pulled_through_a_layer_of_cloth_is_let_out_not_pushed_through() {
         "placement = { flat = {} }",
         "placement = { cylinder = { axis = [-99.96, 0.0], radius = 100.0, angle_deg = 0.0, height = 0.0, center = [0.0, 0.0] } }",
     );
-    let text = format!(
-        "edge_length = 0.05\n{}{}{wall}{}",
-        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
-        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.08, 0.0, 0.0] }"),
-        seam(("left", "b", "c"), ("right", "a", "d"))
-    );
-    let built = build(&text);
-    let (fabric, stiffness) = cotton();
-    let [l, r, w] = [&built.panels[0], &built.panels[1], &built.panels[2]];
-    let mut builder = ModelBuilder::new(l.grid, l.flat.clone(), fabric, stiffness, ModelKind::Tfs, G)
-        .options(l.options)
-        .panel(r.grid, r.flat.clone(), r.options)
-        .panel(w.grid, w.flat.clone(), w.options);
+    let built = build(&two_halves(0.08, &wall));
+    let (l, r, w) = (&built.panels[0], &built.panels[1], &built.panels[2]);
+    let (mut builder, x0) = open_panels(&built);
     let wall_nodes = l.grid.len() + r.grid.len()..builder.pinned.len();
     builder.pinned[wall_nodes.clone()].iter_mut().for_each(|p| *p = true);
     builder.self_contact = Some(SelfContactParams::frictionless(2e4, 0.004));
-    let x0: Vec<Vec3> = l.placed.iter().chain(&r.placed).chain(&w.placed).copied().collect();
     assert!(w.placed.iter().all(|p| (p.x - 0.04).abs() < 1e-3), "the wall is not the plane x = 0.04");
     let params = SewingParams { stiffness: 100.0, dt: 0.01, steps: 40, gap: 5e-4, closing: Some(0.005) };
     let (mut frames, mut sides) = (0, (0.0, 0.0));
@@ -1182,13 +1162,7 @@ fn a_row_meeting_the_body_once_moves_only_that_node() {
 #[test]
 fn seams_joined_open_when_the_steps_run_out_are_a_warning() {
     let dir = crate::scratch_dir("sewing-open");
-    let text = format!(
-        "edge_length = 0.05\n{}{}{}",
-        rectangle("left", [-0.3, -0.3, 0.0, 0.3]),
-        rectangle("right", [0.0, -0.3, 0.3, 0.3]).replace("flat = {}", "flat = { offset = [0.04, 0.0, 0.0] }"),
-        seam(("left", "b", "c"), ("right", "a", "d"))
-    );
-    std::fs::write(dir.join("pattern.toml"), text).unwrap();
+    std::fs::write(dir.join("pattern.toml"), two_halves(0.04, "")).unwrap();
     let scene = |steps: usize| {
         format!(
             "name = \"open\"\n[pattern]\nfile = \"pattern.toml\"\nsewing_stiffness = 100.0\nsewing_steps = {steps}\n\
