@@ -63,6 +63,13 @@ impl Membrane {
 
     /// As [`Membrane::new`] with the warp given by a [`Warp`] (an angle from `u1` or a fixed direction).
     pub fn with_warp(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp) -> Self {
+        Self::with_options(grid, rest, s, warp, false)
+    }
+
+    /// As [`Membrane::with_warp`]; with `condensed`, the stretch that differs between a cell's opposite edges
+    /// is resisted by the fabric's tensile modulus along them ([`condensed`]) instead of the full stiffness of
+    /// that strain (`ElasticOptions::condensed_stretch`).
+    pub fn with_options(grid: &Grid, rest: &[Vec3], s: &Stiffness, warp: Warp, condensed: bool) -> Self {
         let cells = grid
             .cells()
             .map(|(i, j)| {
@@ -95,7 +102,8 @@ impl Membrane {
                     }
                 }
                 // mean(E²) − mean(E)² = ¼ (E_b − E_t)²: restores the edge-wise stretch energy.
-                for (p, m, cc) in [(0, 1, c[0][0]), (2, 3, c[1][1])] {
+                let edge = |i: usize| if condensed { self::condensed(&c, i) } else { c[i][i] };
+                for (p, m, cc) in [(0, 1, edge(0)), (2, 3, edge(1))] {
                     let k = 0.25 * w * cc;
                     q[p][p] += k;
                     q[m][m] += k;
@@ -107,6 +115,20 @@ impl Membrane {
             .collect();
         Self { cells, pool: Pool::default() }
     }
+}
+
+/// The stiffness of strain `i` of `c` (on `(E11, E22, γ)`) with the other two free to relax, `1 / (c⁻¹)ᵢᵢ`
+/// (the Schur complement of the other two): for an edge of the grid, the fabric's tensile modulus along it.
+/// `c[i][i]` itself where the other two carry no stiffness of their own (a singular block: nothing to relax).
+pub fn condensed(c: &[[f64; 3]; 3], i: usize) -> f64 {
+    let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+    let det = c[j][j] * c[k][k] - c[j][k] * c[k][j];
+    if det <= 0.0 {
+        return c[i][i];
+    }
+    // c[i][i] − [c_ij c_ik] B⁻¹ [c_ji c_ki]ᵀ with B the (j, k) block.
+    let sol = [(c[k][k] * c[j][i] - c[j][k] * c[k][i]) / det, (c[j][j] * c[k][i] - c[k][j] * c[j][i]) / det];
+    c[i][i] - c[i][j] * sol[0] - c[i][k] * sol[1]
 }
 
 /// The kernel interface; the [`crate::potential::Term`] impl in `potential/elastic.rs` wraps it.

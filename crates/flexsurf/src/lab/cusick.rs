@@ -76,12 +76,13 @@ impl Drape {
     }
 }
 
-/// Default grids: radial cells of about 7.5, 5 and 3.75 mm outside the disc (level 0, 1, 2) and 48, 72, 96
-/// nodes around. Level 1 is the default; levels 1 and 2 are the convergence check.
+/// Default grids: radial cells of about 7.5, 5 and 3.75 mm outside the disc (level 0, 1, 2) and 96, 144, 192
+/// nodes around (cells about as long around at the hem as radially). Level 1 is the default; levels 1 and 2 are
+/// the convergence check (docs/materials.md, "The membrane's edge stiffness").
 pub fn default_grid(specimen: f64, level: usize) -> (usize, usize) {
     let h = [0.0075, 0.005, 0.00375][level.min(2)];
     let radial = (((0.5 * specimen - 0.5 * DISC) / h).round() as usize).max(2);
-    (radial, [48, 72, 96][level.min(2)])
+    (radial, [96, 144, 192][level.min(2)])
 }
 
 /// The order assumed by [`richardson`] when three levels do not show one: the drape's, measured between 3.75 and
@@ -361,7 +362,9 @@ fn clamped_builder(
             Vec3::new(ring.radius(i) * t.cos(), ring.radius(i) * t.sin(), 0.0)
         })
         .collect();
-    let opts = ElasticOptions { warp_direction: Some(Vec3::X), ..Default::default() };
+    // The polar grid turns against the fixed warp: the condensed edge stiffness keeps its cells from locking
+    // the folds (docs/materials.md, "The membrane's edge stiffness").
+    let opts = ElasticOptions { warp_direction: Some(Vec3::X), condensed_stretch: true, ..Default::default() };
     let mut builder =
         ModelBuilder::new(grid, rest, *fabric, s, ModelKind::Tfs, Vec3::new(0.0, 0.0, -9.81)).options(opts);
     for k in 0..grid.len() {

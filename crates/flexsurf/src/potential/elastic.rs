@@ -48,6 +48,12 @@ pub struct ElasticOptions {
     /// The rest shape is a flat pattern wrapped into shape (a sewn garment): it gives the metric `G⁰` only, and
     /// the rest curvature is zero.
     pub flat_pattern: bool,
+    /// The membrane resists a stretch that differs between a cell's two opposite edges with the fabric's
+    /// tensile modulus along those edges (the other strains free, `1 / (C⁻¹)ᵢᵢ`) instead of the full stiffness
+    /// `Cᵢᵢ` of that strain: the two are equal where the warp runs along the grid lines, and where it crosses
+    /// them the full stiffness locks folds (a polar grid of one piece of fabric; docs/materials.md, "The
+    /// membrane's edge stiffness").
+    pub condensed_stretch: bool,
 }
 
 impl ElasticOptions {
@@ -84,7 +90,7 @@ pub fn panel_terms(
     nodes: &[usize],
     seamed: SeamedEdges,
 ) -> Vec<Box<dyn Term>> {
-    let mut membrane = Membrane::with_warp(grid, rest, stiffness, options.warp());
+    let mut membrane = Membrane::with_options(grid, rest, stiffness, options.warp(), options.condensed_stretch);
     let (node, cell) = (|k| !seamed.holds_node(grid, k), |i, j| !seamed.holds_cell(grid, i, j));
     let mut bending = Bending::selected(grid, rest, stiffness, options.warp(), node, cell);
     if options.flat_pattern {

@@ -51,6 +51,12 @@ fn elastic_terms_match_finite_differences() {
             Box::new(Membrane::with_warp(&g, &rest, &s, Warp::Angle(0.6))),
             &x,
         );
+        exact(
+            "membrane/free/warp 0.6 rad, condensed edge stiffness",
+            g.len(),
+            Box::new(Membrane::with_options(&g, &rest, &s, Warp::Angle(0.6), true)),
+            &x,
+        );
         let (gc, restc) = cylinder(6, 4, 0.1, 0.2);
         let xc = perturbed(&restc, 0.01, 2);
         exact("membrane/periodic", gc.len(), Box::new(Membrane::new(&gc, &restc, &s)), &xc);

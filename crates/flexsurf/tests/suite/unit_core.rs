@@ -331,3 +331,46 @@ mod sparse {
         assert_eq!(p.find(1, 2), p.find(2, 1));
     }
 }
+
+/// The tests of `energy::membrane` (`src/energy/membrane.rs`).
+mod membrane {
+    use flexsurf::energy::frame::Frame;
+    use flexsurf::energy::membrane::condensed;
+    use flexsurf::math::Vec3;
+
+    /// The condensed edge stiffness is the orthotropic sheet's tensile modulus along the edge (Lekhnitskii):
+    /// `1/E(φ) = cos⁴φ S₁₁ + sin⁴φ S₂₂ + (2 S₁₂ + S₆₆) sin²φ cos²φ` with `S` the compliance in the material
+    /// frame, here inverted by hand for a fabric with a Poisson coupling (`a₁₂`) and a soft shear.
+    #[test]
+    fn condensed_edge_stiffness_is_the_modulus_along_the_edge() {
+        let (a11, a22, a12, a66) = (400.0, 250.0, 30.0, 2.0);
+        let det = a11 * a22 - a12 * a12;
+        let (s11, s22, s12, s66) = (a22 / det, a11 / det, -a12 / det, 1.0 / a66);
+        let c = [[a11, a12, 0.0], [a12, a22, 0.0], [0.0, 0.0, a66]];
+        for phi in [0.0, 0.1, 0.3, std::f64::consts::FRAC_PI_4, 1.0, std::f64::consts::FRAC_PI_2] {
+            let pulled = Frame::new(Vec3::X, Vec3::Y, phi).pull_back(&c);
+            let (cs, sn) = (phi.cos(), phi.sin());
+            let along_u1 = 1.0 / (cs.powi(4) * s11 + sn.powi(4) * s22 + (2.0 * s12 + s66) * sn * sn * cs * cs);
+            // Along u2 the warp is at φ − 90°.
+            let along_u2 = 1.0 / (sn.powi(4) * s11 + cs.powi(4) * s22 + (2.0 * s12 + s66) * sn * sn * cs * cs);
+            for (i, want) in [(0, along_u1), (1, along_u2)] {
+                let got = condensed(&pulled, i);
+                assert!((got - want).abs() < 1e-11 * want, "φ {phi}, strain {i}: {got} vs {want}");
+                assert!(got <= pulled[i][i] * (1.0 + 1e-12), "φ {phi}: above the full stiffness");
+            }
+        }
+        // Aligned and without Poisson coupling: exactly the full stiffness.
+        let plain = [[a11, 0.0, 0.0], [0.0, a22, 0.0], [0.0, 0.0, a66]];
+        assert_eq!(condensed(&plain, 0), a11);
+        assert_eq!(condensed(&plain, 1), a22);
+        // On the bias of a fabric of equal warp and weft: about four times the shear stiffness.
+        let bias = Frame::new(Vec3::X, Vec3::Y, std::f64::consts::FRAC_PI_4).pull_back(&[
+            [a11, 0.0, 0.0],
+            [0.0, a11, 0.0],
+            [0.0, 0.0, a66],
+        ]);
+        let want = 1.0 / (0.5 / a11 + 0.25 / a66);
+        assert!((condensed(&bias, 0) - want).abs() < 1e-11 * want);
+        assert!(bias[0][0] > 25.0 * condensed(&bias, 0), "{bias:?}");
+    }
+}
