@@ -54,3 +54,38 @@ mod kes {
         assert!((parabola(&pts) - 3.0).abs() < 1e-9);
     }
 }
+
+/// The tests of `lab::fit::lm` (`src/lab/fit/lm.rs`).
+mod lm {
+    use flexsurf::lab::fit::lm::{minimise, Evaluation, Options};
+
+    /// A residual that jumps across its root, as a drape coefficient does where the drape changes equilibrium:
+    /// `r = θ − 1 ∓ 0.05` below and above `θ = 1`, so the cost never falls below `½ 0.05² = 1.25e-3`, reached
+    /// only at the jump. The step tolerance alone walks towards it until the iteration limit; the cost
+    /// tolerance ends the fit beside the jump (the residual a tenth of its uncertainty, where a step no longer
+    /// changes `χ²` by 2e-3) and says it converged.
+    #[test]
+    fn a_cost_floor_ends_the_fit_at_the_jump() {
+        let eval = |t: &[f64]| -> Result<Evaluation, ()> {
+            let jump = if t[0] < 1.0 { -0.05 } else { 0.05 };
+            Ok((vec![t[0] - 1.0 + jump], vec![vec![1.0]]))
+        };
+        let bounds = (&[-10.0][..], &[10.0][..]);
+        let strict = Options { max_iterations: 25, step_tolerance: 1e-10, cost_tolerance: 0.0 };
+        let out = minimise(&[0.0], bounds, strict, eval).unwrap();
+        assert!(!out.converged && out.iterations == 25, "{out:?}");
+        let floor = Options { cost_tolerance: 1e-3, ..strict };
+        let out = minimise(&[0.0], bounds, floor, eval).unwrap();
+        let cost = 0.5 * out.at.0[0] * out.at.0[0];
+        assert!(out.converged && out.iterations < 10, "{out:?}");
+        assert!((out.theta[0] - 1.0).abs() < 0.15 && out.at.0[0].abs() < 0.1 && cost < 5e-3, "{out:?}");
+        // A smooth residual: the Gauss–Newton steps reach the root first (the cost tolerance ends the fit one
+        // accepted step later, at a residual far inside its uncertainty); the step tolerance alone goes on to
+        // round-off.
+        let smooth = |t: &[f64]| -> Result<Evaluation, ()> { Ok((vec![t[0] - 1.0], vec![vec![1.0]])) };
+        let out = minimise(&[0.0], bounds, floor, smooth).unwrap();
+        assert!(out.converged && (out.theta[0] - 1.0).abs() < 1e-6, "{out:?}");
+        let out = minimise(&[0.0], bounds, strict, smooth).unwrap();
+        assert!(out.converged && (out.theta[0] - 1.0).abs() < 1e-12, "{out:?}");
+    }
+}

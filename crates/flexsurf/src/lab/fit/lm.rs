@@ -14,6 +14,12 @@ pub struct Options {
     pub max_iterations: usize,
     /// Stop when no parameter moves by more than this (θ units) in an accepted step.
     pub step_tolerance: f64,
+    /// Also stop when an accepted step lowers the cost `½ Σ r²` (residuals in their uncertainties) by less than
+    /// this while the cost is below ½: the residuals are then all within a standard deviation and a change of
+    /// `2 × cost_tolerance` in `χ²` moves the parameters by about `√(2 cost_tolerance)` of their standard
+    /// errors. A target that is not a smooth function of the parameters (a drape that switches between
+    /// equilibria) has a floor of the cost that the step tolerance alone never reaches.
+    pub cost_tolerance: f64,
 }
 
 /// Where [`minimise`] ended.
@@ -27,7 +33,7 @@ pub struct Outcome {
     pub iterations: usize,
     /// Evaluations made.
     pub evaluations: usize,
-    /// The step tolerance was met (else the iteration limit or a vanishing gradient ended it).
+    /// The step or the cost tolerance was met (else the iteration limit or a vanishing gradient ended it).
     pub converged: bool,
 }
 
@@ -120,10 +126,11 @@ pub fn minimise<E>(
                 continue;
             }
         };
-        if cost(&next.0) < cost(&at.0) {
+        let (before, after) = (cost(&at.0), cost(&next.0));
+        if after < before {
             (theta, at) = (trial, next);
             mu = (mu / 3.0).max(1e-12);
-            if moved < opts.step_tolerance {
+            if moved < opts.step_tolerance || (before < 0.5 && before - after < opts.cost_tolerance) {
                 converged = true;
                 break;
             }
