@@ -786,7 +786,6 @@ impl StaticSolver {
         let (pi, mu) = (nw.pi, nw.mu);
         let pt = self.eval(model, &nw.trial, nw.lam, Want::VALUE);
         let rho = if pt.is_finite() { (pt - pi) / pred } else { f64::NEG_INFINITY };
-
         if nw.watch.is_some() {
             // Tentative: follow the Newton step whatever Π does (the checkpoint decides).
             x.copy_from_slice(&nw.trial);
