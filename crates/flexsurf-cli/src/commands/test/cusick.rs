@@ -10,6 +10,7 @@ use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
 use flexsurf::lab::cusick::{
     cusick_settled, default_polar, grid_convergence, Drape, GridConvergence, PolarGrid, Settle, DISC,
+    RELAXED_REST_SPEED,
 };
 use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
@@ -43,10 +44,10 @@ pub struct CusickArgs {
     /// deviation are reported, as a drape-meter operator would).
     #[arg(long, default_value_t = 1)]
     specimens: usize,
-    /// The relaxation stops when no node moves faster than this (m/s); a static solve then finds the
-    /// equilibrium.
-    #[arg(long, default_value_t = Settle::default().rest_speed)]
-    rest_speed: f64,
+    /// The relaxation stops when no node moves faster than this (m/s; default 1e-3, or 1e-4 with --no-static);
+    /// a static solve then finds the equilibrium.
+    #[arg(long)]
+    rest_speed: Option<f64>,
     /// Start every specimen from a wobble of the hem with this many folds (a study of the equilibria) instead of
     /// the many-mode wobble that lets the fabric choose.
     #[arg(long)]
@@ -115,9 +116,20 @@ fn grids(args: &CusickArgs) -> Result<Vec<(Option<usize>, PolarGrid)>> {
     Ok(levels.iter().map(|&l| (Some(l), default_polar(args.specimen, l))).collect())
 }
 
+/// The relaxation's rest speed: as given, else the static solve's hand-over speed, or a slower one when the
+/// relaxation's end is the result (`--no-static`).
+fn rest_speed(args: &CusickArgs) -> f64 {
+    match args.rest_speed {
+        Some(v) => v,
+        None if args.no_static => RELAXED_REST_SPEED,
+        None => Settle::default().rest_speed,
+    }
+}
+
 /// `flexsurf test cusick`.
 pub fn execute(args: &CusickArgs) -> Result<()> {
-    let &CusickArgs { specimen, specimens, rest_speed, .. } = args;
+    let &CusickArgs { specimen, specimens, .. } = args;
+    let rest_speed = rest_speed(args);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cusick"));
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
@@ -380,9 +392,9 @@ fn drape_specimens(
     level: Option<usize>,
     grid: PolarGrid,
 ) -> Result<LevelRun> {
-    let &CusickArgs { specimen, specimens, rest_speed, no_static, folds, .. } = args;
+    let &CusickArgs { specimen, specimens, no_static, folds, .. } = args;
     let equilibrium = if no_static { None } else { Settle::default().equilibrium };
-    let settle = Settle { rest_speed, equilibrium, folds, ..Settle::default() };
+    let settle = Settle { rest_speed: rest_speed(args), equilibrium, folds, ..Settle::default() };
     let results: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..specimens)
             .map(|k| {
