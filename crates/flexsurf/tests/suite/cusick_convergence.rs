@@ -104,10 +104,9 @@ fn grid_convergence_index_against_hand_values() {
 /// woven. Met since the tester takes the membrane's condensed edge stiffness and 144 / 192 nodes around
 /// (measured: soft 28.62 % vs 29.43 %, medium 45.55 % vs 46.18 %, stiff 81.83 % vs 82.11 %; before, with the
 /// full edge stiffness and 72 / 96 around, 38.49 / 35.11, 48.52 / 45.67 and 81.24 / 82.52: docs/materials.md,
-/// "The membrane's edge stiffness"). Run with `--ignored` (about 90 s, most of it the stiff woven's slow
-/// relaxation).
+/// "The membrane's edge stiffness"). Run with `--ignored` (about 30 s).
 #[test]
-#[ignore = "long check (six Cusick specimens, about 90 s): run with --ignored"]
+#[ignore = "long check (six Cusick specimens, about 30 s): run with --ignored"]
 fn cusick_wovens_are_grid_converged() {
     for f in [soft(), medium(), stiff()] {
         let (a, b) = (drape(&f, 1).report, drape(&f, 2).report);
