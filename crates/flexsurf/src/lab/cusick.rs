@@ -232,6 +232,18 @@ impl Default for Settle {
     }
 }
 
+impl Settle {
+    /// The default settling, or without the static solve (`static_solve` false): the relaxation's end is then
+    /// the reported shape, so it runs on to [`RELAXED_REST_SPEED`].
+    pub fn with_static_solve(static_solve: bool) -> Self {
+        if static_solve {
+            Self::default()
+        } else {
+            Self { rest_speed: RELAXED_REST_SPEED, equilibrium: None, ..Self::default() }
+        }
+    }
+}
+
 /// The specimen's polar grid: `radial` cells outside the disc, `angular` nodes around, and the radial cells
 /// growing geometrically from the disc's edge to the hem, the last `grading` times the first (1: uniform).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

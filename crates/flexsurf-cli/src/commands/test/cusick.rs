@@ -10,7 +10,6 @@ use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
 use flexsurf::lab::cusick::{
     cusick_settled, default_polar, grid_convergence, Drape, GridConvergence, PolarGrid, Settle, DISC,
-    RELAXED_REST_SPEED,
 };
 use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
@@ -116,20 +115,16 @@ fn grids(args: &CusickArgs) -> Result<Vec<(Option<usize>, PolarGrid)>> {
     Ok(levels.iter().map(|&l| (Some(l), default_polar(args.specimen, l))).collect())
 }
 
-/// The relaxation's rest speed: as given, else the static solve's hand-over speed, or a slower one when the
-/// relaxation's end is the result (`--no-static`).
-fn rest_speed(args: &CusickArgs) -> f64 {
-    match args.rest_speed {
-        Some(v) => v,
-        None if args.no_static => RELAXED_REST_SPEED,
-        None => Settle::default().rest_speed,
-    }
+/// How the specimens settle: with or without the static solve, `--rest-speed` and `--folds` over its defaults.
+fn settle(args: &CusickArgs) -> Settle {
+    let base = Settle::with_static_solve(!args.no_static);
+    Settle { rest_speed: args.rest_speed.unwrap_or(base.rest_speed), folds: args.folds, ..base }
 }
 
 /// `flexsurf test cusick`.
 pub fn execute(args: &CusickArgs) -> Result<()> {
     let &CusickArgs { specimen, specimens, .. } = args;
-    let rest_speed = rest_speed(args);
+    let rest_speed = settle(args).rest_speed;
     let out = args.out.as_deref().unwrap_or(Path::new("out/cusick"));
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
@@ -392,9 +387,8 @@ fn drape_specimens(
     level: Option<usize>,
     grid: PolarGrid,
 ) -> Result<LevelRun> {
-    let &CusickArgs { specimen, specimens, no_static, folds, .. } = args;
-    let equilibrium = if no_static { None } else { Settle::default().equilibrium };
-    let settle = Settle { rest_speed: rest_speed(args), equilibrium, folds, ..Settle::default() };
+    let &CusickArgs { specimen, specimens, .. } = args;
+    let settle = settle(args);
     let results: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..specimens)
             .map(|k| {
