@@ -1,8 +1,8 @@
 //! Where a sewing phase fails: builds a `[pattern]` scene, keeping the sewing's last two frames, and on a
 //! failure prints the failing node (its panel and grid place), its distance from the body, its last step's
 //! move, whether it is one of a sewn pair, and the nearest triangles of the sheet that do not hold it; sewn,
-//! the same for the first drape step that fails (of three). Run:
-//! `cargo run --release -p flexsurf --example sewing_trace -- SCENE.toml`.
+//! the same for the first drape step that fails (of three, or of STEPS). Run:
+//! `cargo run --release -p flexsurf --example sewing_trace -- SCENE.toml [STEPS]`.
 use flexsurf::contact::proximity::Pair;
 use flexsurf::integrate::StepError;
 use flexsurf::math::Vec3;
@@ -66,10 +66,16 @@ fn main() {
     // Sewn: the drape's first steps, and where the first failing one fails.
     let (model, mut state) = (&scene.model, scene.state.clone());
     let mut stepper = flexsurf::integrate::Stepper::new(model, &scene.step_params()).unwrap();
-    for step in 1..=3 {
+    let drape_steps = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(3);
+    for step in 1..=drape_steps {
         let before = state.x.clone();
         match stepper.step(model, &mut state) {
-            Ok(_) => println!("drape step {step} taken"),
+            Ok(info) => println!(
+                "drape step {step} taken: {} solves, {} factorisations, {:.2} s",
+                info.timings.solves,
+                info.timings.factorizations,
+                info.timings.assembly + info.timings.contact + info.timings.factorization + info.timings.solve
+            ),
             Err(e) => {
                 println!("drape step {step}: {e}");
                 if let StepError::Tunnelled { node, .. } = e {

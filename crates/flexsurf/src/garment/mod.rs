@@ -7,10 +7,12 @@
 //!   girth at the bottom and the given length along every generatrix, used as the flat pattern.
 //! - [`pattern`]: sewing patterns: panels from 2D outlines (Coons grids), seams between their edges.
 //! - [`sewing`]: the sewing phase that pulls the placed panels' seams closed and joins them.
+//! - [`carry`]: a garment sewn on a coarse grid carried onto the pattern's own grid.
 //! - [`wrap`]: a placed panel moved onto the body's offset surface along the lines to its placement's axis.
 //! - [`fit`]: the waist row fitted onto the body, and the clearance of the straight generatrices from it to the
 //!   hem.
 
+pub mod carry;
 pub mod fit;
 pub mod pattern;
 pub mod sewing;

@@ -10,6 +10,7 @@
 //! neighbours are left out. Without it the springs are zero-length from the start, the seams close in a few
 //! large steps, and self-contact is off while sewing (panels may pass through each other).
 
+use super::pattern::BuiltPanel;
 use crate::integrate::{StepError, StepParams, Stepper};
 use crate::math::Vec3;
 use crate::model::{Model, ModelBuilder, ModelError, Spring};
@@ -50,6 +51,8 @@ pub struct SewReport {
     pub seconds: f64,
     /// Times a gradual closing was let out after a step that the contact could not take ([`BACK_OFF`]).
     pub backoffs: usize,
+    /// Panel nodes of the grid the phase sewed on (a coarser grid's with `sew_coarse`).
+    pub nodes: usize,
 }
 
 impl SewReport {
@@ -68,6 +71,9 @@ pub enum SewError {
     /// A step of the phase failed.
     #[error("while sewing: {0}")]
     Step(#[from] StepError),
+    /// The garment sewn on the coarse grid cannot be carried onto the pattern's grid.
+    #[error("carrying the sewn garment onto the pattern's grid: {0}")]
+    Carry(#[from] super::carry::CarryError),
 }
 
 /// The sewn garment: the model with its seams joined, the sewn positions of its nodes, the report.
@@ -188,15 +194,54 @@ pub fn sew_observed(
             Err(e) => return Err(e.into()),
         }
     }
-    let gaps = gap(&state.x);
+    let seconds = clock.elapsed().as_secs_f64();
+    let report = SewReport { steps, gaps: gap(&state.x), seconds, backoffs, nodes: state.x.len() };
+    Ok(join(builder, seams, &state.x, holds, report)?)
+}
+
+/// The model of `builder` with `seams` joined and `holds` (panel node, stiffness) as springs to their positions
+/// in `x` (the panel nodes' sewn positions), each joined node at the mean of its panel nodes.
+fn join(
+    builder: &ModelBuilder,
+    seams: &[Seam],
+    x: &[Vec3],
+    holds: &[(usize, f64)],
+    report: SewReport,
+) -> Result<Sewn, ModelError> {
     let mut sewn = builder.clone();
     sewn.seams.extend_from_slice(seams);
     for &(node, stiffness) in holds {
-        sewn.springs.push(Spring { node, target: state.x[node], stiffness });
+        sewn.springs.push(Spring { node, target: x[node], stiffness });
     }
     let model = sewn.build()?;
-    let x = joined_positions(&model, &state.x);
-    Ok(Sewn { model, x, report: SewReport { steps, gaps, seconds: clock.elapsed().as_secs_f64(), backoffs } })
+    let x = joined_positions(&model, x);
+    Ok(Sewn { model, x, report })
+}
+
+/// The garment sewn on a coarser grid of the same pattern and carried onto `builder`'s panels: `coarse` is
+/// the coarse grids' open model (its contact and self-contact as `builder`'s), `coarse_seams` its seams,
+/// `coarse_x` its placed panel nodes and `panels` the coarse and the fine built panels. The coarse phase
+/// sews without holds; the fine model gets `holds` at the carried positions ([`super::carry`]). The report is
+/// the coarse phase's, with the fine pairs' gaps at the carried positions and the whole time.
+pub fn sew_coarse(
+    builder: &ModelBuilder,
+    seams: &[Seam],
+    holds: &[(usize, f64)],
+    coarse: (&ModelBuilder, &[Seam], Vec<Vec3>),
+    panels: (&[BuiltPanel], &[BuiltPanel]),
+    params: &SewingParams,
+    observe: &mut dyn FnMut(&Model, &[Vec3]),
+) -> Result<Sewn, SewError> {
+    let clock = Instant::now();
+    let (coarse, coarse_seams, coarse_x) = coarse;
+    let sewn = sew_observed(coarse, coarse_seams, coarse_x, &[], params, observe)?;
+    let shapes: Vec<Vec<Vec3>> =
+        sewn.model.panels.iter().map(|p| p.nodes().iter().map(|&k| sewn.x[k]).collect()).collect();
+    let x = super::carry::carry(panels.0, &shapes, panels.1)?;
+    let pairs = seam_pairs(builder, seams);
+    let gaps = pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect();
+    let report = SewReport { gaps, seconds: clock.elapsed().as_secs_f64(), ..sewn.report };
+    Ok(join(builder, seams, &x, holds, report)?)
 }
 
 /// Panel-node positions onto the model's nodes, a joined node at the mean of its panel nodes.

@@ -267,6 +267,8 @@ pub struct SewingSummary {
     pub file: String,
     /// Steps of the sewing phase.
     pub steps: usize,
+    /// Panel nodes of the grid it sewed on (fewer than the garment's with `sewing_edge_length`).
+    pub nodes: usize,
     /// Wall time of the sewing phase (s).
     pub seconds: f64,
     /// Times the gradual closing let the seams out after a step the contact could not take.
@@ -335,6 +337,7 @@ impl SewingSummary {
             pattern: info.pattern.clone(),
             file: info.file.display().to_string(),
             steps: info.report.steps,
+            nodes: info.report.nodes,
             seconds: info.report.seconds,
             backoffs: info.report.backoffs,
             gap_max: info.report.largest_gap(),

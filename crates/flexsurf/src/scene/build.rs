@@ -13,7 +13,8 @@ use super::spec::{IntegratorSpec, OutputSpec, SceneSpec};
 use super::validate::{Validator, Warnings};
 use super::values::{Body, Checked, Parts, SpringSet};
 use super::SceneError;
-use crate::garment::sewing::{sew_observed, SewError, SewReport};
+use crate::garment::pattern::BuiltPattern;
+use crate::garment::sewing::{sew_coarse, sew_observed, SewError, SewReport};
 use crate::integrate::{self, linsolve::SolverKind, Method, StepParams};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
@@ -286,13 +287,7 @@ impl SceneSpec {
             // The pins' nodes are the panels'; sewing joins and renumbers them.
             return Err(v.bad("pin", "a pin's `motion` is not supported in a [pattern] scene (yet)".into()));
         }
-        let built = &pattern.built;
-        let sewn = sew_observed(&model, &built.seams, initial, &pattern.holds, &pattern.sewing, observe).map_err(
-            |e| match e {
-                SewError::Model(e) => v.bad(e.field, e.message),
-                SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
-            },
-        )?;
+        let sewn = sew(v, &model, &pattern, initial, observe)?;
         warn_if_open(v, &sewn.report, pattern.sewing.gap);
         let info = SewingInfo::new(&pattern, sewn.report);
         Ok((sewn.model, sewn.x, None, motions, Some(info)))
@@ -308,17 +303,68 @@ fn pattern_model(
     kind: ModelKind,
     gravity: Vec3,
 ) -> Option<ModelBuilder> {
-    let mut panels = loaded.built.panels.iter();
+    panels_model(&loaded.built, &loaded.materials, fabric, stiffness, kind, gravity)
+}
+
+/// The open model of the panels of `built`, their fabrics `materials` (`None`: `fabric`).
+fn panels_model(
+    built: &BuiltPattern,
+    materials: &[Option<crate::model::PanelMaterial>],
+    fabric: Fabric,
+    stiffness: Stiffness,
+    kind: ModelKind,
+    gravity: Vec3,
+) -> Option<ModelBuilder> {
+    let mut panels = built.panels.iter();
     let first = panels.next()?;
     let mut model =
         ModelBuilder::new(first.grid, first.flat.clone(), fabric, stiffness, kind, gravity).options(first.options);
     for p in panels {
         model = model.panel(p.grid, p.flat.clone(), p.options);
     }
-    for (spec, material) in model.panels.iter_mut().zip(&loaded.materials) {
+    for (spec, material) in model.panels.iter_mut().zip(materials) {
         spec.material = *material;
     }
     Some(model)
+}
+
+/// Sews the pattern's garment from the panel nodes' placed positions `initial` on the open model `model`: on
+/// its own grid, or on the coarser grid of `sewing_edge_length` and carried onto it.
+fn sew(
+    v: &Validator<'_>,
+    model: &ModelBuilder,
+    pattern: &LoadedPattern,
+    initial: Vec<Vec3>,
+    observe: &mut dyn FnMut(&crate::model::Model, &[Vec3]),
+) -> Result<crate::garment::sewing::Sewn, SceneError> {
+    let built = &pattern.built;
+    let sewn = match &pattern.coarse {
+        None => sew_observed(model, &built.seams, initial, &pattern.holds, &pattern.sewing, observe),
+        Some(coarse) => {
+            if model.pinned.iter().any(|&p| p) || !model.springs.is_empty() {
+                let message = "a scene with `[[pin]]` or `[[spring]]` tables sews on the pattern's own grid (their \
+                               nodes are its nodes): remove `sewing_edge_length`";
+                return Err(v.bad("pattern.sewing_edge_length", message.into()));
+            }
+            let (fabric, stiffness) = (model.fabric, model.stiffness);
+            let mut open = panels_model(coarse, &pattern.materials, fabric, stiffness, model.kind, model.gravity)
+                .ok_or_else(|| v.bad("pattern", "no panel".into()))?;
+            open.obstacles = model.obstacles.clone();
+            open.contact = model.contact;
+            open.self_contact = model.self_contact;
+            open.contact_faces = model.contact_faces;
+            open.laws = model.laws.clone();
+            let x0 = coarse.panels.iter().flat_map(|q| q.placed.iter().copied()).collect();
+            let panels = (&coarse.panels[..], &built.panels[..]);
+            let coarse = (&open, &coarse.seams[..], x0);
+            sew_coarse(model, &built.seams, &pattern.holds, coarse, panels, &pattern.sewing, observe)
+        }
+    };
+    sewn.map_err(|e| match e {
+        SewError::Model(e) => v.bad(e.field, e.message),
+        SewError::Step(e) => v.bad("pattern", format!("the sewing phase failed: {e}")),
+        SewError::Carry(e) => v.bad("pattern.sewing_edge_length", e.to_string()),
+    })
 }
 
 /// Warns when the sewing phase's steps ran out before every seam's gap was below `gap` (the seams are joined

@@ -250,6 +250,9 @@ fn default_hold() -> f64 {
 pub struct PatternUse {
     /// The pattern file, relative to the scene file.
     pub file: PathBuf,
+    /// The grid's target edge length for this scene (m), in place of the pattern file's `edge_length`.
+    #[serde(default)]
+    pub edge_length: Option<f64>,
     /// Stiffness of the sewing springs, per node pair (N/m), default 100.
     #[serde(default = "default_sewing_stiffness")]
     pub sewing_stiffness: f64,
@@ -264,6 +267,11 @@ pub struct PatternUse {
     /// None (the default): zero-length springs from the first step, self-contact off while sewing.
     #[serde(default)]
     pub sewing_closing: Option<f64>,
+    /// Sew on a coarser grid of the same pattern, of this target edge length (m), then carry the sewn garment
+    /// onto the pattern's own grid (`edge_length`) for the drape (docs/garments.md, "Sewing on a coarse
+    /// grid"). None (the default): sew on the pattern's grid.
+    #[serde(default)]
+    pub sewing_edge_length: Option<f64>,
 }
 
 fn default_sewing_stiffness() -> f64 {
@@ -499,6 +507,8 @@ pub(crate) struct LoadedPattern {
     pub(crate) sewing: SewingParams,
     /// Each panel's own fabric (`None`: the scene's).
     pub(crate) materials: Vec<Option<crate::model::PanelMaterial>>,
+    /// The same pattern on the coarser grid it is sewn on (`sewing_edge_length`), if any.
+    pub(crate) coarse: Option<Box<BuiltPattern>>,
 }
 
 impl PatternUse {
@@ -513,12 +523,16 @@ impl PatternUse {
         calibration: crate::material::Calibration,
     ) -> Result<LoadedPattern, SceneError> {
         let path = relative_to(v.file(), &self.file);
-        let spec = PatternSpec::load(&path).map_err(|e| match e {
+        let mut spec = PatternSpec::load(&path).map_err(|e| match e {
             SceneError::Io { source, .. } => {
                 v.bad("pattern.file", format!("cannot read pattern file {}: {source}", path.display()))
             }
             other => SceneError::referenced(v.file(), v.key("pattern.file"), other),
         })?;
+        if let Some(e) = self.edge_length {
+            v.require("pattern.edge_length", e > 0.0 && e.is_finite(), || format!("{e}: must be a positive length"))?;
+            spec.edge_length = e;
+        }
         let inside = |e: SceneError| SceneError::referenced(v.file(), v.key("pattern.file"), e);
         let materials = spec
             .panels
@@ -552,6 +566,7 @@ impl PatternUse {
                 format!("{c}: must be a positive length")
             })?;
         }
+        let coarse = self.coarse(v, &spec, &path)?;
         let sewing = SewingParams {
             stiffness: self.sewing_stiffness,
             dt,
@@ -563,7 +578,24 @@ impl PatternUse {
             .name
             .clone()
             .unwrap_or_else(|| path.file_stem().map_or_else(|| "pattern".into(), |s| s.to_string_lossy().into_owned()));
-        Ok(LoadedPattern { file: path, name, built, holds, sewing, materials })
+        Ok(LoadedPattern { file: path, name, built, holds, sewing, materials, coarse })
+    }
+
+    /// The pattern `spec` (of the file `path`) built on the sewing grid of `sewing_edge_length`, if it is given.
+    fn coarse(
+        &self,
+        v: &Validator<'_>,
+        spec: &PatternSpec,
+        path: &Path,
+    ) -> Result<Option<Box<BuiltPattern>>, SceneError> {
+        let Some(e) = self.sewing_edge_length else { return Ok(None) };
+        v.require("pattern.sewing_edge_length", e > 0.0 && e.is_finite(), || {
+            format!("{e}: must be a positive length")
+        })?;
+        let mut coarse = spec.clone();
+        coarse.edge_length = e;
+        let built = coarse.build(path).map_err(|err| SceneError::referenced(v.file(), v.key("pattern.file"), err))?;
+        Ok(Some(Box::new(built)))
     }
 }
 

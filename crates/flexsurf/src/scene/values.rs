@@ -329,7 +329,8 @@ impl SceneSpec {
 /// The panels of `pattern` whose placement says `onto_body` moved onto the obstacles' offset surface
 /// ([`crate::garment::wrap`]); an error naming the pattern file's key when there is no obstacle to wrap onto.
 fn wrap_panels(pattern: &mut LoadedPattern, obstacles: &[Obstacle]) -> Result<(), SceneError> {
-    for (p, panel) in pattern.built.panels.iter_mut().enumerate() {
+    let coarse = pattern.coarse.iter_mut().flat_map(|c| c.panels.iter_mut().enumerate());
+    for (p, panel) in pattern.built.panels.iter_mut().enumerate().chain(coarse) {
         let (placement, Some(offset)) = panel.placement else { continue };
         if obstacles.is_empty() {
             let key = format!("panel[{p}].placement");

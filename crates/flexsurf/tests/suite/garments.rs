@@ -1182,3 +1182,76 @@ fn seams_joined_open_when_the_steps_run_out_are_a_warning() {
         }
     }
 }
+
+/// A trapezoid (straight sides, so its Coons grid is not uniform) built at two edge lengths.
+fn trapezoid(edge: f64) -> BuiltPattern {
+    let text = format!(
+        "edge_length = {edge:?}\n[[panel]]\nname = \"t\"\ngrain = [1.0, 0.0]\noutline = [\n  {{ at = [0.0, 0.0], \
+         corner = \"a\" }},\n  {{ at = [0.5, 0.0], corner = \"b\" }},\n  {{ at = [0.4, 0.3], corner = \"c\" }},\n  \
+         {{ at = [0.05, 0.35], corner = \"d\" }},\n]\nplacement = {{ flat = {{}} }}\n"
+    );
+    build(&text)
+}
+
+/// An affine map of the plane into space: a rotation, a shear and a shift.
+fn affine(p: Vec3) -> Vec3 {
+    Vec3::new(0.3 + 0.6 * p.x - 0.8 * p.y, -0.2 + 0.8 * p.x + 0.6 * p.y + 0.1 * p.x, 1.0 + 0.5 * p.x - 0.25 * p.y)
+}
+
+/// Carrying a coarse grid's shape onto a fine grid of the same pattern interpolates on the coarse triangles, so
+/// an affine shape (which every triangle carries exactly) comes out as the same affine map of the fine grid's
+/// flat nodes; a fine panel that is not on the coarse one, or another count of panels, is an error.
+#[test]
+fn a_shape_carried_from_a_coarse_grid_keeps_an_affine_map() {
+    use flexsurf::garment::carry::{carry, CarryError};
+    let (coarse, fine) = (trapezoid(0.1), trapezoid(0.013));
+    assert!(fine.panels[0].grid.len() > 20 * coarse.panels[0].grid.len());
+    let shape: Vec<Vec3> = coarse.panels[0].flat.iter().map(|&p| affine(p)).collect();
+    let carried = carry(&coarse.panels, std::slice::from_ref(&shape), &fine.panels).unwrap();
+    let worst = carried.iter().zip(&fine.panels[0].flat).map(|(x, &p)| (*x - affine(p)).length()).fold(0.0, f64::max);
+    assert!(worst < 1e-13, "carried {worst} m off the affine map");
+    // Back onto itself: every node is a corner of its own cell.
+    let same = carry(&coarse.panels, std::slice::from_ref(&shape), &coarse.panels).unwrap();
+    assert!(same.iter().zip(&shape).all(|(a, b)| (*a - *b).length() < 1e-15));
+    let mut moved = fine.clone();
+    moved.panels[0].flat.iter_mut().for_each(|p| p.x += 0.2);
+    let outside = carry(&coarse.panels, std::slice::from_ref(&shape), &moved.panels).unwrap_err();
+    assert!(matches!(outside, CarryError::Outside { .. }), "{outside}");
+    assert!(outside.to_string().contains("panel `t`"), "{outside}");
+    let count = carry(&coarse.panels, &[shape], &[]).unwrap_err();
+    assert_eq!(count, CarryError::Panels { coarse: 1, fine: 0 });
+}
+
+/// A scene that sews on a coarser grid (`sewing_edge_length`) drapes on the pattern's grid at the scene's
+/// `edge_length`: the model has the fine grid's nodes, the report the coarse ones, and the fine seam starts
+/// closed; sewn on a grid of the pattern's own edge length, the garment is the one sewn on it directly.
+#[test]
+fn a_garment_sewn_on_a_coarse_grid_drapes_on_the_fine_one() {
+    let dir = crate::scratch_dir("sewing-coarse");
+    std::fs::write(dir.join("pattern.toml"), two_halves(0.04, "")).unwrap();
+    let scene = |extra: &str| {
+        format!(
+            "name = \"coarse\"\n[pattern]\nfile = \"pattern.toml\"\nsewing_stiffness = 100.0\nsewing_steps = 200\n\
+             sewing_gap = 0.0005\nsewing_closing = 0.005\n{extra}\n[material]\npreset = \"paper-cotton\"\n[time]\n\
+             dt = 0.01\nsteps = 1\n[self_contact]\nthickness = 0.004\n"
+        )
+    };
+    let load = |extra: &str| {
+        std::fs::write(dir.join("scene.toml"), scene(extra)).unwrap();
+        flexsurf::scene::load(&dir.join("scene.toml")).unwrap()
+    };
+    let coarse = load("edge_length = 0.025\nsewing_edge_length = 0.05");
+    let sewing = coarse.sewing.as_ref().unwrap();
+    // Two halves of 13 × 25 nodes sewn along 25 pairs: 625; sewn on 7 × 13 each.
+    assert_eq!((coarse.model.nodes(), sewing.report.nodes), (625, 182));
+    assert!(sewing.report.largest_gap() < 1e-9, "carried gap {}", sewing.report.largest_gap());
+    assert!(coarse.state.x.iter().all(|p| p.z == 0.0), "sewn in the plane");
+    let direct = load("");
+    let same = load("sewing_edge_length = 0.05");
+    assert_eq!(same.model.nodes(), direct.model.nodes());
+    let apart = same.state.x.iter().zip(&direct.state.x).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    assert!(apart < 1e-12, "sewn on the same grid, {apart} m apart");
+    std::fs::write(dir.join("scene.toml"), scene("sewing_edge_length = 0.05") + "[[pin]]\nnodes = [[0, 0]]\n").unwrap();
+    let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
+    assert!(e.contains("pattern.sewing_edge_length") && e.contains("[[pin]]"), "{e}");
+}
