@@ -27,6 +27,25 @@ fn report(model: &Model, x: &[Vec3], before: &[Vec3], node: usize) {
         }
     }
     let faces = model.faces();
+    // Folds near the node: the angle between the normals of two triangles sharing an edge, within 3 cm.
+    let normal = |t: &[usize; 3]| (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).normalize_or_zero();
+    let near: Vec<&[usize; 3]> = faces.triangles.iter().filter(|t| (x[t[0]] - x[node]).length() < 0.03).collect();
+    let mut folds = Vec::new();
+    for (a, ta) in near.iter().enumerate() {
+        for tb in &near[a + 1..] {
+            if ta.iter().filter(|k| tb.contains(k)).count() == 2 {
+                folds.push((normal(ta).dot(normal(tb)).clamp(-1.0, 1.0).acos().to_degrees(), **ta, **tb));
+            }
+        }
+    }
+    folds.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (angle, ta, tb) in folds.iter().take(3) {
+        println!(
+            "  fold {angle:.1} deg between {:?} and {:?}",
+            ta.map(|k| model.describe_node(k)),
+            tb.map(|k| model.describe_node(k))
+        );
+    }
     // The self-contact's own closest points, node against each triangle that does not hold it.
     let mut near: Vec<(f64, [usize; 3])> = (faces.triangles.iter().enumerate())
         .filter(|(_, t)| !t.contains(&node))
