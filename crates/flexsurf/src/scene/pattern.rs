@@ -592,6 +592,14 @@ impl PatternUse {
         v.require("pattern.sewing_edge_length", e > 0.0 && e.is_finite(), || {
             format!("{e}: must be a positive length")
         })?;
+        // The scene's memory budget was checked on the pattern's grid: the sewing grid must not be finer.
+        v.require("pattern.sewing_edge_length", e >= spec.edge_length, || {
+            format!(
+                "{e} m is below the grid's edge_length {} m: the sewing grid is the coarser one (or leave it out to \
+                 sew on the grid itself)",
+                spec.edge_length
+            )
+        })?;
         let mut coarse = spec.clone();
         coarse.edge_length = e;
         let built = coarse.build(path).map_err(|err| SceneError::referenced(v.file(), v.key("pattern.file"), err))?;

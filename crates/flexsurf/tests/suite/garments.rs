@@ -1254,4 +1254,13 @@ fn a_garment_sewn_on_a_coarse_grid_drapes_on_the_fine_one() {
     std::fs::write(dir.join("scene.toml"), scene("sewing_edge_length = 0.05") + "[[pin]]\nnodes = [[0, 0]]\n").unwrap();
     let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
     assert!(e.contains("pattern.sewing_edge_length") && e.contains("[[pin]]"), "{e}");
+    for (extra, what) in [
+        ("sewing_edge_length = 0.02", "below the grid's edge_length 0.05 m"),
+        ("sewing_edge_length = -1.0", "must be a positive length"),
+        ("edge_length = 0.0", "must be a positive length"),
+    ] {
+        std::fs::write(dir.join("scene.toml"), scene(extra)).unwrap();
+        let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
+        assert!(e.contains("scene.toml") && e.contains(what) && !e.contains('\n'), "{extra}: {e}");
+    }
 }
