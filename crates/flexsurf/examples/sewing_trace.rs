@@ -85,14 +85,17 @@ fn main() {
     // Sewn: the drape's first steps, and where the first failing one fails.
     let (model, mut state) = (&scene.model, scene.state.clone());
     let mut stepper = flexsurf::integrate::Stepper::new(model, &scene.step_params()).unwrap();
+    let deepest = flexsurf::integrate::max_penetration(model, &state.x);
+    println!("sewn: {} nodes, the deepest {deepest:.2e} m inside an obstacle", model.nodes());
     let drape_steps = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(3);
     for step in 1..=drape_steps {
         let before = state.x.clone();
         match stepper.step(model, &mut state) {
             Ok(info) => println!(
-                "drape step {step} taken: {} solves, {} factorisations, {:.2} s",
+                "drape step {step} taken: {} solves, {} factorisations, deepest {:.2e} m, {:.2} s",
                 info.timings.solves,
                 info.timings.factorizations,
+                info.max_penetration,
                 info.timings.assembly + info.timings.contact + info.timings.factorization + info.timings.solve
             ),
             Err(e) => {

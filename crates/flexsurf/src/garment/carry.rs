@@ -9,7 +9,9 @@
 //! that self-contact holds apart (corners `[0, 1, 3]` and `[0, 3, 2]`, [`crate::contact::proximity::Faces`]),
 //! walking from cell to cell, and the same linear interpolation on the coarse sewn mesh gives its position. So
 //! the carried garment lies on the surface the sewing phase kept from crossing itself and the body, and its
-//! kinks along the coarse grid lines are the first drape steps' to relax. The display surface (bicubic
+//! kinks along the coarse grid lines are the first drape steps' to relax. A coarse triangle across a convex
+//! part of the body comes nearer to it than its corners, so a fine node nearer than every corner of its coarse
+//! cell is moved out along the body's normal to the nearest corner's distance. The display surface (bicubic
 //! Hermite) was tried first and rejected (2026-12-04, the 9 mm T-shirt): where the coarse cloth folds at its
 //! grid's scale it overshoots and passes through itself (the sleeve, five fine nodes apart along a row), and
 //! inverting the flat Hermite surface put a seam's two sides at different places along it where an edge meets
@@ -17,6 +19,7 @@
 //! seam's fine nodes fall at the same fraction of the same coarse segment on both sides.
 
 use super::pattern::BuiltPanel;
+use crate::contact::{closest, Obstacle};
 use crate::grid::Grid;
 use crate::math::Vec3;
 use thiserror::Error;
@@ -66,8 +69,15 @@ struct Place {
 }
 
 /// The fine panels' nodes (panel after panel, each in its grid's order) at the sewn shape of the coarse panels:
-/// `sewn[p]` are coarse panel `p`'s node positions in its grid's order.
-pub fn carry(coarse: &[BuiltPanel], sewn: &[Vec<Vec3>], fine: &[BuiltPanel]) -> Result<Vec<Vec3>, CarryError> {
+/// `sewn[p]` are coarse panel `p`'s node positions in its grid's order. With `obstacles`, a fine node that comes
+/// out nearer to (or deeper inside) them than every corner of its coarse cell, where a coarse triangle cuts
+/// across a convex part of the body, is moved out along the body's normal to the nearest corner's distance.
+pub fn carry(
+    coarse: &[BuiltPanel],
+    sewn: &[Vec<Vec3>],
+    fine: &[BuiltPanel],
+    obstacles: &[Obstacle],
+) -> Result<Vec<Vec3>, CarryError> {
     if coarse.len() != fine.len() || sewn.len() != coarse.len() {
         return Err(CarryError::Panels { coarse: coarse.len(), fine: fine.len() });
     }
@@ -77,6 +87,7 @@ pub fn carry(coarse: &[BuiltPanel], sewn: &[Vec<Vec3>], fine: &[BuiltPanel]) -> 
             return Err(CarryError::Positions { panel: c.name.clone(), expected: c.grid.len(), got: x.len() });
         }
         let size = c.grid.h1.max(c.grid.h2).max(cell_size(c));
+        let floor: Vec<f64> = x.iter().map(|&q| closest(obstacles, q).map_or(f64::INFINITY, |(d, _)| d)).collect();
         let mut guess = (0, 0);
         for (node, &p) in f.flat.iter().enumerate() {
             let place = locate(&c.grid, &c.flat, p, guess);
@@ -85,11 +96,20 @@ pub fn carry(coarse: &[BuiltPanel], sewn: &[Vec<Vec3>], fine: &[BuiltPanel]) -> 
             if distance.is_nan() || distance > OUTSIDE * size {
                 return Err(CarryError::Outside { panel: c.name.clone(), node, distance });
             }
-            out.push(on_faces(&c.grid, x, place.cell, t));
+            let least = c.grid.cell(place.cell.0, place.cell.1).iter().map(|&k| floor[k]).fold(f64::INFINITY, f64::min);
+            out.push(lifted(obstacles, on_faces(&c.grid, x, place.cell, t), least));
             guess = place.cell;
         }
     }
     Ok(out)
+}
+
+/// `q` moved out along the nearest obstacle's normal to the distance `least` where it is nearer than that.
+fn lifted(obstacles: &[Obstacle], q: Vec3, least: f64) -> Vec3 {
+    match closest(obstacles, q) {
+        Some((d, n)) if d < least && least.is_finite() => q + n * (least - d),
+        _ => q,
+    }
 }
 
 /// The point at `t` of cell `cell` on the coarse sewn mesh's triangles, the two of each cell that self-contact

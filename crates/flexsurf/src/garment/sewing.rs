@@ -237,7 +237,7 @@ pub fn sew_coarse(
     let sewn = sew_observed(coarse, coarse_seams, coarse_x, &[], params, observe)?;
     let shapes: Vec<Vec<Vec3>> =
         sewn.model.panels.iter().map(|p| p.nodes().iter().map(|&k| sewn.x[k]).collect()).collect();
-    let x = super::carry::carry(panels.0, &shapes, panels.1)?;
+    let x = super::carry::carry(panels.0, &shapes, panels.1, &coarse.obstacles)?;
     let pairs = seam_pairs(builder, seams);
     let gaps = pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect();
     let report = SewReport { gaps, seconds: clock.elapsed().as_secs_f64(), ..sewn.report };

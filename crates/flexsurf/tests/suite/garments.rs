@@ -1207,18 +1207,18 @@ fn a_shape_carried_from_a_coarse_grid_keeps_an_affine_map() {
     let (coarse, fine) = (trapezoid(0.1), trapezoid(0.013));
     assert!(fine.panels[0].grid.len() > 20 * coarse.panels[0].grid.len());
     let shape: Vec<Vec3> = coarse.panels[0].flat.iter().map(|&p| affine(p)).collect();
-    let carried = carry(&coarse.panels, std::slice::from_ref(&shape), &fine.panels).unwrap();
+    let carried = carry(&coarse.panels, std::slice::from_ref(&shape), &fine.panels, &[]).unwrap();
     let worst = carried.iter().zip(&fine.panels[0].flat).map(|(x, &p)| (*x - affine(p)).length()).fold(0.0, f64::max);
     assert!(worst < 1e-13, "carried {worst} m off the affine map");
     // Back onto itself: every node is a corner of its own cell.
-    let same = carry(&coarse.panels, std::slice::from_ref(&shape), &coarse.panels).unwrap();
+    let same = carry(&coarse.panels, std::slice::from_ref(&shape), &coarse.panels, &[]).unwrap();
     assert!(same.iter().zip(&shape).all(|(a, b)| (*a - *b).length() < 1e-15));
     let mut moved = fine.clone();
     moved.panels[0].flat.iter_mut().for_each(|p| p.x += 0.2);
-    let outside = carry(&coarse.panels, std::slice::from_ref(&shape), &moved.panels).unwrap_err();
+    let outside = carry(&coarse.panels, std::slice::from_ref(&shape), &moved.panels, &[]).unwrap_err();
     assert!(matches!(outside, CarryError::Outside { .. }), "{outside}");
     assert!(outside.to_string().contains("panel `t`"), "{outside}");
-    let count = carry(&coarse.panels, &[shape], &[]).unwrap_err();
+    let count = carry(&coarse.panels, &[shape], &[], &[]).unwrap_err();
     assert_eq!(count, CarryError::Panels { coarse: 1, fine: 0 });
 }
 
@@ -1263,4 +1263,27 @@ fn a_garment_sewn_on_a_coarse_grid_drapes_on_the_fine_one() {
         let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
         assert!(e.contains("scene.toml") && e.contains(what) && !e.contains('\n'), "{extra}: {e}");
     }
+}
+
+/// Carried onto a finer grid, a coarse shape whose nodes lie 2 mm outside a ball (its cells' chords cutting
+/// up to a few millimetres closer) keeps every fine node at least those 2 mm out: a node nearer to the ball than
+/// its cell's corners is moved out along the ball's normal. Without the ball the chords come closer.
+#[test]
+fn a_carried_node_is_no_nearer_to_the_body_than_its_coarse_cell() {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::garment::carry::carry;
+    let (coarse, fine) = (trapezoid(0.1), trapezoid(0.013));
+    let (center, radius, clearance) = (Vec3::new(0.2, 0.15, -0.3), 0.3, 0.002);
+    // The flat panel (z = 0) pushed radially onto the sphere of radius + clearance about the centre.
+    let onto = |p: Vec3| center + (p - center).normalize() * (radius + clearance);
+    let shape: Vec<Vec3> = coarse.panels[0].flat.iter().map(|&p| onto(p)).collect();
+    let ball = [Obstacle::Sphere { center, radius }];
+    let gap = |x: &[Vec3]| x.iter().map(|p| (*p - center).length() - radius).fold(f64::INFINITY, f64::min);
+    let plain = carry(&coarse.panels, std::slice::from_ref(&shape), &fine.panels, &[]).unwrap();
+    let lifted = carry(&coarse.panels, std::slice::from_ref(&shape), &fine.panels, &ball).unwrap();
+    // A 0.1 m chord of a 0.302 m sphere sags 4.1 mm: the plain carry comes well inside the clearance.
+    assert!(gap(&plain) < 0.0, "chords {} m from the ball", gap(&plain));
+    assert!((gap(&lifted) - clearance).abs() < 1e-12, "lifted {} m from the ball", gap(&lifted));
+    let moved = plain.iter().zip(&lifted).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    assert!(moved < 0.01, "moved {moved} m");
 }
