@@ -387,7 +387,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let total_weight: u32 = seeds.iter().map(|s| s.weight).sum();
     let dir = std::env::temp_dir().join(format!("flexsurf-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(repo().join("fuzz/corpus/meshes/cube.obj"), dir.join("cube.obj")).unwrap();
+    beside(&dir);
     let findings_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/fuzz-findings");
     let mut findings = Findings { dir: findings_dir.clone(), list: Vec::new() };
 
@@ -490,13 +490,20 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     assert!(findings.list.is_empty(), "fuzz findings:\n{}", findings.list.join("\n"));
 }
 
+/// The files corpus scenes name, copied into the fuzz folder `dir`: `cube.obj` and the pattern `wrapped.toml`
+/// (a mutated scene or referenced file is written beside them under another name).
+fn beside(dir: &Path) {
+    std::fs::copy(repo().join("fuzz/corpus/meshes/cube.obj"), dir.join("cube.obj")).unwrap();
+    std::fs::copy(repo().join("fuzz/corpus/patterns/wrapped.toml"), dir.join("wrapped.toml")).unwrap();
+}
+
 /// The corpus itself checks cleanly (each seed builds or fails with an error, none panics) and every shipped
 /// scene builds.
 #[test]
 fn the_corpus_checks_cleanly() {
     let dir = std::env::temp_dir().join(format!("flexsurf-fuzz-corpus-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(repo().join("fuzz/corpus/meshes/cube.obj"), dir.join("cube.obj")).unwrap();
+    beside(&dir);
     for s in corpus() {
         let t = Instant::now();
         let result = check_one(&dir, s.role, &s.bytes, false);
