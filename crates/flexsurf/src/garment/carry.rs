@@ -150,7 +150,7 @@ fn locate(grid: &Grid, flat: &[Vec3], p: Vec3, guess: (usize, usize)) -> Place {
     walk_to(grid, flat, p, guess).unwrap_or_else(|| {
         let nearest = (0..flat.len()).min_by(|&a, &b| flat_distance(flat[a], p).total_cmp(&flat_distance(flat[b], p)));
         let (i, j) = grid.coords(nearest.unwrap_or(0));
-        let start = (i.min(grid.spans(0) - 1), j.min(grid.spans(1) - 1));
+        let start = (i.min(grid.spans(0).saturating_sub(1)), j.min(grid.spans(1).saturating_sub(1)));
         walk_to(grid, flat, p, start).unwrap_or_else(|| Place { cell: start, t: in_cell(grid, flat, start, p) })
     })
 }
