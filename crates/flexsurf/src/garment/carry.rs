@@ -86,7 +86,8 @@ pub fn carry(
         if x.len() != c.grid.len() || c.flat.len() != c.grid.len() {
             return Err(CarryError::Positions { panel: c.name.clone(), expected: c.grid.len(), got: x.len() });
         }
-        let size = c.grid.h1.max(c.grid.h2).max(cell_size(c));
+        // The grid's spacings are the coarse cells' mean side lengths (m).
+        let size = c.grid.h1.max(c.grid.h2);
         let floor: Vec<f64> = x.iter().map(|&q| closest(obstacles, q).map_or(f64::INFINITY, |(d, _)| d)).collect();
         let mut guess = (0, 0);
         for (node, &p) in f.flat.iter().enumerate() {
@@ -123,18 +124,6 @@ fn on_faces(grid: &Grid, x: &[Vec3], cell: (usize, usize), t: [f64; 2]) -> Vec3 
     } else {
         c[0] * (1.0 - t2) + c[2] * (t2 - t1) + c[3] * t1
     }
-}
-
-/// The longest flat edge of the coarse panel's first cell (the scale of its cells, in metres).
-fn cell_size(panel: &BuiltPanel) -> f64 {
-    if panel.grid.spans(0) == 0 || panel.grid.spans(1) == 0 {
-        return 0.0;
-    }
-    let c = panel.grid.cell(0, 0);
-    [(0, 1), (0, 2), (1, 3), (2, 3)]
-        .iter()
-        .map(|&(a, b)| (panel.flat[c[b]] - panel.flat[c[a]]).length())
-        .fold(0.0, f64::max)
 }
 
 /// Distance in the pattern's plane.

@@ -109,6 +109,11 @@ fn seam_pairs(builder: &ModelBuilder, seams: &[Seam]) -> Vec<Vec<(usize, usize)>
         .collect()
 }
 
+/// The widest gap between the two nodes of a pair at `x`, per seam (its pairs in `pairs`).
+fn widest_gaps(pairs: &[Vec<(usize, usize)>], x: &[Vec3]) -> Vec<f64> {
+    pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect()
+}
+
 /// Sews `seams` of the panels of `builder` (which has none yet) from the panel-node positions `x`: the phase
 /// on the open model (gravity off, the sewing springs added), then the model with the seams joined and
 /// `holds` (panel node, stiffness) as springs to their sewn positions.
@@ -165,9 +170,7 @@ pub fn sew_observed(
         Some(c) if c > 0.0 && widest > 0.0 => (widest / c).ceil().max(1.0),
         _ => 1.0,
     };
-    let gap = |x: &[Vec3]| -> Vec<f64> {
-        pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect()
-    };
+    let gap = |x: &[Vec3]| widest_gaps(&pairs, x);
     let v = vec![Vec3::ZERO; x.len()];
     let mut state = crate::integrate::start(&open, x, v, params.dt)?;
     let mut stepper = Stepper::new(&open, &StepParams::with_dt(params.dt))?;
@@ -239,7 +242,7 @@ pub fn sew_coarse(
         sewn.model.panels.iter().map(|p| p.nodes().iter().map(|&k| sewn.x[k]).collect()).collect();
     let x = super::carry::carry(panels.0, &shapes, panels.1, &coarse.obstacles)?;
     let pairs = seam_pairs(builder, seams);
-    let gaps = pairs.iter().map(|p| p.iter().map(|&(a, b)| (x[a] - x[b]).length()).fold(0.0, f64::max)).collect();
+    let gaps = widest_gaps(&pairs, &x);
     let report = SewReport { gaps, seconds: clock.elapsed().as_secs_f64(), ..sewn.report };
     Ok(join(builder, seams, &x, holds, report)?)
 }
