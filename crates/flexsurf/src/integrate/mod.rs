@@ -30,6 +30,7 @@ mod resume;
 use crate::energy::Operator;
 use crate::math::{finite, Vec3};
 use crate::model::{Energies, Model};
+use crate::potential::friction::MODEL_TOLERANCE;
 use crate::potential::inertia::Inertia;
 use crate::potential::self_contact::SelfContact;
 use crate::potential::{Motion, Values, Want, Workspace};
@@ -196,8 +197,8 @@ pub struct NewtonReport {
     pub residual: f64,
     /// The residual reached the tolerance.
     pub converged: bool,
-    /// The step had an active contact or friction set after its first solve and took the contact steps' rule
-    /// (at most one correction, [`StepParams::contact_correction`]) instead of iterating to the tolerance.
+    /// The step had an active contact or friction set after its first solve and took the contact steps' rules
+    /// ([`StepParams::contact_correction`], docs/model.md §8.5) instead of iterating to the tolerance.
     pub contact: bool,
 }
 
@@ -477,8 +478,8 @@ impl Stepper {
     /// mass-weighted norms), exceeds [`StepParams::newton_tolerance`], a correction follows with the matrix at
     /// the iterate, taken by a line search that never raises `Φ` (at most [`StepParams::newton_iterations`]
     /// iterations in all): large rotations within one step then leave no spurious stretch to brake them. A
-    /// contact step makes at most one correction, at an impact ([`StepParams::contact_correction`]), and is not
-    /// converged. The outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every node inside
+    /// contact step makes at most one correction where it is violent ([`StepParams::contact_correction`]), and
+    /// is otherwise iterated while its contacts' linear models are off ([`Stepper::contact_corrections`]). The outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every node inside
     /// the contact layer at the start of the step or predicted to enter it, and the active set is corrected by
     /// re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
     ///
@@ -695,15 +696,22 @@ impl Stepper {
         Ok((tf, t_solve, report))
     }
 
-    /// The Newton rule of a contact step (an active contact or friction set after the first solve): at most one
-    /// correction, taken whole, when a node's residual force exceeds [`StepParams::contact_correction`] times
-    /// the largest nodal weight of its panel, or when the lagged friction's linear model is off by more than
-    /// its Coulomb limit (a slip reversed or stopped within the step that the re-solves did not settle). These
-    /// iterations converge only linearly (the draped sheet's compressed membrane, whose positive semi-definite
-    /// Hessian drops the negative geometric stiffness and whose exact one is indefinite or nearly singular
-    /// along the wrinkling modes; the contact set changing at the layer's edge; friction's stick zone of
-    /// width `ε_v Δt`): docs/model.md §8.5. The residual relative to the step's force scale is measured after
-    /// the last solve and reported, the step counted converged only where it is within the tolerance.
+    /// The Newton rule of a contact step (an active contact or friction set after the first solve), decided at
+    /// its first iterate (docs/model.md §8.5):
+    ///
+    /// - a *violent* step (a node's residual force above [`StepParams::contact_correction`] times the largest
+    ///   nodal weight of its panel: the impact on the ball, the sewing's first pulls), or one with contact
+    ///   records that keep what the step's start fixed (the pairs between faces, [`crate::potential::ActiveSet::
+    ///   convergent`]), makes at most one correction, taken whole, when that force is large or the lagged
+    ///   friction's linear model is off by more than its Coulomb limit;
+    /// - any other contact step is iterated by Newton's method with the line search on `Φ`
+    ///   ([`Stepper::line_search`], at most [`StepParams::newton_iterations`] iterations) while the contacts'
+    ///   linear models of the last solve are off at the iterate by more than [`MODEL_TOLERANCE`] of the largest
+    ///   contact force (the linearised gap misses the obstacle's curvature under a node that slides: the
+    ///   capstan), or friction's by more than its Coulomb limit.
+    ///
+    /// The residual relative to the step's force scale is measured after the last solve and reported, the step
+    /// counted converged only where it is within [`StepParams::newton_tolerance`].
     fn contact_corrections(
         &mut self,
         model: &Model,
@@ -716,30 +724,53 @@ impl Stepper {
             let cx = model.potential.context(Some(s.history.motion(model, state, s.h, false)));
             model.potential.model_error(&s.y, &cx, &mut s.ws)
         };
-        let mut model_error = friction_error(self);
-        loop {
-            // Residual first (gradient and contact forces only); the matrix only if a correction is due.
-            let ta = Instant::now();
-            self.assemble_at(model, state, false, Want::GRADIENT);
-            *t_assembly += ta.elapsed().as_secs_f64();
-            report.residual = self.relative_residual(model);
-            report.converged = report.residual <= self.params.newton_tolerance;
-            let fixed = model.pinned();
-            let threshold = self.params.contact_correction;
-            let large = (0..self.rhs.len())
-                .any(|k| !fixed[k] && self.rhs[k].length() > threshold * self.weights[self.panel_of[k] as usize]);
-            let due = large || model_error > crate::potential::friction::NEWTON_TOLERANCE;
-            if !due || report.iterations >= self.params.newton_iterations.min(2) {
-                return Ok((tf, t_solve, report));
-            }
+        let mut friction_off = friction_error(self) > crate::potential::friction::NEWTON_TOLERANCE;
+        let ta = Instant::now();
+        let mut phi = self.assemble_at(model, state, false, Want::GRADIENT).total;
+        *t_assembly += ta.elapsed().as_secs_f64();
+        report.residual = self.relative_residual(model);
+        let violent = self.violent(model);
+        let converge = !violent && model.potential.convergent(&self.ws);
+        let cap = if converge { self.params.newton_iterations } else { self.params.newton_iterations.min(2) };
+        let mut due = violent || friction_off || (converge && model.potential.linear_error(&self.ws) > MODEL_TOLERANCE);
+        while due && report.iterations < cap {
             tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
+            report.iterations += 1;
+            self.counters.corrections += 1;
+            // Friction's models are those of the solve until the next assembly re-linearises them: measured at
+            // the full step.
             for (y, d) in self.y.iter_mut().zip(&self.delta) {
                 *y += *d;
             }
-            report.iterations += 1;
-            self.counters.corrections += 1;
-            model_error = friction_error(self);
+            friction_off = friction_error(self) > crate::potential::friction::NEWTON_TOLERANCE;
+            let ta = Instant::now();
+            if converge {
+                for (y, d) in self.y.iter_mut().zip(&self.delta) {
+                    *y -= *d;
+                }
+                let found = self.line_search(model, state, phi, report.residual);
+                *t_assembly += ta.elapsed().as_secs_f64();
+                let Some((p, r)) = found else { break };
+                (phi, report.residual) = (p, r);
+                due = friction_off || model.potential.linear_error(&self.ws) > MODEL_TOLERANCE;
+            } else {
+                self.assemble_at(model, state, false, Want::GRADIENT);
+                *t_assembly += ta.elapsed().as_secs_f64();
+                report.residual = self.relative_residual(model);
+                due = friction_off || self.violent(model);
+            }
         }
+        report.converged = report.residual <= self.params.newton_tolerance;
+        Ok((tf, t_solve, report))
+    }
+
+    /// Whether a free node's residual force in the last assembly exceeds [`StepParams::contact_correction`]
+    /// times the largest nodal weight (or load) of its panel.
+    fn violent(&self, model: &Model) -> bool {
+        let fixed = model.pinned();
+        let threshold = self.params.contact_correction;
+        (0..self.rhs.len())
+            .any(|k| !fixed[k] && self.rhs[k].length() > threshold * self.weights[self.panel_of[k] as usize])
     }
 
     /// Solves a Newton correction at the iterate `y` with the step's operator (its gradient kept in `g0`).

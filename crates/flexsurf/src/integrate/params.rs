@@ -79,8 +79,9 @@ pub struct StepParams {
     /// linearised step (46)–(48) included as the first, for a step without contact (no contact record, touching
     /// or predicted, and no friction after its first solve). Such a step that reaches it is kept and counted as
     /// unconverged ([`super::NewtonReport`], `Counters::unconverged`); free motion converges within the default
-    /// 4 (the tumbling sheet of tests/suite/converged_step.rs). A contact step makes at most 2 (one
-    /// correction, [`StepParams::contact_correction`]).
+    /// 4 (the tumbling sheet of tests/suite/converged_step.rs). A contact step iterates while its contacts'
+    /// linear models are off at the iterate (docs/model.md §8.5), at most as many; a violent one, or one with
+    /// pairs between faces, makes at most 2 (one correction, [`StepParams::contact_correction`]).
     pub newton_iterations: usize,
     /// Relative residual at which the Newton iterations of a step without contact stop: the residual force of
     /// the implicit equation `∇Φ(y) = 0` over the step's own force scale, both in the mass-weighted norm
@@ -96,8 +97,9 @@ pub struct StepParams {
     /// its one Newton correction, relative to the largest nodal weight (or load) of the node's own panel. The
     /// default 100 corrects only at violent events such as the impact on the ball, where the linearised step
     /// alone stretches the sheet by 3.2% (measured, 21×21 ball drop, step 16) and one correction brings the
-    /// peak strain to 0.2%; smooth contact steps are not corrected. Contact steps are not iterated to
-    /// [`StepParams::newton_tolerance`]: their Newton iterations converge only linearly (docs/model.md §8.5).
+    /// peak strain to 0.2%. Other contact steps are iterated while their contacts' linear models are off (the
+    /// obstacle's curvature under a sliding node), not to [`StepParams::newton_tolerance`]: the draped sheet's
+    /// residual converges only linearly (docs/model.md §8.5).
     pub contact_correction: f64,
     /// Most re-solves per Newton iteration while an active set (contact) changes.
     pub active_set_rounds: usize,

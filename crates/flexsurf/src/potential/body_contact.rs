@@ -98,6 +98,10 @@ impl ActiveSet for BodyContact {
         self.pairs.engaged(scratch)
     }
 
+    fn convergent(&self, scratch: &Scratch) -> bool {
+        self.pairs.convergent(scratch)
+    }
+
     fn slip_speed(&self) -> f64 {
         self.pairs.slip_speed()
     }

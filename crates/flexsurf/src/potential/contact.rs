@@ -455,6 +455,11 @@ pub struct ContactScratch {
     /// The face samples in contact and their records.
     sample_ids: Vec<usize>,
     sample_contacts: Vec<Contact>,
+    /// How far the node contacts' linear models the last solve used were, at the iterate the last assembly
+    /// found the contacts again, from the penalty there: the largest force error over the nodes relative to the
+    /// largest contact force (0 for a step's first assembly).
+    #[serde(skip)]
+    linear_error: f64,
 }
 
 /// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
@@ -524,6 +529,7 @@ impl PenaltyContact {
             sample_cache: ContactCache::new(self.sampled.len(), self.sample_count()),
             sample_ids: Vec::new(),
             sample_contacts: Vec::new(),
+            linear_error: 0.0,
         }
     }
 
@@ -592,6 +598,29 @@ fn static_friction(f: &StaticLag, y: &[Vec3], cx: &Context, sink: &mut Sink) -> 
     total
 }
 
+/// The penalty force vector of each node contact's linear model at `y` (node, force; zero outside the layer).
+fn linear_forces(contacts: &[Contact], params: &ContactParams, y: &[Vec3]) -> Vec<(usize, Vec3)> {
+    let nodes = contacts.iter().filter(|c| c.stencil.len == 1);
+    nodes.map(|c| (c.node(), c.normal * (c.stiffness * (params.offset - c.gap(y[c.node()]))).max(0.0))).collect()
+}
+
+/// The largest difference between the node contacts' forces `before` (their linear models at an iterate) and
+/// the penalty forces of `contacts` found at that iterate, relative to the largest of those forces.
+fn linear_error(before: &[(usize, Vec3)], contacts: &[Contact]) -> f64 {
+    let mut forces: std::collections::BTreeMap<usize, (Vec3, Vec3)> =
+        before.iter().map(|&(k, f)| (k, (f, Vec3::ZERO))).collect();
+    for c in contacts.iter().filter(|c| c.stencil.len == 1) {
+        forces.entry(c.node()).or_insert((Vec3::ZERO, Vec3::ZERO)).1 = c.normal * c.force.max(0.0);
+    }
+    let largest = forces.values().map(|(a, b)| a.length().max(b.length())).fold(0.0, f64::max);
+    let worst = forces.values().map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    if largest > 0.0 {
+        worst / largest
+    } else {
+        0.0
+    }
+}
+
 /// A step's friction: each lagged contact's model about its linearisation, the slip measured from `x`.
 fn step_friction(lagged: &[Lagged], eps: f64, y: &[Vec3], x: &[Vec3], cx: &Context, sink: &mut Sink) -> f64 {
     let mut total = 0.0;
@@ -623,7 +652,9 @@ impl ActiveSet for PenaltyContact {
                 _ => y[k],
             };
         }
+        let before = cx.motion.filter(|m| !m.predict).map(|_| linear_forces(&s.contacts, &self.params, y));
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
+        s.linear_error = before.map_or(0.0, |b| linear_error(&b, &s.contacts));
         if let Some(samples) = &self.samples {
             detect_samples(&self.sampled, &self.params, samples, y, s);
         }
@@ -804,6 +835,10 @@ impl ActiveSet for PenaltyContact {
         scratch
             .get::<ContactScratch>()
             .map_or(0, |s| s.contacts.iter().chain(&s.sample_contacts).filter(|c| c.force > 0.0).count())
+    }
+
+    fn linear_error(&self, scratch: &Scratch) -> f64 {
+        scratch.get::<ContactScratch>().map_or(0.0, |s| s.linear_error)
     }
 
     fn engaged(&self, scratch: &Scratch) -> bool {

@@ -274,6 +274,18 @@ pub trait ActiveSet {
     fn engaged(&self, scratch: &Scratch) -> bool {
         self.active(scratch) > 0
     }
+    /// Whether a contact step whose support is in `scratch` may be iterated by Newton's method to the step's
+    /// tolerance: the term's value and gradient at an iterate are those of the step's incremental potential
+    /// (its contacts found again there). False for a term whose records keep what the step's start fixed and
+    /// whose set changes between iterates (the pairs between faces: docs/model.md §8.5).
+    fn convergent(&self, _scratch: &Scratch) -> bool {
+        true
+    }
+    /// How far the contacts' linear models of the last solve were, at the iterate of the last assembly, from
+    /// the contact forces found there, relative to the largest contact force (0 where not measured).
+    fn linear_error(&self, _scratch: &Scratch) -> f64 {
+        0.0
+    }
     /// Largest violation at `x` (penetration below an obstacle's surface, m), warm-started from `scratch`.
     fn violation(&self, x: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64;
     /// Forgets the warm start and the support (the next evaluation starts cold); what a static solve lagged
@@ -687,6 +699,16 @@ impl Potential {
     /// Whether any term's active set in `ws` holds a contact record or lagged friction ([`ActiveSet::engaged`]).
     pub fn engaged(&self, ws: &Workspace) -> bool {
         self.active_sets().any(|(t, a)| a.engaged(&ws.scratch[t]))
+    }
+
+    /// Whether every engaged term lets a contact step be iterated to the tolerance ([`ActiveSet::convergent`]).
+    pub fn convergent(&self, ws: &Workspace) -> bool {
+        self.active_sets().all(|(t, a)| !a.engaged(&ws.scratch[t]) || a.convergent(&ws.scratch[t]))
+    }
+
+    /// The largest [`ActiveSet::linear_error`] over the terms.
+    pub fn linear_error(&self, ws: &Workspace) -> f64 {
+        self.active_sets().map(|(t, a)| a.linear_error(&ws.scratch[t])).fold(0.0, f64::max)
     }
 
     /// Largest violation over every term at `x` (penetration, m), warm-started from `ws`.

@@ -552,6 +552,10 @@ impl ActiveSet for SelfContact {
         scratch.get::<SelfScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
     }
 
+    fn convergent(&self, _scratch: &Scratch) -> bool {
+        false
+    }
+
     fn slip_speed(&self) -> f64 {
         if self.params.friction > 0.0 {
             self.params.slip_speed
