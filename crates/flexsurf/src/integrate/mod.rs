@@ -263,6 +263,8 @@ struct History {
     center: Vec<Vec3>,
     alpha: f64,
     beta: f64,
+    /// The iterations of a converging contact step are under way ([`Motion::exact`]).
+    exact: bool,
 }
 
 impl History {
@@ -307,6 +309,7 @@ impl History {
             mass: &model.mass,
             damping: &model.damping,
             predict,
+            exact: self.exact && !predict,
         }
     }
 }
@@ -657,6 +660,8 @@ impl Stepper {
         state: &State,
         t_assembly: &mut f64,
     ) -> Result<(f64, f64, NewtonReport), StepError> {
+        // A failed step's iterations may have left the exact models on (the retaken halves start without).
+        self.history.exact = false;
         let ts = Instant::now();
         let mut tf = self.solve_with_active_sets(model, state, 0, self.operator())?;
         self.check_increment(state)?;
@@ -724,35 +729,36 @@ impl Stepper {
             let cx = model.potential.context(Some(s.history.motion(model, state, s.h, false)));
             model.potential.model_error(&s.y, &cx, &mut s.ws)
         };
-        let mut friction_off = friction_error(self) > crate::potential::friction::NEWTON_TOLERANCE;
+        let friction = friction_error(self);
         let ta = Instant::now();
         let mut phi = self.assemble_at(model, state, false, Want::GRADIENT).total;
         *t_assembly += ta.elapsed().as_secs_f64();
         report.residual = self.relative_residual(model);
         let violent = self.violent(model);
         let converge = !violent && model.potential.convergent(&self.ws);
+        // The models' tolerances: friction's Coulomb limit for the former rule, 5 % of the largest force for
+        // the iterated one (the re-solves' own tolerance).
+        let friction_tolerance = if converge { MODEL_TOLERANCE } else { crate::potential::friction::NEWTON_TOLERANCE };
+        let contact_off = |s: &Self| converge && model.potential.linear_error(&s.ws) > MODEL_TOLERANCE;
         let cap = if converge { self.params.newton_iterations } else { self.params.newton_iterations.min(2) };
-        let mut due = violent || friction_off || (converge && model.potential.linear_error(&self.ws) > MODEL_TOLERANCE);
+        let mut due = violent || friction > friction_tolerance || contact_off(self);
+        self.history.exact = converge;
         while due && report.iterations < cap {
             tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
             report.iterations += 1;
             self.counters.corrections += 1;
             // Friction's models are those of the solve until the next assembly re-linearises them: measured at
             // the full step.
-            for (y, d) in self.y.iter_mut().zip(&self.delta) {
-                *y += *d;
-            }
-            friction_off = friction_error(self) > crate::potential::friction::NEWTON_TOLERANCE;
+            self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y += *d);
+            let friction_off = friction_error(self) > friction_tolerance;
             let ta = Instant::now();
             if converge {
-                for (y, d) in self.y.iter_mut().zip(&self.delta) {
-                    *y -= *d;
-                }
+                self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y -= *d);
                 let found = self.line_search(model, state, phi, report.residual);
                 *t_assembly += ta.elapsed().as_secs_f64();
                 let Some((p, r)) = found else { break };
                 (phi, report.residual) = (p, r);
-                due = friction_off || model.potential.linear_error(&self.ws) > MODEL_TOLERANCE;
+                due = friction_off || contact_off(self);
             } else {
                 self.assemble_at(model, state, false, Want::GRADIENT);
                 *t_assembly += ta.elapsed().as_secs_f64();
@@ -760,6 +766,7 @@ impl Stepper {
                 due = friction_off || self.violent(model);
             }
         }
+        self.history.exact = false;
         report.converged = report.residual <= self.params.newton_tolerance;
         Ok((tf, t_solve, report))
     }

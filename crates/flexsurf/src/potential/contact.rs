@@ -694,7 +694,12 @@ impl ActiveSet for PenaltyContact {
             Some(m) => {
                 let eps = self.params.slip_speed * m.dt;
                 for l in &mut s.lagged {
-                    l.linearize(l.tangential(y[l.node] - m.x[l.node]), eps, false);
+                    let u = l.tangential(y[l.node] - m.x[l.node]);
+                    if m.exact {
+                        l.exact(u);
+                    } else {
+                        l.linearize(u, eps, false);
+                    }
                 }
             }
             None => s.lagged.clear(),
@@ -774,7 +779,7 @@ impl ActiveSet for PenaltyContact {
         }
         // Friction whose linear model is off at the proposal is re-linearised there (at most
         // `FRICTION_ROUNDS` times per assembly: each costs a re-solve).
-        if let Some(m) = cx.motion.filter(|_| s.relinearized < FRICTION_ROUNDS) {
+        if let Some(m) = cx.motion.filter(|m| !m.exact && s.relinearized < FRICTION_ROUNDS) {
             s.relinearized += 1;
             let eps = params.slip_speed * m.dt;
             let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);

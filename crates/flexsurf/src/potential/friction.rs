@@ -131,6 +131,13 @@ impl Lagged {
         self.at = u;
     }
 
+    /// Takes the law's own second-order model about `u`: its gradient there is the law's and its Hessian the
+    /// law's exact, positive semi-definite one (a Newton iteration on the step's potential).
+    pub fn exact(&mut self, u: Vec3) {
+        self.majorant = false;
+        self.at = u;
+    }
+
     /// Value, gradient and Hessian of the current model at the tangential displacement `u`.
     pub fn model(&self, law: &FrictionLaw, u: Vec3) -> (f64, Vec3, Mat3) {
         let p = self.projector();

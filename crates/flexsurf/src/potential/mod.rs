@@ -129,6 +129,10 @@ pub struct Motion<'a> {
     /// The first assembly of a step: contact candidates also come from the target `ŷ`, and lagged quantities
     /// (friction's normal forces and tangent planes) are taken at this configuration.
     pub predict: bool,
+    /// A Newton iteration of a converging contact step: friction takes its law's own second-order model at the
+    /// iterate (the exact gradient and positive semi-definite Hessian of `μλ f₀(|u|)`, no majorant), and the
+    /// solves do not re-linearise it (the line search on `Φ` settles the step).
+    pub exact: bool,
 }
 
 /// What a term may read besides the configuration.

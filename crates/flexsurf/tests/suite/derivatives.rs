@@ -263,6 +263,7 @@ fn the_step_system_matches_finite_differences() {
         mass: &model.mass,
         damping: &model.damping,
         predict: false,
+        exact: false,
     };
     check(&alone(g.len(), Box::new(Inertia)), &y, Some(motion), None, Operator::Exact).assert_below("inertia", TOL);
     check(&model.potential, &y, Some(motion), Some(&Inertia), Operator::Exact).assert_below("step potential", TOL);
@@ -313,6 +314,7 @@ fn the_stepper_uses_the_potential_assembly() {
         mass: &model.mass,
         damping: &model.damping,
         predict: true,
+        exact: false,
     };
     let (assembled, _) = hessians(&model.potential, &state.x, Some(motion), Some(&Inertia), Operator::Projected);
     assert_eq!(st.matrix().to_dense(model.potential.pattern()), assembled);

@@ -231,6 +231,7 @@ fn motion<'a>(x: &'a [Vec3], zero: &'a [Vec3], ones: &'a [f64]) -> flexsurf::pot
         mass: ones,
         damping: ones,
         predict: false,
+        exact: false,
     }
 }
 

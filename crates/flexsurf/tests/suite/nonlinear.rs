@@ -539,6 +539,7 @@ fn hysteresis_in_a_step_passes_the_checker() {
         mass: &ones,
         damping: &ones,
         predict: false,
+        exact: false,
     };
     let b = NonlinearBending::hysteresis(&g, &rest, [2e-4, 1e-4], 1.0, Warp::Angle(0.3), &rest).unwrap();
     let m = NonlinearMembrane::shear_hysteresis(&g, &rest, 0.5, 1.0, Warp::Angle(0.3), &rest).unwrap();

@@ -144,12 +144,15 @@ fn the_skirt_stays_outside_the_body_and_the_waist_holds_for_600_steps() {
         "max penetration {} m reached the contact offset {offset} m",
         sum.max_penetration_seen
     );
-    // Each waist spring carries at most its share of the skirt's weight (the hips carry some of it).
+    // The waist holds: no spring carries more than a few times its share of the skirt's weight. How the load
+    // spreads along the waist is statically indeterminate (the hips' friction holds some of it where the skirt
+    // came to rest): the largest spring carried 2.5 times the mean share with the contact steps' former rule and
+    // 3.0 times with their friction converged (2026-12-04). The total is checked against statics below.
     let weight: f64 = s.model.mass.iter().sum::<f64>() * s.model.gravity.length();
     let share = weight / s.model.panels[0].grid.m as f64;
-    let bound = 3.0 * share / 80.0;
+    let bound = 4.0 * share / 80.0;
     let drift = sum.waist_drift_max.expect("garment runs report the waist drift");
-    assert!(drift <= bound, "waist drift {drift} m above {bound} m (3 × {share} N / 80 N/m)");
+    assert!(drift <= bound, "waist drift {drift} m above {bound} m (4 × {share} N / 80 N/m)");
     assert!(drift > 0.0);
     let steps: Vec<usize> = sum.frames.iter().map(|f| f.step).collect();
     assert_eq!(steps, [0, 200, 400, 600]);
@@ -252,4 +255,31 @@ fn garment_and_body_errors_name_the_file_and_the_key() {
     let e = error_of(&d, "nomesh.toml", &text);
     assert_names(&e, "nomesh.toml", "obstacle[0].mesh.file", "none.obj");
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Statics of the skirt at rest: the waist springs and the body hold its weight, the body only pushing and its
+/// friction holding the cloth up, so the springs' upward pull together lies between nothing and the weight `m g`
+/// (measured after 600 steps: 0.983 of it), and it points up. The skirt's kinetic energy is then below 1e-5 J.
+#[test]
+fn the_waist_springs_carry_at_most_the_skirts_weight() {
+    let s = scene::load(&skirt_path()).unwrap();
+    let mut state = s.state.clone();
+    let mut stepper = flexsurf::integrate::Stepper::new(&s.model, &s.step_params()).unwrap();
+    for _ in 0..600 {
+        stepper.step(&s.model, &mut state).unwrap();
+    }
+    let waist = &s.garment.as_ref().unwrap().waist_nodes;
+    let springs = s.model.springs();
+    let pull = springs
+        .iter()
+        .filter(|sp| waist.contains(&sp.node))
+        .fold(flexsurf::math::Vec3::ZERO, |a, sp| a + (sp.target - state.x[sp.node]) * sp.stiffness);
+    let weight = s.model.mass.iter().sum::<f64>() * s.model.gravity.length();
+    println!("the waist springs pull {pull:?} N against a weight of {weight} N ({:.4})", pull.z / weight);
+    assert!(
+        pull.z > 0.0 && pull.z <= weight * (1.0 + 1e-9),
+        "the springs pull {} N up, the skirt weighs {weight} N",
+        pull.z
+    );
+    assert!(pull.z > 10.0 * f64::hypot(pull.x, pull.y), "the springs' pull is not upward: {pull:?}");
 }
