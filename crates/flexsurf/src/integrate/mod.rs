@@ -482,9 +482,10 @@ impl Stepper {
     /// the iterate, taken by a line search that never raises `Φ` (at most [`StepParams::newton_iterations`]
     /// iterations in all): large rotations within one step then leave no spurious stretch to brake them. A
     /// contact step makes at most one correction where it is violent ([`StepParams::contact_correction`]), and
-    /// is otherwise iterated while its contacts' linear models are off ([`Stepper::contact_corrections`]). The outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every node inside
-    /// the contact layer at the start of the step or predicted to enter it, and the active set is corrected by
-    /// re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
+    /// is otherwise iterated while its contacts' linear models are off ([`Stepper::contact_corrections`]). The
+    /// outcome is [`StepInfo::newton`]. Contact is implicit: the penalty stiffness is in the matrix for every
+    /// node inside the contact layer at the start of the step or predicted to enter it, and the active set is
+    /// corrected by re-solving (at most [`StepParams::active_set_rounds`] times) when the solution disagrees.
     ///
     /// A step that fails (a speed or strain bound, a non-finite value, a node through an obstacle, a failed
     /// solve) is retaken as two half steps from the same state (at most [`MAX_HALVINGS`] times nested), whose
