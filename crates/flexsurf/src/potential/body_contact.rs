@@ -98,8 +98,8 @@ impl ActiveSet for BodyContact {
         self.pairs.engaged(scratch)
     }
 
-    fn convergent(&self, scratch: &Scratch) -> bool {
-        self.pairs.convergent(scratch)
+    fn convergent(&self) -> bool {
+        self.pairs.convergent()
     }
 
     fn slip_speed(&self) -> f64 {

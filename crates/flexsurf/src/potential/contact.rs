@@ -460,6 +460,9 @@ pub struct ContactScratch {
     /// largest contact force (0 for a step's first assembly).
     #[serde(skip)]
     linear_error: f64,
+    /// The records before the last detection ([`ContactScratch::linear_error`]).
+    #[serde(skip)]
+    previous: Vec<Contact>,
 }
 
 /// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
@@ -530,6 +533,7 @@ impl PenaltyContact {
             sample_ids: Vec::new(),
             sample_contacts: Vec::new(),
             linear_error: 0.0,
+            previous: Vec::new(),
         }
     }
 
@@ -598,22 +602,33 @@ fn static_friction(f: &StaticLag, y: &[Vec3], cx: &Context, sink: &mut Sink) -> 
     total
 }
 
-/// The penalty force vector of each node contact's linear model at `y` (node, force; zero outside the layer).
-fn linear_forces(contacts: &[Contact], params: &ContactParams, y: &[Vec3]) -> Vec<(usize, Vec3)> {
-    let nodes = contacts.iter().filter(|c| c.stencil.len == 1);
-    nodes.map(|c| (c.node(), c.normal * (c.stiffness * (params.offset - c.gap(y[c.node()]))).max(0.0))).collect()
-}
-
-/// The largest difference between the node contacts' forces `before` (their linear models at an iterate) and
-/// the penalty forces of `contacts` found at that iterate, relative to the largest of those forces.
-fn linear_error(before: &[(usize, Vec3)], contacts: &[Contact]) -> f64 {
-    let mut forces: std::collections::BTreeMap<usize, (Vec3, Vec3)> =
-        before.iter().map(|&(k, f)| (k, (f, Vec3::ZERO))).collect();
-    for c in contacts.iter().filter(|c| c.stencil.len == 1) {
-        forces.entry(c.node()).or_insert((Vec3::ZERO, Vec3::ZERO)).1 = c.normal * c.force.max(0.0);
+/// How far the contacts `before` (the records the last solve used, their linear models evaluated at `y`) are
+/// from the penalty forces of `after` (the records found again at `y`): the largest difference of a node's force
+/// vector, relative to the largest force of either. Both lists hold node contacts in node order, one a node (as
+/// detection and [`ActiveSet::refine`] leave them), so they are merged in one pass.
+fn linear_error(before: &[Contact], after: &[Contact], offset: f64, y: &[Vec3]) -> f64 {
+    let (mut i, mut j) = (0, 0);
+    let (mut largest, mut worst) = (0.0f64, 0.0f64);
+    while i < before.len() || j < after.len() {
+        let (p, q) = (before.get(i), after.get(j));
+        let (kp, kq) = (p.map_or(usize::MAX, Contact::node), q.map_or(usize::MAX, Contact::node));
+        let linear = match p {
+            Some(c) if kp <= kq => {
+                i += 1;
+                c.normal * (c.stiffness * (offset - c.gap(y[kp]))).max(0.0)
+            }
+            _ => Vec3::ZERO,
+        };
+        let found = match q {
+            Some(c) if kq <= kp => {
+                j += 1;
+                c.normal * c.force.max(0.0)
+            }
+            _ => Vec3::ZERO,
+        };
+        largest = largest.max(linear.length()).max(found.length());
+        worst = worst.max((linear - found).length());
     }
-    let largest = forces.values().map(|(a, b)| a.length().max(b.length())).fold(0.0, f64::max);
-    let worst = forces.values().map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
     if largest > 0.0 {
         worst / largest
     } else {
@@ -652,9 +667,12 @@ impl ActiveSet for PenaltyContact {
                 _ => y[k],
             };
         }
-        let before = cx.motion.filter(|m| !m.predict).map(|_| linear_forces(&s.contacts, &self.params, y));
+        // The last solve's records are kept aside (in a buffer reused from step to step) to measure their
+        // linear models against the contacts found again here.
+        std::mem::swap(&mut s.contacts, &mut s.previous);
         detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
-        s.linear_error = before.map_or(0.0, |b| linear_error(&b, &s.contacts));
+        let iterate = cx.motion.is_some_and(|m| !m.predict);
+        s.linear_error = if iterate { linear_error(&s.previous, &s.contacts, self.params.offset, y) } else { 0.0 };
         if let Some(samples) = &self.samples {
             detect_samples(&self.sampled, &self.params, samples, y, s);
         }

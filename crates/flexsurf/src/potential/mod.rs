@@ -278,11 +278,11 @@ pub trait ActiveSet {
     fn engaged(&self, scratch: &Scratch) -> bool {
         self.active(scratch) > 0
     }
-    /// Whether a contact step whose support is in `scratch` may be iterated by Newton's method with the line
+    /// Whether a contact step the term is engaged in may be iterated by Newton's method with the line
     /// search: the term's value and gradient at an iterate are those of the step's incremental potential (its
     /// contacts found again there). False for a term whose records keep what the step's start fixed and whose
     /// set changes between iterates (the pairs between faces: docs/model.md §8.5).
-    fn convergent(&self, _scratch: &Scratch) -> bool {
+    fn convergent(&self) -> bool {
         true
     }
     /// How far the contacts' linear models of the last solve were, at the iterate of the last assembly, from
@@ -707,7 +707,7 @@ impl Potential {
 
     /// Whether every engaged term lets a contact step be iterated ([`ActiveSet::convergent`]).
     pub fn convergent(&self, ws: &Workspace) -> bool {
-        self.active_sets().all(|(t, a)| !a.engaged(&ws.scratch[t]) || a.convergent(&ws.scratch[t]))
+        self.active_sets().all(|(t, a)| !a.engaged(&ws.scratch[t]) || a.convergent())
     }
 
     /// The largest [`ActiveSet::linear_error`] over the terms.

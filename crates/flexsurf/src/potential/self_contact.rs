@@ -552,7 +552,7 @@ impl ActiveSet for SelfContact {
         scratch.get::<SelfScratch>().is_some_and(|s| !s.contacts.is_empty() || !s.lagged.is_empty())
     }
 
-    fn convergent(&self, _scratch: &Scratch) -> bool {
+    fn convergent(&self) -> bool {
         false
     }
 
