@@ -1,6 +1,7 @@
 //! Per-step solver trace of the bench ball drop: `cargo run --release -p flexsurf --example solve_trace -- N
 //! STEPS [auto|cholesky|multigrid|pcg]` prints each step's solves, iterations, factorisations, re-solves and
-//! Newton corrections (`SCENE=path.toml`: that scene's sheet at N × N instead of the bench's ball drop).
+//! Newton corrections (`SCENE=path.toml`: that scene's sheet at N × N instead of the bench's ball drop;
+//! `TOUCHING=1`: the bench's touching workload, the sheet placed on the ball).
 use flexsurf::integrate::{linsolve::SolverKind, Stepper};
 
 fn main() {
@@ -22,6 +23,9 @@ fn main() {
                 sheet.nodes = [n, n];
             }
             spec.build(file).expect("scene")
+        }
+        Err(_) if std::env::var("TOUCHING").is_ok() => {
+            flexsurf::bench::scene(n, flexsurf::bench::Workload::Touching).expect("scene")
         }
         Err(_) => flexsurf::bench::ball_drop(n).expect("scene"),
     };

@@ -24,3 +24,49 @@ pub(crate) fn backtrack(phi0: f64, slope: f64, phi1: f64) -> f64 {
         0.1
     }
 }
+
+/// The largest forcing term: a Newton correction's linear solve always lowers its residual at least tenfold.
+pub(crate) const FORCING_MAX: f64 = 0.1;
+
+/// Eisenstat and Walker's forcing terms for inexact Newton (their second choice, `γ = 0.9`, `α = 2`): how
+/// accurately each correction's linear system is solved follows how fast the Newton residual falls, so early
+/// corrections are solved loosely and the last ones as tightly as the quadratic convergence needs. Where a
+/// solve is iterative this saves its iterations; a direct solve is exact anyway.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Forcing {
+    /// The Newton residual before the last iteration.
+    previous: f64,
+    /// The last forcing term (none yet).
+    last: Option<f64>,
+}
+
+impl Forcing {
+    /// Starts from the residual `initial` before the first iteration (the linearised step's).
+    pub(crate) fn new(initial: f64) -> Self {
+        Self { previous: initial, last: None }
+    }
+
+    /// The relative tolerance `η` of the linear solve of the correction from an iterate whose residual is
+    /// `residual`, when Newton stops at `tolerance` (residuals in the same norm): `η = 0.9 (r_k/r_{k−1})²`,
+    /// at least `0.9 η_{k−1}²` where that exceeds 0.1 (the residual's fall may have been lucky), at least
+    /// `tolerance / (2 r_k)` (no more accuracy than the stop needs), at most [`FORCING_MAX`], and never below
+    /// the iterative solvers' own [`super::linsolve::ITERATIVE_TOLERANCE`].
+    pub(crate) fn next(&mut self, residual: f64, tolerance: f64) -> f64 {
+        const GAMMA: f64 = 0.9;
+        let ratio = residual / self.previous;
+        let mut eta = if ratio.is_finite() { GAMMA * ratio * ratio } else { FORCING_MAX };
+        if let Some(last) = self.last {
+            let kept = GAMMA * last * last;
+            if kept > 0.1 {
+                eta = eta.max(kept);
+            }
+        }
+        if residual > 0.0 {
+            eta = eta.max(0.5 * tolerance / residual);
+        }
+        let eta = eta.clamp(super::linsolve::ITERATIVE_TOLERANCE, FORCING_MAX);
+        self.previous = residual;
+        self.last = Some(eta);
+        eta
+    }
+}

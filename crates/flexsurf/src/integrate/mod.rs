@@ -408,12 +408,13 @@ impl Stepper {
     /// Solves the assembled system for `self.delta`, correcting the active sets (contact) by re-solving.
     /// `newton`: the iteration of the step (0: the linearised step, started from the last step's increment;
     /// a correction starts from zero); a re-solve starts from the solution before it. Returns the set-up
-    /// (factorisation) seconds.
+    /// (factorisation) seconds. `tolerance`: the iterative solves' relative tolerance (a Newton correction's
+    /// forcing term, [`descent::Forcing`]); `None`: the solver's own.
     fn solve_with_active_sets(
         &mut self,
         model: &Model,
         state: &State,
-        newton: usize,
+        (newton, tolerance): (usize, Option<f64>),
         op: Operator,
     ) -> Result<f64, StepError> {
         let mut tf = 0.0;
@@ -429,7 +430,7 @@ impl Stepper {
         for round in 0..=self.params.active_set_rounds {
             let stats = self
                 .solver
-                .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round))
+                .solve_to(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round), tolerance)
                 .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
             tf += stats.setup_seconds;
             self.counters.solves += 1;
@@ -664,7 +665,8 @@ impl Stepper {
         // A failed step's iterations may have left the exact models on (the retaken halves start without).
         self.history.exact = false;
         let ts = Instant::now();
-        let mut tf = self.solve_with_active_sets(model, state, 0, self.operator())?;
+        let mut forcing = descent::Forcing::new(self.relative_residual(model));
+        let mut tf = self.solve_with_active_sets(model, state, (0, None), self.operator())?;
         self.check_increment(state)?;
         for (y, d) in self.y.iter_mut().zip(&self.delta) {
             *y += *d;
@@ -686,7 +688,8 @@ impl Stepper {
         *t_assembly += ta.elapsed().as_secs_f64();
         let tol = self.params.newton_tolerance;
         while (res > tol || res.is_nan()) && report.iterations < self.params.newton_iterations {
-            tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
+            let newton = (report.iterations, Some(forcing.next(res, tol)));
+            tf += self.correction(model, state, newton, t_assembly, &mut t_solve)?;
             report.iterations += 1;
             self.counters.corrections += 1;
             let ta = Instant::now();
@@ -747,7 +750,8 @@ impl Stepper {
         let mut due = violent || friction > friction_tolerance || contact_off(self);
         self.history.exact = converge;
         while due && report.iterations < cap {
-            tf += self.correction(model, state, report.iterations, t_assembly, &mut t_solve)?;
+            // To the solver's own tolerance: the active sets are refined on each solve's proposal.
+            tf += self.correction(model, state, (report.iterations, None), t_assembly, &mut t_solve)?;
             report.iterations += 1;
             self.counters.corrections += 1;
             // Friction's models are those of the solve until the next assembly re-linearises them: measured at
@@ -783,15 +787,16 @@ impl Stepper {
             .any(|k| !fixed[k] && self.rhs[k].length() > threshold * self.weights[self.panel_of[k] as usize])
     }
 
-    /// Solves a Newton correction at the iterate `y` with the step's operator (its gradient kept in `g0`).
-    /// Returns the factorisation seconds. (The exact Hessian, with the positive semi-definite one where it does
+    /// Solves Newton correction `newton.0` at the iterate `y` with the step's operator (its gradient kept in
+    /// `g0`), the iterative solves to the relative tolerance `newton.1` (the forcing term; `None`: the solver's
+    /// own). Returns the factorisation seconds. (The exact Hessian, with the positive semi-definite one where it does
     /// not factorise, was measured on the ball drop: its resting contact steps then converge quadratically, but
     /// its impact steps stall as before and half its contact steps stay unconverged at 4 iterations.)
     fn correction(
         &mut self,
         model: &Model,
         state: &State,
-        newton: usize,
+        newton: (usize, Option<f64>),
         t_assembly: &mut f64,
         t_solve: &mut f64,
     ) -> Result<f64, StepError> {

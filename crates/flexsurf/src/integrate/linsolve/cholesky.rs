@@ -4,6 +4,9 @@
 //! gradients preconditioned by the existing factor and refactorises only if they do not converge within
 //! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
 //! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
+//! Those re-solves stop at [`super::ITERATIVE_TOLERANCE`] whatever tolerance a solve asks for
+//! ([`BlockSolver::solve_to`]): a Newton correction's forcing term would save a few of at most
+//! [`Cholesky::MAX_REUSE_ITERATIONS`] iterations, and the direct solver's runs stay those of exact solves.
 //!
 //! A matrix with extra blocks outside the static pattern ([`crate::sparse::ExtraBlocks`]) is factorised on the
 //! union of both, whose symbolic analysis is redone only when the extra set has changed since the last one.
@@ -232,13 +235,14 @@ fn apply_factor(
 }
 
 impl BlockSolver for Cholesky {
-    fn solve(
+    fn solve_to(
         &mut self,
         a: &BlockMatrix,
         fixed: &[bool],
         b: &[Vec3],
         x: &mut [Vec3],
         reuse: Reuse,
+        _tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
         let analysed = self.follow_extra(a)?;

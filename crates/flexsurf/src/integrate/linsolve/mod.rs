@@ -165,7 +165,8 @@ impl SolveStats {
 pub trait BlockSolver: Send {
     /// Solves `A x = b` for the unknowns not fixed; fixed unknowns take the value in `b` (their prescribed
     /// increment), and their columns are moved to the right-hand side. On entry `x` holds an initial guess
-    /// (iterative solvers start from it; its fixed entries are ignored), on return the solution.
+    /// (iterative solvers start from it; its fixed entries are ignored), on return the solution. Iterative
+    /// solves stop at the solver's own tolerance ([`ITERATIVE_TOLERANCE`]).
     fn solve(
         &mut self,
         a: &BlockMatrix,
@@ -173,6 +174,21 @@ pub trait BlockSolver: Send {
         b: &[Vec3],
         x: &mut [Vec3],
         reuse: Reuse,
+    ) -> Result<SolveStats, LinearError> {
+        self.solve_to(a, fixed, b, x, reuse, None)
+    }
+
+    /// [`BlockSolver::solve`], the iterative solves stopping at the relative residual `tolerance`
+    /// (`‖b − A x‖ ≤ tolerance ‖b‖`; `None`: the solver's own) instead: an inexact Newton correction's
+    /// forcing term. A direct solve is exact whatever `tolerance` says.
+    fn solve_to(
+        &mut self,
+        a: &BlockMatrix,
+        fixed: &[bool],
+        b: &[Vec3],
+        x: &mut [Vec3],
+        reuse: Reuse,
+        tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError>;
 
     /// The nodes' current positions, for a solver whose preconditioner follows the shape ([`multigrid`]'s

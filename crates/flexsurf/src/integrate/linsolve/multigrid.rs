@@ -584,13 +584,14 @@ fn recipe(nodes: usize, entries: Vec<(u64, u32, (u32, u32))>) -> (BlockPattern, 
 }
 
 impl BlockSolver for Multigrid {
-    fn solve(
+    fn solve_to(
         &mut self,
         a: &BlockMatrix,
         fixed: &[bool],
         b: &[Vec3],
         x: &mut [Vec3],
         _reuse: Reuse,
+        tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
         if self.built_fixed != fixed || self.fine.is_none() {
@@ -608,7 +609,7 @@ impl BlockSolver for Multigrid {
             fixed,
             x,
             |r, out| coarse.v_cycle(fine, r, out),
-            super::ITERATIVE_TOLERANCE,
+            tolerance.unwrap_or(super::ITERATIVE_TOLERANCE),
             Self::MAX_ITERATIONS,
         )?;
         Ok(SolveStats::since(t0, t1, iterations, true))

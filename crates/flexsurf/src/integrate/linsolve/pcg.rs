@@ -30,13 +30,14 @@ impl Pcg {
 }
 
 impl BlockSolver for Pcg {
-    fn solve(
+    fn solve_to(
         &mut self,
         a: &BlockMatrix,
         fixed: &[bool],
         b: &[Vec3],
         x: &mut [Vec3],
         _reuse: Reuse,
+        tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError> {
         let t0 = Instant::now();
         let n = b.len();
@@ -51,7 +52,7 @@ impl BlockSolver for Pcg {
             fixed,
             x,
             |r, out| out.iter_mut().zip(r).zip(inv).for_each(|((o, r), m)| *o = *m * *r),
-            self.tolerance,
+            tolerance.unwrap_or(self.tolerance),
             20 * n + 100,
         )?;
         Ok(SolveStats::since(t0, t1, iterations, false))
