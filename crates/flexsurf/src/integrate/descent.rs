@@ -25,6 +25,11 @@ pub(crate) fn backtrack(phi0: f64, slope: f64, phi1: f64) -> f64 {
     }
 }
 
+/// The relative tolerance of the linearised step's solve in a step Newton's method iterates (no contact at its
+/// start): Newton's corrections follow, so two digits are enough (0.1 left a tumbling sheet's step
+/// unconverged at the cap of 4 iterations, docs/performance.md).
+pub(crate) const FIRST_FORCING: f64 = 0.01;
+
 /// The largest forcing term: a Newton correction's linear solve always lowers its residual at least tenfold.
 pub(crate) const FORCING_MAX: f64 = 0.1;
 

@@ -427,10 +427,12 @@ impl Stepper {
         // Multigrid's coarse space carries the rigid-body modes of the shape the step is at.
         self.solver.set_positions(&self.y);
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
+        // A re-solve (the active set changed: contact engages) to the solver's own tolerance.
+        let loose = |round: usize| if round == 0 { tolerance } else { None };
         for round in 0..=self.params.active_set_rounds {
             let stats = self
                 .solver
-                .solve_to(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round), tolerance)
+                .solve_to(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round), loose(round))
                 .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
             tf += stats.setup_seconds;
             self.counters.solves += 1;
@@ -453,6 +455,19 @@ impl Stepper {
             self.residual_from_gradient(model);
         }
         Ok(tf)
+    }
+
+    /// Solves the last system again from its solution in `delta`, to the solver's own tolerance (a loose
+    /// linearised step that contact engaged after all). Returns the set-up seconds.
+    fn polish(&mut self, model: &Model, state: &State) -> Result<f64, StepError> {
+        let stats = self
+            .solver
+            .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, Reuse::Nearby)
+            .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
+        self.counters.solves += 1;
+        self.counters.iterations += stats.iterations;
+        self.counters.factorizations += usize::from(stats.factorized);
+        Ok(stats.setup_seconds)
     }
 
     /// The linear solver in use (the automatic choice resolved).
@@ -666,7 +681,14 @@ impl Stepper {
         self.history.exact = false;
         let ts = Instant::now();
         let mut forcing = descent::Forcing::new(self.relative_residual(model));
-        let mut tf = self.solve_with_active_sets(model, state, (0, None), self.operator())?;
+        // A step that Newton will iterate (no contact found at its start) solves its linearised step loosely;
+        // one that contact engages keeps its first solution, solved to the solver's own tolerance.
+        let newton = self.params.scheme != Scheme::Lagged && model.potential.conservative();
+        let loose = (newton && !model.potential.engaged(&self.ws)).then_some(descent::FIRST_FORCING);
+        let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
+        if loose.is_some() && model.potential.engaged(&self.ws) {
+            tf += self.polish(model, state)?;
+        }
         self.check_increment(state)?;
         for (y, d) in self.y.iter_mut().zip(&self.delta) {
             *y += *d;
