@@ -684,7 +684,8 @@ impl Stepper {
         // A step that Newton will iterate (no contact found at its start) solves its linearised step loosely;
         // one that contact engages keeps its first solution, solved to the solver's own tolerance.
         let newton = self.params.scheme != Scheme::Lagged && model.potential.conservative();
-        let loose = (newton && !model.potential.engaged(&self.ws)).then_some(descent::FIRST_FORCING);
+        let iterative = self.solver.kind() != linsolve::SolverKind::Cholesky;
+        let loose = (iterative && newton && !model.potential.engaged(&self.ws)).then_some(descent::FIRST_FORCING);
         let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
             tf += self.polish(model, state)?;
@@ -811,9 +812,9 @@ impl Stepper {
 
     /// Solves Newton correction `newton.0` at the iterate `y` with the step's operator (its gradient kept in
     /// `g0`), the iterative solves to the relative tolerance `newton.1` (the forcing term; `None`: the solver's
-    /// own). Returns the factorisation seconds. (The exact Hessian, with the positive semi-definite one where it does
-    /// not factorise, was measured on the ball drop: its resting contact steps then converge quadratically, but
-    /// its impact steps stall as before and half its contact steps stay unconverged at 4 iterations.)
+    /// own). Returns the factorisation seconds. (The exact Hessian, with the positive semi-definite one where it
+    /// does not factorise, was measured on the ball drop: its resting contact steps then converge quadratically,
+    /// but its impact steps stall as before and half its contact steps stay unconverged at 4 iterations.)
     fn correction(
         &mut self,
         model: &Model,

@@ -108,9 +108,8 @@ fn tumble_on(solver: SolverKind) -> (Vec<Vec3>, usize, usize, usize) {
 fn inexact_newton_corrections_leave_the_tumbling_sheet_where_exact_solves_do() {
     // Multigrid solves the linearised step to 0.01 and each Newton correction only as far as its forcing term
     // asks (Eisenstat–Walker: from 0.1 of the residual down to what the Newton tolerance needs); Cholesky solves
-    // exactly. Both converge every
-    // step to the Newton tolerance, so they must end within what that tolerance leaves: issue 23's continuity
-    // target, 1e-6 of the sheet's size (measured 1.6e-8 m).
+    // exactly. Both converge every step to the Newton tolerance, so they must end within what that tolerance
+    // leaves: issue 23's continuity target, 1e-6 of the sheet's size (measured 1.6e-8 m).
     let (exact, _, _, u1) = tumble_on(SolverKind::Cholesky);
     let (inexact, iterations, solves, u2) = tumble_on(SolverKind::Multigrid);
     let apart = exact.iter().zip(&inexact).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);

@@ -356,9 +356,10 @@ fn pcg_and_cholesky_agree() {
     let x = perturbed(&model.rest, 0.005, 8);
     let mut a = State::at_rest(x.clone());
     let mut b = State::at_rest(x);
-    // The steps converged far below the default Newton tolerance: the conjugate gradients solve each Newton
-    // correction only as far as its forcing term asks (Eisenstat–Walker), so the two runs agree to what the
-    // Newton tolerance leaves (1e-6 of the force scale: 1.4e-6 m here after 3 steps), not to round-off.
+    // The steps converged far below the default Newton tolerance: the conjugate gradients solve the linearised
+    // step and each Newton correction only as far as Newton's method needs (docs/model.md §8.5), so at the
+    // default tolerance the two runs agree to what it leaves (1e-6 of the force scale: about 1e-6 m here after 3
+    // steps), not to round-off.
     let tight = StepParams { newton_tolerance: 1e-11, newton_iterations: 12, ..StepParams::default() };
     let mut s1 = Stepper::new(&model, &tight).unwrap();
     let mut s2 = Stepper::new(&model, &StepParams { solver: SolverKind::Pcg, ..tight }).unwrap();
