@@ -110,6 +110,10 @@ pub struct BenchRow {
     /// stage's time over the iterations) in the same products, the cost issue 23 item 5 bounds; `None` for
     /// Cholesky, whose solve stage is mostly triangular solves.
     pub streams_per_iteration: Option<f64>,
+    /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
+    /// docs/performance.md ("Bytes an iteration"); over `product_bytes`, the iteration's *byte streams*, its
+    /// floor where memory bandwidth bounds it. 0 for Cholesky.
+    pub iteration_bytes: usize,
 }
 
 /// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
@@ -160,6 +164,7 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
             && c.iterations > 0
             && product_seconds > 0.0)
             .then(|| c.solve / c.iterations as f64 / product_seconds),
+        iteration_bytes: stepper.iteration_bytes(),
     })
 }
 

@@ -82,7 +82,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
         return print_json(&v);
     }
     print_rows(&rows);
-    println!("(stage columns: mean ms per step, `self` the self-contact part of `contact`; pairs: mean self-contact records a step; bvh b/r: its broad phase's tree builds and refits, totals; solves, re-solves, Newton corrections, iterations, factorisations: totals; Ax ms: one product with the last step matrix in full block rows, one thread; streams: the mean step in such products; str/iter: the mean preconditioned iteration of an iterative solver in such products; {} threads)", rayon::current_num_threads());
+    println!("(stage columns: mean ms per step, `self` the self-contact part of `contact`; pairs: mean self-contact records a step; bvh b/r: its broad phase's tree builds and refits, totals; solves, re-solves, Newton corrections, iterations, factorisations: totals; Ax ms: one product with the last step matrix in full block rows, one thread; streams: the mean step in such products; str/iter: the mean preconditioned iteration of an iterative solver in such products; B-str/it: the bytes such an iteration reads and writes (`iteration_bytes` in the JSON, by the model of docs/performance.md) over the bytes of one such product (`product_bytes`), its floor where memory bandwidth bounds it; {} threads)", rayon::current_num_threads());
     if let Some(e) = exponent {
         println!("median step time grows as nodes^{e:.2} over all sizes");
     }
@@ -95,7 +95,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
 /// The table of `rows`, one line per grid size.
 fn print_rows(rows: &[BenchRow]) {
     println!(
-        "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>8} {:>7} {:>9} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8} {:>9} {:>8} {:>8}",
+        "{:>9} {:>5} {:>9} {:>9} {:>10} {:>8} {:>8} {:>8} {:>7} {:>9} {:>9} {:>9} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8} {:>9} {:>8} {:>8} {:>8}",
         "grid",
         "steps",
         "solver",
@@ -116,12 +116,13 @@ fn print_rows(rows: &[BenchRow]) {
         "peak MB",
         "Ax ms",
         "streams",
-        "str/iter"
+        "str/iter",
+        "B-str/it"
     );
     for r in rows {
         let p = &r.per_step;
         println!(
-            "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>8.2} {:>7.0} {:>9} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0} {:>9.3} {:>8.0} {:>8}",
+            "{:>9} {:>5} {:>9} {:>9.3} {:>10.2} {:>8.2} {:>8.2} {:>8.2} {:>7.0} {:>9} {:>9.2} {:>9.2} {:>7} {:>6} {:>6} {:>7} {:>7} {:>8.0} {:>9.3} {:>8.0} {:>8} {:>8}",
             format!("{}x{}", r.n, r.n),
             r.steps,
             r.solver,
@@ -142,7 +143,12 @@ fn print_rows(rows: &[BenchRow]) {
             r.peak_bytes as f64 / (1 << 20) as f64,
             1e3 * r.product_seconds,
             r.streams_per_step,
-            r.streams_per_iteration.map_or("-".to_string(), |v| format!("{v:.1}"))
+            r.streams_per_iteration.map_or("-".to_string(), |v| format!("{v:.1}")),
+            if r.iteration_bytes > 0 && r.product_bytes > 0 {
+                format!("{:.1}", r.iteration_bytes as f64 / r.product_bytes as f64)
+            } else {
+                "-".to_string()
+            }
         );
     }
 }

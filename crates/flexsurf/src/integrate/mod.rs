@@ -470,6 +470,12 @@ impl Stepper {
         Ok(stats.setup_seconds)
     }
 
+    /// Bytes one preconditioned iteration of the linear solver reads and writes (0 for a direct solver):
+    /// [`linsolve::BlockSolver::iteration_bytes`].
+    pub fn iteration_bytes(&self) -> usize {
+        self.solver.iteration_bytes()
+    }
+
     /// The linear solver in use (the automatic choice resolved).
     pub fn solver_kind(&self) -> linsolve::SolverKind {
         self.solver.kind()

@@ -163,9 +163,9 @@ fn multigrid_steps_are_the_same_on_any_number_of_threads() {
     assert_eq!(one, run(5), "1 and 5 threads differ");
 }
 
-/// `flexsurf bench` states an iteration's cost in matrix streams for the iterative solvers (issue 23, item 5)
-/// and not for Cholesky, whose solve stage is triangular solves; its streams a step are the mean step over one
-/// product.
+/// `flexsurf bench` states an iteration's cost in matrix streams, and the bytes it moves, for the iterative
+/// solvers (issue 23, item 5) and not for Cholesky, whose solve stage is triangular solves; its streams a step
+/// are the mean step over one product.
 #[test]
 fn bench_states_streams_an_iteration_for_the_iterative_solvers_only() {
     use flexsurf::bench::{run, Workload};
@@ -177,4 +177,10 @@ fn bench_states_streams_an_iteration_for_the_iterative_solvers_only() {
     assert!((per_iteration - expected).abs() <= 1e-12 * expected, "{per_iteration} against {expected}");
     assert_eq!(chol.streams_per_iteration, None);
     assert!(chol.streams_per_step > 0.0, "{chol:?}");
+    // Its bytes: at least the conjugate gradients' product over the upper blocks in `f64` (half the full
+    // product's) and five passes of the smoother over the rows in `f32` (another 1.25 products), and not
+    // more than a few times that.
+    let streams = mg.iteration_bytes as f64 / mg.product_bytes as f64;
+    assert!((1.75..10.0).contains(&streams), "{streams} byte streams an iteration");
+    assert_eq!(chol.iteration_bytes, 0);
 }

@@ -65,6 +65,11 @@ impl RowMatrix {
         Self { start, col, src, blocks }
     }
 
+    /// Bytes one pass over the rows reads: the `f32` blocks, their column indices and the row starts.
+    fn bytes(&self) -> usize {
+        self.blocks.len() * (std::mem::size_of::<glam::Mat3>() + 4) + self.start.len() * 4
+    }
+
     fn refill(&mut self, a: &BlockMatrix) {
         let src = &self.src;
         let fill = |(out, &(blk, t)): (&mut glam::Mat3, &(u32, bool))| {
@@ -329,6 +334,22 @@ impl LineSmoother {
     pub(crate) fn residual(&self, b: &[Vec3], x: &[Vec3], r: &mut [Vec3]) {
         let masked = &self.masked;
         self.rows.rows_map(x, r, |p, ax| if masked[p] { Vec3::ZERO } else { b[p] - ax });
+    }
+
+    /// Bytes the pre-smoothing, the residual after it and the post-smoothing read and write (docs/performance.md,
+    /// "Bytes an iteration"): five passes over the rows (each family's sweep reaches every row once, before and
+    /// after the coarse correction, and the residual once; the pre-smoothing's first colour, which starts from
+    /// zero and skips its products, is counted: an upper bound), every line's band factor and gather indices
+    /// twice (solved before and after), and twelve passes over the level's vectors (`b`, `x`, the residual and
+    /// the lines' right-hand sides).
+    pub(crate) fn cycle_bytes(&self) -> usize {
+        let lines: usize = self
+            .families
+            .iter()
+            .flat_map(|f| &f.segments)
+            .map(|s| s.band.len() * 8 + (s.gather.len() + s.nodes.len()) * 4)
+            .sum();
+        5 * self.rows.bytes() + 2 * lines + 12 * self.masked.len() * std::mem::size_of::<Vec3>()
     }
 
     /// Scratch scalars [`LineSmoother::pre`] and [`LineSmoother::post`] need.

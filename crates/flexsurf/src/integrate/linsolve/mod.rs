@@ -196,6 +196,13 @@ pub trait BlockSolver: Send {
     /// shapes; positions of another length than the pattern's nodes are ignored). The default ignores them.
     fn set_positions(&mut self, _x: &[Vec3]) {}
 
+    /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
+    /// docs/performance.md ("Bytes an iteration"); 0, the default, for a direct solver (and before the first
+    /// solve).
+    fn iteration_bytes(&self) -> usize {
+        0
+    }
+
     /// Non-zeros of the factor (0, the default, for a solver without one).
     fn factor_nnz(&self) -> usize {
         0
@@ -258,6 +265,14 @@ pub(crate) struct Reduced {
 }
 
 impl Reduced {
+    /// Bytes one conjugate-gradient iteration reads and writes outside the preconditioner: the symmetric
+    /// product over the upper blocks (`f64`, with their row indices) and ten passes over vectors (the
+    /// product's, the two dot products', the three updates').
+    pub(crate) fn iteration_bytes(&self) -> usize {
+        let block = std::mem::size_of::<crate::math::Mat3>() + std::mem::size_of::<usize>();
+        self.pattern.blocks() * block + 10 * self.pattern.nodes() * std::mem::size_of::<Vec3>()
+    }
+
     /// Buffers for `pattern`.
     pub(crate) fn new(pattern: &BlockPattern) -> Self {
         let n = pattern.nodes();

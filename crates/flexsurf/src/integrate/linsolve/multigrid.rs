@@ -359,6 +359,13 @@ fn cycle(levels: &mut [Level], coarsest: Option<&mut Cholesky>, line_rhs: &mut [
 }
 
 impl Level {
+    /// Bytes one application of `P` (or `Pᵀ`) reads: its blocks, weights and parent indices, and its row starts.
+    fn transfer_bytes(&self) -> usize {
+        self.p_block.len() * std::mem::size_of::<Mat3>()
+            + self.p_weight.len() * 8
+            + (self.p_node.len() + self.p_start.len()) * 4
+    }
+
     /// The level below a fine level of panels `shapes` (`free`: nodes with a row in `P`) with the transfers of
     /// each panel's two directions, onto the panels `coarse`.
     fn new(
@@ -613,6 +620,24 @@ impl BlockSolver for Multigrid {
             Self::MAX_ITERATIONS,
         )?;
         Ok(SolveStats::since(t0, t1, iterations, true))
+    }
+
+    /// The conjugate gradients' own bytes, the finest level's smoothing, and on each level below the transfers
+    /// `Pᵀ` and `P` (their blocks, weights and indices) and its smoothing, or on the coarsest its factor's
+    /// forward and backward solves (values and row indices).
+    fn iteration_bytes(&self) -> usize {
+        let Some(fine) = &self.fine else { return 0 };
+        let levels = &self.coarse.levels;
+        let below: usize = levels
+            .iter()
+            .enumerate()
+            .map(|(l, level)| {
+                let smoothing = if l + 1 < levels.len() { level.smoother.cycle_bytes() } else { 0 };
+                2 * level.transfer_bytes() + smoothing
+            })
+            .sum();
+        let coarsest = self.coarse.coarsest.as_ref().map_or(0, |c| 2 * c.factor_nnz() * 16);
+        self.system.iteration_bytes() + fine.cycle_bytes() + below + coarsest
     }
 
     fn set_positions(&mut self, x: &[Vec3]) {

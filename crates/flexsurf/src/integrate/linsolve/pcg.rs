@@ -58,6 +58,11 @@ impl BlockSolver for Pcg {
         Ok(SolveStats::since(t0, t1, iterations, false))
     }
 
+    /// The conjugate gradients' own bytes and the inverse diagonal blocks.
+    fn iteration_bytes(&self) -> usize {
+        self.system.iteration_bytes() + self.inv.len() * std::mem::size_of::<Mat3>()
+    }
+
     fn kind(&self) -> SolverKind {
         SolverKind::Pcg
     }
