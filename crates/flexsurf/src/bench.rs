@@ -2,10 +2,11 @@
 //! criterion bench `cargo bench -p flexsurf`: wall time of the time stepping, its per-step breakdown by stage,
 //! the linear solver's work (solves and why, iterations, factorisations) and the process's peak memory.
 //!
-//! Four workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape),
+//! Five workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape),
 //! [`Workload::Touching`], the same sheet placed on the ball so that contact acts from the first step (the
-//! per-step cost of a drape in progress, without the free fall's easy steps), and the self-contact pile
-//! (`scenes/pile.toml`) with and without its self-contact ([`Workload::Pile`], [`Workload::PileAlone`]).
+//! per-step cost of a drape in progress, without the free fall's easy steps), the self-contact pile
+//! (`scenes/pile.toml`) with and without its self-contact ([`Workload::Pile`], [`Workload::PileAlone`]), and
+//! the drop's sheet tumbling freely without the ball ([`Workload::Tumble`]: Newton's iterated steps).
 
 use crate::integrate::linsolve::SolverKind;
 use crate::integrate::{Counters, StepError, StepParams, Stepper};
@@ -34,6 +35,10 @@ pub enum Workload {
     Pile,
     /// The same pile without self-contact (the sheet passes through itself): the cost self-contact adds.
     PileAlone,
+    /// The drop's sheet without the ball or gravity, spinning at `ω = (1, −0.5, 2)` rad/s about its centre:
+    /// large rotations without contact, the steps Newton's method iterates to its tolerance (their solves
+    /// inexact on the iterative solvers, docs/model.md §8.5).
+    Tumble,
 }
 
 /// The canonical ball drop with `n × n` nodes (same sheet, ball, fabric and time step).
@@ -55,6 +60,11 @@ pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
             // contact layer.
             sheet.center[2] = 0.3049;
         }
+    }
+    if workload == Workload::Tumble {
+        spec.obstacles.clear();
+        spec.gravity = [0.0; 3];
+        spec.initial.angular_velocity = [1.0, -0.5, 2.0];
     }
     // The benchmark writes no frames and measures its own peak memory: no limit from the scene's budget.
     spec.build_with(file, &crate::scene::Limits { max_memory: u64::MAX })

@@ -22,7 +22,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3)]
     repeat: usize,
     /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step;
-    /// `pile`: the self-contact pile of scenes/pile.toml; `pile-alone`: the same without self-contact.
+    /// `pile`: the self-contact pile of scenes/pile.toml; `pile-alone`: the same without self-contact;
+    /// `tumble`: the drop's sheet spinning freely without the ball or gravity (Newton's iterated steps).
     #[arg(long, value_enum, default_value_t = Workload::Drop)]
     workload: Workload,
     /// The linear solver (`auto`: Cholesky on small grids, multigrid on large ones).
@@ -52,6 +53,9 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             (Workload::Drop, _) => 3,
             (Workload::Touching, 0..=161) => 10,
             (Workload::Touching, _) => 3,
+            (Workload::Tumble, 0..=81) => 50,
+            (Workload::Tumble, 82..=161) => 10,
+            (Workload::Tumble, _) => 3,
             // The pile: its fall and first folds (it touches the floor at about 0.06 s, itself from 0.5 s).
             (Workload::Pile | Workload::PileAlone, 0..=41) => 250,
             (Workload::Pile | Workload::PileAlone, _) => 120,

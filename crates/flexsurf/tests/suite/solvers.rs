@@ -184,3 +184,18 @@ fn bench_states_streams_an_iteration_for_the_iterative_solvers_only() {
     assert!((1.75..10.0).contains(&streams), "{streams} byte streams an iteration");
     assert_eq!(chol.iteration_bytes, 0);
 }
+
+/// The `tumble` workload is free motion: no contact step, every step converged by Newton's method, with
+/// corrections (the rotation stretches the linearised step), and the sheet keeps spinning.
+#[test]
+fn the_tumble_workload_is_newton_without_contact() {
+    use flexsurf::bench::{run, scene, Workload};
+    let s = scene(21, Workload::Tumble).unwrap();
+    assert!(s.model.obstacles().is_empty());
+    assert_eq!(s.model.gravity, flexsurf::math::Vec3::ZERO);
+    assert!(s.state.v.iter().any(|v| v.length() > 0.1), "the sheet should start spinning");
+    let row = run(21, 5, Workload::Tumble, SolverKind::Cholesky).unwrap();
+    let c = row.per_step;
+    assert_eq!((c.contact_steps, c.unconverged), (0, 0), "{c:?}");
+    assert!(c.corrections >= 5, "{c:?}");
+}
