@@ -430,14 +430,7 @@ impl Stepper {
         // A re-solve (the active set changed: contact engages) to the solver's own tolerance.
         let loose = |round: usize| if round == 0 { tolerance } else { None };
         for round in 0..=self.params.active_set_rounds {
-            let stats = self
-                .solver
-                .solve_to(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, reuse(round), loose(round))
-                .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
-            tf += stats.setup_seconds;
-            self.counters.solves += 1;
-            self.counters.iterations += stats.iterations;
-            self.counters.factorizations += usize::from(stats.factorized);
+            tf += self.linear_solve(state, model.pinned(), reuse(round), loose(round))?;
             if newton == 0 && round == 0 {
                 self.guess.copy_from_slice(&self.delta);
             }
@@ -457,12 +450,18 @@ impl Stepper {
         Ok(tf)
     }
 
-    /// Solves the last system again from its solution in `delta`, to the solver's own tolerance (a loose
-    /// linearised step that contact engaged after all). Returns the set-up seconds.
-    fn polish(&mut self, model: &Model, state: &State) -> Result<f64, StepError> {
+    /// One solve of the assembled system for `self.delta` (from the guess in it), counted; returns the set-up
+    /// seconds.
+    fn linear_solve(
+        &mut self,
+        state: &State,
+        fixed: &[bool],
+        reuse: Reuse,
+        tolerance: Option<f64>,
+    ) -> Result<f64, StepError> {
         let stats = self
             .solver
-            .solve(&self.ws.matrix, model.pinned(), &self.rhs, &mut self.delta, Reuse::Nearby)
+            .solve_to(&self.ws.matrix, fixed, &self.rhs, &mut self.delta, reuse, tolerance)
             .map_err(|cause| StepError::Linear { step: state.step + 1, cause })?;
         self.counters.solves += 1;
         self.counters.iterations += stats.iterations;
@@ -694,7 +693,8 @@ impl Stepper {
         let loose = (iterative && newton && !model.potential.engaged(&self.ws)).then_some(descent::FIRST_FORCING);
         let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
-            tf += self.polish(model, state)?;
+            // Contact engaged the loose solve after all: solved on from its solution to the solver's tolerance.
+            tf += self.linear_solve(state, model.pinned(), Reuse::Nearby, None)?;
         }
         self.check_increment(state)?;
         for (y, d) in self.y.iter_mut().zip(&self.delta) {
