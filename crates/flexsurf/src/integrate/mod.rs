@@ -142,6 +142,9 @@ pub struct Counters {
     pub broad_builds: usize,
     /// Refits of the same trees (a refit keeps the tree and recomputes its boxes).
     pub broad_refits: usize,
+    /// Steps whose solves an iterative solver made (every step of a multigrid or PCG run; under `auto` on
+    /// mid-size grids, the steps without contact: [`linsolve::auto`]).
+    pub iterative_steps: usize,
 }
 
 impl Counters {
@@ -164,6 +167,7 @@ impl Counters {
         self.self_contact_pairs += other.self_contact_pairs;
         self.broad_builds += other.broad_builds;
         self.broad_refits += other.broad_refits;
+        self.iterative_steps += other.iterative_steps;
     }
 }
 
@@ -655,6 +659,7 @@ impl Stepper {
             self_contact_pairs: self_contacts,
             broad_builds: broad_after.0 - broad_before.0,
             broad_refits: broad_after.1 - broad_before.1,
+            iterative_steps: usize::from(self.solver.kind() != linsolve::SolverKind::Cholesky),
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;
@@ -689,8 +694,10 @@ impl Stepper {
         // A step that Newton will iterate (no contact found at its start) solves its linearised step loosely;
         // one that contact engages keeps its first solution, solved to the solver's own tolerance.
         let newton = self.params.scheme != Scheme::Lagged && model.potential.conservative();
+        let free = newton && !model.potential.engaged(&self.ws);
+        self.solver.set_free_motion(free);
         let iterative = self.solver.kind() != linsolve::SolverKind::Cholesky;
-        let loose = (iterative && newton && !model.potential.engaged(&self.ws)).then_some(descent::FIRST_FORCING);
+        let loose = (iterative && free).then_some(descent::FIRST_FORCING);
         let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
             // Contact engaged the loose solve after all: solved on from its solution to the solver's tolerance.

@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 8;
+pub const VERSION: u32 = 9;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -59,8 +59,8 @@ pub struct CountersSaved {
     /// Assembly, contact, self-contact, factorisation, solve.
     seconds: [f64; 5],
     /// Steps, solves, iterations, factorisations, re-solves, Newton corrections, unconverged steps, contact
-    /// steps, self-contact records, broad-phase builds and refits.
-    counts: [usize; 11],
+    /// steps, self-contact records, broad-phase builds and refits, steps of an iterative solver.
+    counts: [usize; 12],
     /// The largest final relative Newton residual.
     residual_max: f64,
 }
@@ -81,6 +81,7 @@ impl From<Counters> for CountersSaved {
                 c.self_contact_pairs,
                 c.broad_builds,
                 c.broad_refits,
+                c.iterative_steps,
             ],
             residual_max: c.residual_max,
         }
@@ -90,7 +91,7 @@ impl From<Counters> for CountersSaved {
 impl From<CountersSaved> for Counters {
     fn from(c: CountersSaved) -> Self {
         let [assembly, contact, self_contact, factorization, solve] = c.seconds;
-        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps, self_contact_pairs, broad_builds, broad_refits] =
+        let [steps, solves, iterations, factorizations, resolves, corrections, unconverged, contact_steps, self_contact_pairs, broad_builds, broad_refits, iterative_steps] =
             c.counts;
         Counters {
             assembly,
@@ -110,6 +111,7 @@ impl From<CountersSaved> for Counters {
             self_contact_pairs,
             broad_builds,
             broad_refits,
+            iterative_steps,
         }
     }
 }

@@ -4,6 +4,7 @@
 
 use super::outputs::FrameRecord;
 use super::provenance::Provenance;
+use crate::integrate::linsolve::SolverKind;
 use crate::integrate::statics::StaticReport;
 use crate::integrate::Counters;
 use crate::math::Vec3;
@@ -58,8 +59,9 @@ pub struct Summary {
     pub model: String,
     /// `linearized` or `lagged`.
     pub integrator: String,
-    /// The linear solver used: `cholesky`, `multigrid` or `pcg` (`auto` resolved by the grid's size); its
-    /// iterations and factorisations are in `timings`.
+    /// The linear solver used: `cholesky`, `multigrid` or `pcg` (`auto` resolved by the grid's size), or
+    /// `cholesky+multigrid` where `auto` took multigrid for the steps without contact (`timings.iterative_steps`
+    /// of them); its iterations and factorisations are in `timings`.
     pub solver: String,
     /// The solver the scene asked for (`auto` unless forced).
     pub solver_requested: String,
@@ -160,6 +162,14 @@ pub(super) fn non_finite(summary: &Summary) -> Option<String> {
     walk(&serde_json::to_value(summary).ok()?, "")
 }
 
+/// The solver a run used: the contact steps' `kind`, and multigrid too where some steps took it.
+fn solver_used(kind: SolverKind, timings: &Counters) -> String {
+    match kind {
+        SolverKind::Cholesky if timings.iterative_steps > 0 => "cholesky+multigrid".to_string(),
+        k => k.name().to_string(),
+    }
+}
+
 /// The summary of `scene` run to `state`; `final_mesh` is the display mesh of `state`. Its `frames` are
 /// left empty for the frames output to report ([`super::outputs::Output::report`]).
 pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
@@ -173,7 +183,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: scene.solver().resolve(nodes).name().to_string(),
+        solver: solver_used(scene.solver().resolve(nodes), &timings),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),

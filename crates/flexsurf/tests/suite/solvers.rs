@@ -199,3 +199,44 @@ fn the_tumble_workload_is_newton_without_contact() {
     assert_eq!((c.contact_steps, c.unconverged), (0, 0), "{c:?}");
     assert!(c.corrections >= 5, "{c:?}");
 }
+
+/// The bench's `workload` on an `n`² grid, `steps` steps with `solver`: the final positions and the counters.
+fn bench_run(
+    n: usize,
+    steps: usize,
+    workload: flexsurf::bench::Workload,
+    solver: SolverKind,
+) -> (Vec<Vec3>, flexsurf::integrate::Counters) {
+    let scene = flexsurf::bench::scene(n, workload).unwrap();
+    let mut state = scene.state.clone();
+    let mut stepper = Stepper::new(&scene.model, &StepParams { solver, ..scene.step_params() }).unwrap();
+    for _ in 0..steps {
+        stepper.step(&scene.model, &mut state).unwrap();
+    }
+    (state.x, stepper.counters)
+}
+
+/// `auto` from [`AUTO_FREE_MOTION_NODES`] nodes: the ball drop's free fall, which one exact solve converges, and
+/// its first contact steps stay on Cholesky, bit for bit; the tumbling sheet, whose steps Newton corrects, goes
+/// to multigrid after its first step and ends where the Cholesky run ends, to what Newton's tolerance leaves.
+#[test]
+fn auto_takes_multigrid_for_the_steps_newton_corrects_without_contact() {
+    use flexsurf::bench::Workload;
+    use flexsurf::integrate::linsolve::AUTO_FREE_MOTION_NODES;
+    let n = 51;
+    assert!(n * n >= AUTO_FREE_MOTION_NODES);
+    let (direct, c) = bench_run(n, 14, Workload::Drop, SolverKind::Cholesky);
+    assert!(c.contact_steps > 0 && c.contact_steps < 14, "the drop should reach the ball: {c:?}");
+    let (auto, c) = bench_run(n, 14, Workload::Drop, SolverKind::Auto);
+    assert_eq!(c.iterative_steps, 0, "{c:?}");
+    assert!(direct == auto, "the free fall should be Cholesky's, bit for bit");
+
+    let steps = 5;
+    let (direct, c) = bench_run(n, steps, Workload::Tumble, SolverKind::Cholesky);
+    assert!(c.corrections >= steps && c.iterative_steps == 0, "{c:?}");
+    let (auto, c) = bench_run(n, steps, Workload::Tumble, SolverKind::Auto);
+    assert_eq!((c.iterative_steps, c.unconverged), (steps - 1, 0), "{c:?}");
+    let apart = direct.iter().zip(&auto).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    // The sheet is 1 m across; Newton stops at 1e-6 of each step's force scale.
+    assert!(apart > 0.0 && apart < 1e-6, "{apart:e} m apart");
+}

@@ -38,8 +38,8 @@ mod checkpoint {
         damaged[last] ^= 1;
         assert!(decode(&damaged).unwrap_err().contains("checksum"));
         let mut other = bytes.clone();
-        other[MAGIC.len()] = 9;
-        assert!(decode(&other).unwrap_err().contains("version 9"));
+        other[MAGIC.len()] = 99;
+        assert!(decode(&other).unwrap_err().contains("version 99"));
         assert!(decode(b"hello").unwrap_err().contains("not a flexsurf checkpoint"));
         assert!(decode(&bytes[..MAGIC.len() + 10]).unwrap_err().contains("truncated"));
     }

@@ -8,11 +8,14 @@
 //! - [`multigrid`]: conjugate gradients preconditioned by a geometric multigrid V-cycle on the parametric grid's
 //!   hierarchy (Galerkin coarse operators, symmetric block Gauss–Seidel smoothing, Cholesky on the coarsest
 //!   level): memory and work proportional to the number of nodes;
-//! - [`pcg`]: block-Jacobi preconditioned conjugate gradients (a reference, slow on stiff sheets).
+//! - [`pcg`]: block-Jacobi preconditioned conjugate gradients (a reference, slow on stiff sheets);
+//! - [`auto`]: the automatic choice on mid-size grids, Cholesky for the steps with contact and multigrid for
+//!   those without.
 //!
 //! [`cg`] is the one conjugate-gradient loop they share. A new solver is one file implementing [`BlockSolver`],
 //! a [`SolverKind`] variant and its arm in [`SolverKind::solver`].
 
+pub mod auto;
 pub mod cg;
 pub mod cholesky;
 pub mod lines;
@@ -25,6 +28,7 @@ use crate::sparse::{BlockMatrix, BlockPattern};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+pub use auto::Auto;
 pub use cholesky::Cholesky;
 pub use multigrid::Multigrid;
 pub use pcg::Pcg;
@@ -61,10 +65,17 @@ pub enum LinearError {
 #[serde(rename_all = "lowercase")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolverKind {
-    /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above (the
-    /// default; docs/performance.md).
+    /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above; from
+    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact take multigrid too ([`auto`]). The default;
+    /// docs/performance.md.
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "Cholesky on small grids, multigrid on large ones"))]
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "Cholesky on small grids, multigrid on large ones and for the steps without contact on mid-size \
+                      ones"
+        )
+    )]
     Auto,
     /// Sparse Cholesky, its factor reused across steps as a preconditioner.
     Cholesky,
@@ -81,6 +92,12 @@ pub enum SolverKind {
 /// multigrid's whole run 2.3 GB.
 pub const AUTO_MULTIGRID_NODES: usize = 90_000;
 
+/// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) take the multigrid solver under
+/// [`SolverKind::Auto`] for their steps without contact, Cholesky for the others ([`auto::Auto`]). Measured on a
+/// sheet tumbling freely (docs/performance.md, "Which solver `auto` takes"): the two are even at 41² (1,681
+/// nodes), multigrid is 1.4× faster at 51² (2,601) and 2.2× at 81².
+pub const AUTO_FREE_MOTION_NODES: usize = 2_500;
+
 impl SolverKind {
     /// Name as in scene files and summaries.
     pub fn name(self) -> &'static str {
@@ -92,7 +109,8 @@ impl SolverKind {
         }
     }
 
-    /// The concrete solver for a grid of `nodes` nodes ([`SolverKind::Auto`] resolved; the others as they are).
+    /// The concrete solver of the steps with contact on a grid of `nodes` nodes ([`SolverKind::Auto`] resolved;
+    /// the others as they are).
     pub fn resolve(self, nodes: usize) -> SolverKind {
         match self {
             SolverKind::Auto if nodes > AUTO_MULTIGRID_NODES => SolverKind::Multigrid,
@@ -104,7 +122,11 @@ impl SolverKind {
     /// A solver of this kind for `pattern` on the model's `panels` (its analysis done): the one table of the
     /// linear solvers. Multigrid coarsens each panel on its own grid.
     pub fn solver(self, pattern: &BlockPattern, panels: &[Panel]) -> Result<Box<dyn BlockSolver>, LinearError> {
-        Ok(match self.resolve(pattern.nodes()) {
+        let nodes = pattern.nodes();
+        Ok(match self.resolve(nodes) {
+            SolverKind::Cholesky if self == SolverKind::Auto && nodes >= AUTO_FREE_MOTION_NODES => {
+                Box::new(Auto::new(pattern, panels)?)
+            }
             SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
             SolverKind::Multigrid => Box::new(Multigrid::new(pattern, panels)?),
             SolverKind::Pcg => Box::new(Pcg::new(pattern)),
@@ -196,6 +218,11 @@ pub trait BlockSolver: Send {
     /// shapes; positions of another length than the pattern's nodes are ignored). The default ignores them.
     fn set_positions(&mut self, _x: &[Vec3]) {}
 
+    /// Whether the coming solves (until the next call) belong to a step without contact, which Newton iterates
+    /// with inexact solves: the automatic choice ([`auto`]) takes its iterative solver for them. The stepper
+    /// calls it before each step's first solve; the default ignores it.
+    fn set_free_motion(&mut self, _free: bool) {}
+
     /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
     /// docs/performance.md ("Bytes an iteration"); 0, the default, for a direct solver (and before the first
     /// solve).
@@ -208,7 +235,8 @@ pub trait BlockSolver: Send {
         0
     }
 
-    /// The concrete kind (for summaries).
+    /// The concrete kind of the coming solves (for summaries; [`auto`]'s follows
+    /// [`BlockSolver::set_free_motion`]).
     fn kind(&self) -> SolverKind;
 }
 
