@@ -23,9 +23,10 @@ impl Stepper {
         Ok(())
     }
 
-    /// What the linear solver carries between steps (the iterative solvers' starting guess), so a resumed run makes the same solves.
+    /// What the linear solver carries between steps (the iterative solvers' starting guess, the automatic
+    /// choice's pick), so a resumed run makes the same solves.
     pub fn solver_warm(&self) -> SolverWarm {
-        SolverWarm { guess: self.guess.clone() }
+        SolverWarm { guess: self.guess.clone(), iterative_next: self.solver.iterative_next() }
     }
 
     /// Restores a [`Stepper::solver_warm`].
@@ -38,6 +39,7 @@ impl Stepper {
             ));
         }
         self.guess.copy_from_slice(&warm.guess);
+        self.solver.set_iterative_next(warm.iterative_next);
         Ok(())
     }
 }

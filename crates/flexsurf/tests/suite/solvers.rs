@@ -240,3 +240,29 @@ fn auto_takes_multigrid_for_the_steps_newton_corrects_without_contact() {
     // The sheet is 1 m across; Newton stops at 1e-6 of each step's force scale.
     assert!(apart > 0.0 && apart < 1e-6, "{apart:e} m apart");
 }
+
+/// A run of `auto` resumed between steps makes the solves of an uninterrupted one, bit for bit: its pick for
+/// the next step without contact travels with the solver's part of the checkpoint.
+#[test]
+fn auto_resumes_with_its_pick() {
+    let scene = flexsurf::bench::scene(51, flexsurf::bench::Workload::Tumble).unwrap();
+    let params = StepParams { solver: SolverKind::Auto, ..scene.step_params() };
+    let (model, steps) = (&scene.model, |stepper: &mut Stepper, state: &mut State, n: usize| {
+        for _ in 0..n {
+            stepper.step(&scene.model, state).unwrap();
+        }
+    });
+    let (mut whole, mut first) = (Stepper::new(model, &params).unwrap(), Stepper::new(model, &params).unwrap());
+    let (mut x_whole, mut x_resumed) = (scene.state.clone(), scene.state.clone());
+    steps(&mut whole, &mut x_whole, 4);
+    steps(&mut first, &mut x_resumed, 2);
+    let (warm, solver) = (first.warm_state(model).unwrap(), first.solver_warm());
+    assert!(solver.iterative_next, "the tumbling sheet's steps are corrected: multigrid next");
+    let mut resumed = Stepper::new(model, &params).unwrap();
+    resumed.restore(model, &warm, first.counters).unwrap();
+    resumed.restore_solver(&solver).unwrap();
+    steps(&mut resumed, &mut x_resumed, 2);
+    assert!(x_whole.x == x_resumed.x, "the resumed run should be the whole run's, bit for bit");
+    let counts = |c: &flexsurf::integrate::Counters| (c.solves, c.iterations, c.iterative_steps);
+    assert_eq!(counts(&whole.counters), counts(&resumed.counters));
+}

@@ -53,15 +53,17 @@ impl Auto {
         }
     }
 
-    /// Which solver the next step without contact takes, from the last one's Newton iterations: a step that
-    /// one exact solve converged (free fall, a sheet at rest) costs one factorisation, which beats the two or
-    /// more inexact solves multigrid then needs (its first is loose); a step that Newton had to correct
+    /// Whether the next step without contact takes multigrid, from the last one's Newton iterations: a step
+    /// that one exact solve converged (free fall, a sheet at rest) costs one factorisation, which beats the two
+    /// or more inexact solves multigrid then needs (its first is loose); a step that Newton had to correct
     /// (rotations: the tumbling sheet needs 2–3 corrections) is cheaper on multigrid. So a Cholesky step with
     /// a correction hands the next to multigrid, and a multigrid step converged in at most one correction
     /// hands it back.
-    fn choose_next(&mut self) {
-        if self.free && self.fresh > 0 {
-            self.prefer_iterative = if self.on_iterative { self.fresh > 2 } else { self.fresh > 1 };
+    fn pick(&self) -> bool {
+        match (self.free && self.fresh > 0, self.on_iterative) {
+            (true, true) => self.fresh > 2,
+            (true, false) => self.fresh > 1,
+            (false, _) => self.prefer_iterative,
         }
     }
 }
@@ -87,10 +89,18 @@ impl BlockSolver for Auto {
     }
 
     fn set_free_motion(&mut self, free: bool) {
-        self.choose_next();
+        self.prefer_iterative = self.pick();
         self.free = free;
         self.on_iterative = free && self.prefer_iterative && self.iterative.is_some();
         self.fresh = 0;
+    }
+
+    fn iterative_next(&self) -> bool {
+        self.pick()
+    }
+
+    fn set_iterative_next(&mut self, iterative: bool) {
+        (self.prefer_iterative, self.free, self.on_iterative, self.fresh) = (iterative, false, false, 0);
     }
 
     fn iteration_bytes(&self) -> usize {

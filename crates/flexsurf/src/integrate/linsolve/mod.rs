@@ -223,6 +223,15 @@ pub trait BlockSolver: Send {
     /// calls it before each step's first solve; the default ignores it.
     fn set_free_motion(&mut self, _free: bool) {}
 
+    /// Whether the next step without contact would take the iterative solver: what the automatic choice
+    /// ([`auto`]) carries from one step to the next, saved in checkpoints (false, the default, for the others).
+    fn iterative_next(&self) -> bool {
+        false
+    }
+
+    /// Restores an [`BlockSolver::iterative_next`] (a resumed run); the default ignores it.
+    fn set_iterative_next(&mut self, _iterative: bool) {}
+
     /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
     /// docs/performance.md ("Bytes an iteration"); 0, the default, for a direct solver (and before the first
     /// solve).
@@ -240,12 +249,15 @@ pub trait BlockSolver: Send {
     fn kind(&self) -> SolverKind;
 }
 
-/// The solver's part of a checkpoint: the iterative solvers' starting guess for the next step. (Nothing else
-/// carries over between steps: each step's first solve factorises or refills afresh.)
+/// The solver's part of a checkpoint: the iterative solvers' starting guess for the next step and the
+/// automatic choice's pick for it. (Nothing else carries over between steps: each step's first solve
+/// factorises or refills afresh.)
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct SolverWarm {
     /// The next step's starting guess.
     pub guess: Vec<Vec3>,
+    /// The next step without contact takes the iterative solver ([`BlockSolver::iterative_next`]).
+    pub iterative_next: bool,
 }
 
 /// Relative residual `‖b − A x‖ / ‖b‖` an iterative solve reaches ([`cholesky`]'s preconditioned re-solves and
