@@ -96,7 +96,7 @@ pub struct BenchRow {
     pub nodes: usize,
     /// Steps timed.
     pub steps: usize,
-    /// The linear solver used (`auto` resolved).
+    /// The linear solvers used (`auto` resolved: [`SolverKind::used`]).
     pub solver: &'static str,
     /// Wall seconds of all timed steps.
     pub wall_seconds: f64,
@@ -117,8 +117,8 @@ pub struct BenchRow {
     /// step costs, independently of the machine's speed.
     pub streams_per_step: f64,
     /// For the iterative solvers (multigrid, block-Jacobi CG): the mean preconditioned iteration (the solve
-    /// stage's time over the iterations) in the same products, the cost issue 23 item 5 bounds; `None` for
-    /// Cholesky, whose solve stage is mostly triangular solves.
+    /// stage's time over the iterations) in the same products, the cost issue 23 item 5 bounds; `None` where
+    /// some steps took Cholesky, whose solve stage is mostly triangular solves.
     pub streams_per_iteration: Option<f64>,
     /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
     /// docs/performance.md ("Bytes an iteration"); over `product_bytes`, the iteration's *byte streams*, its
@@ -161,7 +161,7 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
         n,
         nodes: n * n,
         steps,
-        solver: stepper.solver_kind().name(),
+        solver: solver.resolve(n * n).used(c.iterative_steps),
         wall_seconds,
         step_median,
         per_step,
@@ -170,9 +170,7 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
         product_seconds,
         product_bytes: full.bytes(),
         streams_per_step: if product_seconds > 0.0 { wall_seconds / s / product_seconds } else { 0.0 },
-        streams_per_iteration: (stepper.solver_kind() != SolverKind::Cholesky
-            && c.iterations > 0
-            && product_seconds > 0.0)
+        streams_per_iteration: (c.iterative_steps == c.steps && c.iterations > 0 && product_seconds > 0.0)
             .then(|| c.solve / c.iterations as f64 / product_seconds),
         iteration_bytes: stepper.iteration_bytes(),
     })

@@ -4,7 +4,6 @@
 
 use super::outputs::FrameRecord;
 use super::provenance::Provenance;
-use crate::integrate::linsolve::SolverKind;
 use crate::integrate::statics::StaticReport;
 use crate::integrate::Counters;
 use crate::math::Vec3;
@@ -162,14 +161,6 @@ pub(super) fn non_finite(summary: &Summary) -> Option<String> {
     walk(&serde_json::to_value(summary).ok()?, "")
 }
 
-/// The solver a run used: the contact steps' `kind`, and multigrid too where some steps took it.
-fn solver_used(kind: SolverKind, timings: &Counters) -> String {
-    match kind {
-        SolverKind::Cholesky if timings.iterative_steps > 0 => "cholesky+multigrid".to_string(),
-        k => k.name().to_string(),
-    }
-}
-
 /// The summary of `scene` run to `state`; `final_mesh` is the display mesh of `state`. Its `frames` are
 /// left empty for the frames output to report ([`super::outputs::Output::report`]).
 pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done: Finished) -> Summary {
@@ -183,7 +174,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: solver_used(scene.solver().resolve(nodes), &timings),
+        solver: scene.solver().resolve(nodes).used(timings.iterative_steps).to_string(),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),

@@ -119,6 +119,16 @@ impl SolverKind {
         }
     }
 
+    /// The name of the solvers a run took, `self` being its contact steps' ([`SolverKind::resolve`]) and
+    /// `iterative_steps` the steps an iterative solver took (`Counters::iterative_steps`): `cholesky+multigrid`
+    /// where the automatic choice gave some steps to multigrid, else `self`'s name.
+    pub fn used(self, iterative_steps: usize) -> &'static str {
+        match self {
+            SolverKind::Cholesky if iterative_steps > 0 => "cholesky+multigrid",
+            k => k.name(),
+        }
+    }
+
     /// A solver of this kind for `pattern` on the model's `panels` (its analysis done): the one table of the
     /// linear solvers. Multigrid coarsens each panel on its own grid.
     pub fn solver(self, pattern: &BlockPattern, panels: &[Panel]) -> Result<Box<dyn BlockSolver>, LinearError> {
