@@ -266,3 +266,21 @@ fn auto_resumes_with_its_pick() {
     let counts = |c: &flexsurf::integrate::Counters| (c.solves, c.iterations, c.iterative_steps);
     assert_eq!(counts(&whole.counters), counts(&resumed.counters));
 }
+
+/// Which solver `auto` gives the first step without contact: Cholesky on a mid-size grid (it has no history
+/// yet), multigrid from [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs as much as a free step's
+/// inexact solves; contact steps take Cholesky up to [`AUTO_MULTIGRID_NODES`].
+#[test]
+fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
+    use flexsurf::integrate::linsolve::auto::AUTO_FREE_FALL_NODES;
+    use flexsurf::integrate::linsolve::AUTO_MULTIGRID_NODES;
+    for (n, first) in [(51, SolverKind::Cholesky), (180, SolverKind::Multigrid)] {
+        assert_eq!(n * n >= AUTO_FREE_FALL_NODES && n * n <= AUTO_MULTIGRID_NODES, n == 180);
+        let (model, _) = sheet(n);
+        let mut solver = SolverKind::Auto.solver(model.potential.pattern(), &model.panels).unwrap();
+        solver.set_free_motion(true);
+        assert_eq!(solver.kind(), first, "{n}²");
+        solver.set_free_motion(false);
+        assert_eq!(solver.kind(), SolverKind::Cholesky, "{n}²");
+    }
+}

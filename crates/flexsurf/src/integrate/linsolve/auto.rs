@@ -1,13 +1,14 @@
 //! The automatic choice on mid-size grids, a [`BlockSolver`] that holds two: sparse Cholesky for the steps with
-//! contact, multigrid for the steps without, which Newton iterates with inexact solves (docs/model.md §8.5,
-//! "Inexact corrections"). Measured on the tumbling sheet (`flexsurf bench --workload tumble`,
-//! docs/performance.md "Which solver `auto` takes"): multigrid takes a contact-free step 1.4× faster than
-//! Cholesky at 51², 2.2× at 81² and 101², even at 41²; with contact Cholesky is as fast or faster up to
+//! contact, multigrid for the steps without contact that Newton iterates with inexact solves (docs/model.md
+//! §8.5, "Inexact corrections"). Measured on the tumbling sheet (`flexsurf bench --workload tumble`,
+//! docs/performance.md "Which solver `auto` takes"): multigrid takes such a step 1.4× faster than Cholesky at
+//! 51², 2.2× at 81² and 101², even at 41²; a step one exact solve converges (a free fall) is cheaper on
+//! Cholesky below about 200² ([`AUTO_FREE_FALL_NODES`]); with contact Cholesky is as fast or faster up to
 //! [`super::AUTO_MULTIGRID_NODES`] nodes, where its own factor stops paying off.
 //!
 //! The stepper says which kind of step comes ([`BlockSolver::set_free_motion`]) before the step's first solve;
-//! the choice holds for the whole step (its re-solves and corrections). Both are deterministic, so the run is
-//! too.
+//! the choice holds for the whole step (its re-solves and corrections). Both solvers are deterministic and the
+//! choice depends only on the run's own history (carried in checkpoints), so the run is too.
 
 use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
@@ -29,7 +30,15 @@ pub struct Auto {
     prefer_iterative: bool,
     /// Fresh solves (the linearised step and its Newton corrections) since the last call.
     fresh: usize,
+    /// The grid is large enough for multigrid to take every step without contact ([`AUTO_FREE_FALL_NODES`]).
+    always: bool,
 }
+
+/// From this many nodes `auto` gives multigrid every step without contact, also those one exact solve converges:
+/// a free fall's 8 steps (`flexsurf bench --sizes N --steps 8`) took 1.50 s on Cholesky against 2.29 s on
+/// multigrid at 121², 3.36 against 4.09 s at 161², and 7.71 against 6.69 s at 201² (40,401 nodes; one
+/// factorisation a step against three inexact solves); docs/performance.md.
+pub const AUTO_FREE_FALL_NODES: usize = 32_000;
 
 impl Auto {
     /// Both solvers for `pattern` on the model's `panels` (Cholesky's symbolic analysis done here, the
@@ -40,8 +49,9 @@ impl Auto {
             iterative: Multigrid::new(pattern, panels).ok(),
             free: false,
             on_iterative: false,
-            prefer_iterative: false,
+            prefer_iterative: pattern.nodes() >= AUTO_FREE_FALL_NODES,
             fresh: 0,
+            always: pattern.nodes() >= AUTO_FREE_FALL_NODES,
         })
     }
 
@@ -58,8 +68,12 @@ impl Auto {
     /// or more inexact solves multigrid then needs (its first is loose); a step that Newton had to correct
     /// (rotations: the tumbling sheet needs 2–3 corrections) is cheaper on multigrid. So a Cholesky step with
     /// a correction hands the next to multigrid, and a multigrid step converged in at most one correction
-    /// hands it back.
+    /// hands it back. From [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs more than those solves,
+    /// always multigrid.
     fn pick(&self) -> bool {
+        if self.always {
+            return true;
+        }
         match (self.free && self.fresh > 0, self.on_iterative) {
             (true, true) => self.fresh > 2,
             (true, false) => self.fresh > 1,
