@@ -2,11 +2,13 @@
 //! criterion bench `cargo bench -p flexsurf`: wall time of the time stepping, its per-step breakdown by stage,
 //! the linear solver's work (solves and why, iterations, factorisations) and the process's peak memory.
 //!
-//! Five workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape),
+//! Six workloads: [`Workload::Drop`], the canonical scene (a fall of 5 cm, the impact, the drape),
 //! [`Workload::Touching`], the same sheet placed on the ball so that contact acts from the first step (the
 //! per-step cost of a drape in progress, without the free fall's easy steps), the self-contact pile
-//! (`scenes/pile.toml`) with and without its self-contact ([`Workload::Pile`], [`Workload::PileAlone`]), and
-//! the drop's sheet tumbling freely without the ball ([`Workload::Tumble`]: Newton's iterated steps).
+//! (`scenes/pile.toml`) with and without its self-contact ([`Workload::Pile`], [`Workload::PileAlone`]), the
+//! drop's sheet tumbling freely without the ball ([`Workload::Tumble`]: Newton's iterated steps), and a sheet
+//! hanging from two corners while one is carried towards the other ([`Workload::Hanging`]: Newton's steps on
+//! a compressed, folding membrane).
 
 use crate::integrate::linsolve::SolverKind;
 use crate::integrate::{Counters, StepError, StepParams, Stepper};
@@ -39,7 +41,37 @@ pub enum Workload {
     /// large rotations without contact, the steps Newton's method iterates to its tolerance (their solves
     /// inexact on the iterative solvers, docs/model.md §8.5).
     Tumble,
+    /// A 1 m sheet of the paper's cotton hanging from the two corners of its top edge, one carried 0.45 m
+    /// towards the other over 1.5 s ([`HANGING_TOML`]): no contact, the top edge gathering into folds whose
+    /// compressed membrane Newton's method converges slowly (docs/performance.md).
+    Hanging,
 }
+
+/// The [`Workload::Hanging`] scene, `{n}` its nodes a side and `{last}` the last node's index.
+pub const HANGING_TOML: &str = r#"name = "hanging"
+calibration = "kes"
+gravity = [0.0, 0.0, -9.81]
+
+[sheet]
+size = [1.0, 1.0]
+nodes = [{n}, {n}]
+center = [0.0, 0.0, 0.8]
+rotate_deg = [90.0, 0.0, 0.0]
+
+[material]
+preset = "paper-cotton"
+
+[time]
+dt = 0.01
+steps = 10
+
+[[pin]]
+nodes = [[0, {last}]]
+
+[[pin]]
+nodes = [[{last}, {last}]]
+motion = { shift = [-0.45, 0.0, 0.0], seconds = 1.5 }
+"#;
 
 /// The canonical ball drop with `n × n` nodes (same sheet, ball, fabric and time step).
 pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
@@ -50,6 +82,11 @@ pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
 pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
     if matches!(workload, Workload::Pile | Workload::PileAlone) {
         return pile(n, workload == Workload::Pile);
+    }
+    if workload == Workload::Hanging {
+        let text = HANGING_TOML.replace("{n}", &n.to_string()).replace("{last}", &n.saturating_sub(1).to_string());
+        let file = Path::new("hanging.toml");
+        return SceneSpec::from_toml(&text, file)?.build_with(file, &crate::scene::Limits { max_memory: u64::MAX });
     }
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
@@ -136,6 +173,8 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
     let mut times = Vec::with_capacity(steps);
     for _ in 0..steps {
         let t = Instant::now();
+        // The pins' motions (the hanging sheet's carried corner), as the runner drives them before each step.
+        scene.drive(&mut state)?;
         stepper.step(&scene.model, &mut state)?;
         times.push(t.elapsed().as_secs_f64());
     }
@@ -233,4 +272,7 @@ pub enum BenchError {
     /// A step failed.
     #[error(transparent)]
     Step(#[from] StepError),
+    /// A pin's motion could not be applied.
+    #[error(transparent)]
+    Motion(#[from] crate::model::ModelError),
 }

@@ -15,7 +15,7 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_values_t = vec![21, 41, 81, 161, 321])]
     sizes: Vec<usize>,
     /// Steps per size (default: the whole 300-step drop up to 41², fewer for larger grids so each size takes
-    /// seconds; 10 steps up to 161² and 3 above for `touching`).
+    /// seconds; 10 steps up to 161² and 3 above for `touching` and `hanging`).
     #[arg(long)]
     steps: Option<usize>,
     /// Repetitions of each size; the row with the median wall time is reported.
@@ -23,7 +23,8 @@ pub struct BenchArgs {
     repeat: usize,
     /// `drop`: the canonical ball drop; `touching`: the sheet placed on the ball, contact from the first step;
     /// `pile`: the self-contact pile of scenes/pile.toml; `pile-alone`: the same without self-contact;
-    /// `tumble`: the drop's sheet spinning freely without the ball or gravity (Newton's iterated steps).
+    /// `tumble`: the drop's sheet spinning freely without the ball or gravity (Newton's iterated steps);
+    /// `hanging`: a sheet hanging from two corners, one carried towards the other (folds, no contact).
     #[arg(long, value_enum, default_value_t = Workload::Drop)]
     workload: Workload,
     /// The linear solver (`auto`: Cholesky on small grids, multigrid on large ones).
@@ -56,6 +57,8 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             (Workload::Tumble, 0..=81) => 50,
             (Workload::Tumble, 82..=161) => 10,
             (Workload::Tumble, _) => 3,
+            (Workload::Hanging, 0..=161) => 10,
+            (Workload::Hanging, _) => 3,
             // The pile: its fall and first folds (it touches the floor at about 0.06 s, itself from 0.5 s).
             (Workload::Pile | Workload::PileAlone, 0..=41) => 250,
             (Workload::Pile | Workload::PileAlone, _) => 120,

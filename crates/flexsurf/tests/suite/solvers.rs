@@ -200,6 +200,31 @@ fn the_tumble_workload_is_newton_without_contact() {
     assert!(c.corrections >= 5, "{c:?}");
 }
 
+/// The `hanging` workload drives its carried corner as a run does (the smooth step `3τ² − 2τ³` of 0.45 m over
+/// 1.5 s: after 0.1 s, `0.45 (3 τ² − 2 τ³)` with `τ = 1/15`), in `flexsurf bench` as in a run, and is
+/// Newton's steps without contact.
+#[test]
+fn the_hanging_workload_carries_its_corner_without_contact() {
+    use flexsurf::bench::{run, scene, Workload};
+    let n = 21;
+    let s = scene(n, Workload::Hanging).unwrap();
+    assert!(s.model.obstacles().is_empty());
+    let corner = n * n - 1;
+    let start = s.state.x[corner];
+    let row = run(n, 10, Workload::Hanging, SolverKind::Cholesky).unwrap();
+    let c = row.per_step;
+    assert_eq!(c.contact_steps, 0, "{c:?}");
+    assert!(c.corrections >= 10, "{c:?}");
+    let (x, driven) = bench_run(n, 10, Workload::Hanging, SolverKind::Cholesky);
+    // The benchmark's steps are those of the driven run.
+    let fingerprint = |c: &flexsurf::integrate::Counters| (c.solves, c.corrections, c.residual_max.to_bits());
+    assert_eq!(fingerprint(&c), fingerprint(&driven));
+    let tau: f64 = 0.1 / 1.5;
+    let shift = 0.45 * (3.0 * tau * tau - 2.0 * tau * tau * tau);
+    let moved = x[corner] - start;
+    assert!((moved.x + shift).abs() < 1e-12 && moved.y.abs() < 1e-12 && moved.z.abs() < 1e-12, "{moved:?}");
+}
+
 /// The bench's `workload` on an `n`² grid, `steps` steps with `solver`: the final positions and the counters.
 fn bench_run(
     n: usize,
@@ -211,6 +236,7 @@ fn bench_run(
     let mut state = scene.state.clone();
     let mut stepper = Stepper::new(&scene.model, &StepParams { solver, ..scene.step_params() }).unwrap();
     for _ in 0..steps {
+        scene.drive(&mut state).unwrap();
         stepper.step(&scene.model, &mut state).unwrap();
     }
     (state.x, stepper.counters)
