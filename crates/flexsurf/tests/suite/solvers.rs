@@ -298,8 +298,7 @@ fn auto_resumes_with_its_pick() {
 /// inexact solves; contact steps take Cholesky up to [`AUTO_MULTIGRID_NODES`].
 #[test]
 fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
-    use flexsurf::integrate::linsolve::auto::AUTO_FREE_FALL_NODES;
-    use flexsurf::integrate::linsolve::AUTO_MULTIGRID_NODES;
+    use flexsurf::integrate::linsolve::{AUTO_FREE_FALL_NODES, AUTO_MULTIGRID_NODES};
     for (n, first) in [(51, SolverKind::Cholesky), (180, SolverKind::Multigrid)] {
         assert_eq!(n * n >= AUTO_FREE_FALL_NODES && n * n <= AUTO_MULTIGRID_NODES, n == 180);
         let (model, _) = sheet(n);

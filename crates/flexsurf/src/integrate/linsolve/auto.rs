@@ -10,7 +10,7 @@
 //! the choice holds for the whole step (its re-solves and corrections). Both solvers are deterministic and the
 //! choice depends only on the run's own history (carried in checkpoints), so the run is too.
 
-use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind};
+use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind, AUTO_FREE_FALL_NODES};
 use crate::math::Vec3;
 use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
@@ -33,12 +33,6 @@ pub struct Auto {
     /// The grid is large enough for multigrid to take every step without contact ([`AUTO_FREE_FALL_NODES`]).
     always: bool,
 }
-
-/// From this many nodes `auto` gives multigrid every step without contact, also those one exact solve converges:
-/// a free fall's 8 steps (`flexsurf bench --sizes N --steps 8`) took 1.50 s on Cholesky against 2.29 s on
-/// multigrid at 121², 3.36 against 4.09 s at 161², and 7.71 against 6.69 s at 201² (40,401 nodes; one
-/// factorisation a step against three inexact solves); docs/performance.md.
-pub const AUTO_FREE_FALL_NODES: usize = 32_000;
 
 impl Auto {
     /// Both solvers for `pattern` on the model's `panels` (Cholesky's symbolic analysis done here, the
@@ -68,8 +62,8 @@ impl Auto {
     /// or more inexact solves multigrid then needs (its first is loose); a step that Newton had to correct
     /// (rotations: the tumbling sheet needs 2–3 corrections) is cheaper on multigrid. So a Cholesky step with
     /// a correction hands the next to multigrid, and a multigrid step converged in at most one correction
-    /// hands it back. From [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs more than those solves,
-    /// always multigrid.
+    /// hands it back. From [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs about as much as those
+    /// solves and a corrected step's several factorisations far more, always multigrid.
     fn pick(&self) -> bool {
         if self.always {
             return true;

@@ -93,10 +93,16 @@ pub enum SolverKind {
 pub const AUTO_MULTIGRID_NODES: usize = 90_000;
 
 /// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) take the multigrid solver under
-/// [`SolverKind::Auto`] for their steps without contact, Cholesky for the others ([`auto::Auto`]). Measured on a
-/// sheet tumbling freely (docs/performance.md, "Which solver `auto` takes"): the two are even at 41² (1,681
-/// nodes), multigrid is 1.4× faster at 51² (2,601) and 2.2× at 81².
+/// [`SolverKind::Auto`] for their steps without contact that Newton's method corrects, Cholesky for the others
+/// ([`auto::Auto`]). Measured on a sheet tumbling freely (docs/performance.md, "Which solver `auto` takes"): the
+/// two are even at 41² (1,681 nodes), multigrid is 1.4× faster at 51² (2,601) and 2.2× at 81².
 pub const AUTO_FREE_MOTION_NODES: usize = 2_500;
+
+/// From this many nodes [`SolverKind::Auto`] gives multigrid every step without contact, also those one exact
+/// solve converges (a free fall: one factorisation against three inexact solves). Its first 6 steps
+/// (`flexsurf bench --sizes N --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against
+/// 4.94, 7.50 and 11.09 s on multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s.
+pub const AUTO_FREE_FALL_NODES: usize = 32_000;
 
 impl SolverKind {
     /// Name as in scene files and summaries.
