@@ -95,7 +95,7 @@ type Assembled = (Model, Vec<Vec3>, Option<GarmentInfo>, Vec<PinMotion>, Option<
 impl Scene {
     /// The run: a dynamic integration with its step parameters (time step [`Scene::dt`]), or a static solve.
     pub fn method(&self) -> Method {
-        self.integrator.kind.method(self.dt, self.integrator.solver)
+        self.integrator.method(self.dt)
     }
 
     /// The step parameters of a dynamic scene (of a static one: the defaults with the scene's `dt`).
@@ -147,7 +147,7 @@ impl SceneSpec {
         let Checked { parts, dt, output_every, animation_every, condition, material, .. } = self.checked(&v, limits)?;
         let (model, initial, garment, motions, sewing) = self.assemble(&v, parts, observe)?;
         let integrator = self.integrator;
-        let state = match integrator.kind.method(dt, integrator.solver) {
+        let state = match integrator.method(dt) {
             Method::Static(_) => State::at_rest(initial),
             Method::Dynamic(p) => {
                 let velocities = initial::velocities(&initial, &model.mass, model.pinned(), &condition);
@@ -196,7 +196,7 @@ impl SceneSpec {
             nodes: [grids[0].0.m, grids[0].0.n],
             sheets: grids.len(),
             model: self.model.kind,
-            method: self.integrator.kind.method(dt, self.integrator.solver),
+            method: self.integrator.method(dt),
             dt,
             steps: self.time.steps,
             obstacles: parts.obstacles.len(),

@@ -261,12 +261,41 @@ impl IntegratorKind {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    /// `linearized` (default, unconditionally stable) or `lagged` (the paper's literal scheme, needs tiny steps).
+    /// `linearized` (default, unconditionally stable), `bdf2`, `lagged` (the paper's literal scheme, needs tiny
+    /// steps) or `static`.
     #[serde(default)]
     pub kind: IntegratorKind,
-    /// `cholesky` (default) or `pcg`.
+    /// `auto` (default), `cholesky`, `multigrid` or `pcg`.
     #[serde(default)]
     pub solver: SolverKind,
+    /// Most Newton iterations of a time step, its linearised step included (default 4, from 1 to 100;
+    /// docs/model.md §8.5): more converge the steps Newton's method converges slowly (a sheet's folds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub newton_iterations: Option<usize>,
+    /// Residual, relative to a step's own force scale, at which its Newton iterations stop (default 1e-6, from
+    /// 1e-12 to 0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub newton_tolerance: Option<f64>,
+}
+
+/// The allowed `integrator.newton_iterations`.
+pub const NEWTON_ITERATIONS: std::ops::RangeInclusive<usize> = 1..=100;
+/// The allowed `integrator.newton_tolerance`.
+pub const NEWTON_TOLERANCE: std::ops::RangeInclusive<f64> = 1e-12..=0.1;
+
+impl IntegratorSpec {
+    /// The run this table asks for, with time step `dt`: [`IntegratorKind::method`] with the Newton settings
+    /// given.
+    pub fn method(&self, dt: f64) -> Method {
+        match self.kind.method(dt, self.solver) {
+            Method::Dynamic(p) => Method::Dynamic(StepParams {
+                newton_iterations: self.newton_iterations.unwrap_or(p.newton_iterations),
+                newton_tolerance: self.newton_tolerance.unwrap_or(p.newton_tolerance),
+                ..p
+            }),
+            m => m,
+        }
+    }
 }
 
 /// A rigid obstacle, written `sphere = { ... }`, `plane = { ... }`, `nurbs = { ... }` or `mesh = { ... }` inside

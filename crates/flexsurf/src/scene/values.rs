@@ -144,6 +144,7 @@ impl SceneSpec {
     pub(crate) fn checked(&self, v: &Validator<'_>, limits: &Limits) -> Result<Checked<'_>, SceneError> {
         let budget::Budget { output_every, animation_every, mut estimate } = budget::check(self, v, limits)?;
         let dt = v.number(&ranges::DT, "time.dt", self.time.dt)?;
+        self.check_newton(v)?;
         // Obstacles and contact (a garment is fitted onto the obstacles, so they come first).
         let mut obstacles = Vec::with_capacity(self.obstacles.len());
         for (i, o) in self.obstacles.iter().enumerate() {
@@ -316,6 +317,28 @@ impl SceneSpec {
     }
 
     /// Checks `[output]`.
+    /// `integrator.newton_iterations` and `integrator.newton_tolerance`: within their ranges, and given only
+    /// for a time-stepping scheme (the static solve has its own Newton iterations).
+    fn check_newton(&self, v: &Validator<'_>) -> Result<(), SceneError> {
+        use super::spec::{IntegratorKind, NEWTON_ITERATIONS, NEWTON_TOLERANCE};
+        let i = &self.integrator;
+        let keys =
+            [("newton_iterations", i.newton_iterations.is_some()), ("newton_tolerance", i.newton_tolerance.is_some())];
+        if let Some((key, _)) = keys.iter().find(|(_, given)| *given).filter(|_| i.kind == IntegratorKind::Static) {
+            return Err(v.bad(&format!("integrator.{key}"), "applies to time steps, not to `kind = \"static\"`".into()));
+        }
+        if let Some(n) = i.newton_iterations {
+            v.in_range("integrator.newton_iterations", n, NEWTON_ITERATIONS)?;
+        }
+        if let Some(t) = i.newton_tolerance {
+            let ok = NEWTON_TOLERANCE.contains(&t);
+            v.require("integrator.newton_tolerance", ok, || {
+                format!("{t}: must be between {:e} and {}", NEWTON_TOLERANCE.start(), NEWTON_TOLERANCE.end())
+            })?;
+        }
+        Ok(())
+    }
+
     fn check_output(&self, v: &Validator<'_>) -> Result<(), SceneError> {
         v.in_range("output.coons_subdivisions", self.output.coons_subdivisions, 1..=64)?;
         let [w, h] = self.output.image_size;

@@ -198,6 +198,13 @@ fn every_error_names_the_file_and_the_key() {
             "material.file",
         ),
         ("wrong_type.toml", with("", "steps = 10", "steps = \"ten\""), "time.steps"),
+        ("no_newton.toml", with("\n[integrator]\nnewton_iterations = 0\n", "", ""), "integrator.newton_iterations"),
+        ("loose_newton.toml", with("\n[integrator]\nnewton_tolerance = 0.5\n", "", ""), "integrator.newton_tolerance"),
+        (
+            "static_newton.toml",
+            with("\n[integrator]\nkind = \"static\"\nnewton_iterations = 8\n", "", ""),
+            "integrator.newton_iterations",
+        ),
     ];
     for (name, text, key) in &cases {
         let e = error_of(&d, name, text);
@@ -474,4 +481,20 @@ fn every_range_table_key_is_documented() {
     for r in flexsurf::scene::ranges::TABLE {
         assert!(doc.contains(&format!("`{}`", r.key)), "docs/scenes.md does not list `{}`", r.key);
     }
+}
+
+/// `[integrator] newton_iterations` and `newton_tolerance` reach the time step's parameters; without them the
+/// defaults hold.
+#[test]
+fn newton_settings_reach_the_time_step() {
+    let d = scratch("newton");
+    let text = format!("{MINIMAL}\n[integrator]\nkind = \"bdf2\"\nnewton_iterations = 16\nnewton_tolerance = 1e-8\n");
+    std::fs::write(d.join("newton.toml"), text).unwrap();
+    let p = scene::load(&d.join("newton.toml")).unwrap().step_params();
+    assert_eq!((p.newton_iterations, p.newton_tolerance), (16, 1e-8));
+    std::fs::write(d.join("plain.toml"), MINIMAL).unwrap();
+    let p = scene::load(&d.join("plain.toml")).unwrap().step_params();
+    let defaults = flexsurf::integrate::StepParams::default();
+    assert_eq!((p.newton_iterations, p.newton_tolerance), (defaults.newton_iterations, defaults.newton_tolerance));
+    std::fs::remove_dir_all(&d).unwrap();
 }
