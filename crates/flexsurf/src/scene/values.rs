@@ -316,7 +316,6 @@ impl SceneSpec {
         Ok((pins, motions, springs))
     }
 
-    /// Checks `[output]`.
     /// `integrator.newton_iterations` and `integrator.newton_tolerance`: within their ranges, and given only
     /// for a time-stepping scheme (the static solve has its own Newton iterations).
     fn check_newton(&self, v: &Validator<'_>) -> Result<(), SceneError> {
@@ -330,15 +329,16 @@ impl SceneSpec {
         if let Some(n) = i.newton_iterations {
             v.in_range("integrator.newton_iterations", n, NEWTON_ITERATIONS)?;
         }
-        if let Some(t) = i.newton_tolerance {
-            let ok = NEWTON_TOLERANCE.contains(&t);
-            v.require("integrator.newton_tolerance", ok, || {
-                format!("{t}: must be between {:e} and {}", NEWTON_TOLERANCE.start(), NEWTON_TOLERANCE.end())
-            })?;
+        match i.newton_tolerance {
+            Some(t) if !NEWTON_TOLERANCE.contains(&t) => {
+                let range = format!("must be between {:e} and {}", NEWTON_TOLERANCE.start(), NEWTON_TOLERANCE.end());
+                Err(v.bad_value("integrator.newton_tolerance", t, &range))
+            }
+            _ => Ok(()),
         }
-        Ok(())
     }
 
+    /// Checks `[output]`.
     fn check_output(&self, v: &Validator<'_>) -> Result<(), SceneError> {
         v.in_range("output.coons_subdivisions", self.output.coons_subdivisions, 1..=64)?;
         let [w, h] = self.output.image_size;
