@@ -659,7 +659,7 @@ impl Stepper {
             self_contact_pairs: self_contacts,
             broad_builds: broad_after.0 - broad_before.0,
             broad_refits: broad_after.1 - broad_before.1,
-            iterative_steps: usize::from(self.solver.kind() != linsolve::SolverKind::Cholesky),
+            iterative_steps: usize::from(self.solver.kind().iterative()),
         };
         // The solve loop counted this step's solves into `counters` as it went; `timings` holds them now.
         self.counters = before;
@@ -696,8 +696,7 @@ impl Stepper {
         let newton = self.params.scheme != Scheme::Lagged && model.potential.conservative();
         let free = newton && !model.potential.engaged(&self.ws);
         self.solver.set_free_motion(free);
-        let iterative = self.solver.kind() != linsolve::SolverKind::Cholesky;
-        let loose = (iterative && free).then_some(descent::FIRST_FORCING);
+        let loose = (self.solver.kind().iterative() && free).then_some(descent::FIRST_FORCING);
         let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
             // Contact engaged the loose solve after all: solved on from its solution to the solver's tolerance.

@@ -321,9 +321,9 @@ impl SceneSpec {
     fn check_newton(&self, v: &Validator<'_>) -> Result<(), SceneError> {
         use super::spec::{IntegratorKind, NEWTON_ITERATIONS, NEWTON_TOLERANCE};
         let i = &self.integrator;
-        let keys =
+        let given =
             [("newton_iterations", i.newton_iterations.is_some()), ("newton_tolerance", i.newton_tolerance.is_some())];
-        if let Some((key, _)) = keys.iter().find(|(_, given)| *given).filter(|_| i.kind == IntegratorKind::Static) {
+        if let Some((key, _)) = given.iter().find(|(_, given)| *given && i.kind == IntegratorKind::Static) {
             return Err(v.bad(&format!("integrator.{key}"), "applies to time steps, not to `kind = \"static\"`".into()));
         }
         if let Some(n) = i.newton_iterations {

@@ -50,9 +50,17 @@ impl Auto {
     }
 
     /// The solver of the coming solves.
-    fn current(&mut self) -> &mut dyn BlockSolver {
+    fn active(&self) -> &dyn BlockSolver {
+        match (&self.iterative, self.on_iterative) {
+            (Some(iterative), true) => iterative,
+            _ => &self.direct,
+        }
+    }
+
+    /// [`Auto::active`], to solve with.
+    fn active_mut(&mut self) -> &mut dyn BlockSolver {
         match (&mut self.iterative, self.on_iterative) {
-            (Some(iterative), true) => iterative as &mut dyn BlockSolver,
+            (Some(iterative), true) => iterative,
             _ => &mut self.direct,
         }
     }
@@ -87,7 +95,7 @@ impl BlockSolver for Auto {
         tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError> {
         self.fresh += usize::from(reuse == Reuse::Fresh);
-        self.current().solve_to(a, fixed, b, x, reuse, tolerance)
+        self.active_mut().solve_to(a, fixed, b, x, reuse, tolerance)
     }
 
     fn set_positions(&mut self, x: &[Vec3]) {
@@ -112,10 +120,7 @@ impl BlockSolver for Auto {
     }
 
     fn iteration_bytes(&self) -> usize {
-        match (&self.iterative, self.on_iterative) {
-            (Some(iterative), true) => iterative.iteration_bytes(),
-            _ => 0,
-        }
+        self.active().iteration_bytes()
     }
 
     fn factor_nnz(&self) -> usize {
@@ -124,10 +129,6 @@ impl BlockSolver for Auto {
 
     /// The solver of the coming solves.
     fn kind(&self) -> SolverKind {
-        if self.on_iterative {
-            SolverKind::Multigrid
-        } else {
-            SolverKind::Cholesky
-        }
+        self.active().kind()
     }
 }

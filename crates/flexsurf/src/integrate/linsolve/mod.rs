@@ -125,6 +125,12 @@ impl SolverKind {
         }
     }
 
+    /// Whether the solves of this (concrete) kind are iterative, so that they honour a tolerance
+    /// ([`BlockSolver::solve_to`]).
+    pub fn iterative(self) -> bool {
+        matches!(self, SolverKind::Multigrid | SolverKind::Pcg)
+    }
+
     /// The name of the solvers a run took, `self` being its contact steps' ([`SolverKind::resolve`]) and
     /// `iterative_steps` the steps an iterative solver took (`Counters::iterative_steps`): `cholesky+multigrid`
     /// where the automatic choice gave some steps to multigrid, else `self`'s name.
