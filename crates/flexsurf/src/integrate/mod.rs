@@ -431,8 +431,8 @@ impl Stepper {
         // Multigrid's coarse space carries the rigid-body modes of the shape the step is at.
         self.solver.set_positions(&self.y);
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
-        // A re-solve (the active set changed: contact engages) to the solver's own tolerance.
-        let loose = |round: usize| if round == 0 { tolerance } else { None };
+        // A re-solve (the active set changed: contact engages) to the contact steps' tolerance.
+        let loose = |round: usize| if round == 0 { tolerance } else { Some(linsolve::CONTACT_STEP_TOLERANCE) };
         for round in 0..=self.params.active_set_rounds {
             tf += self.linear_solve(state, model.pinned(), reuse(round), loose(round))?;
             if newton == 0 && round == 0 {
@@ -692,15 +692,17 @@ impl Stepper {
         let ts = Instant::now();
         let mut forcing = descent::Forcing::new(self.relative_residual(model));
         // A step that Newton will iterate (no contact found at its start) solves its linearised step loosely;
-        // one that contact engages keeps its first solution, solved to the solver's own tolerance.
+        // one that contact engages solves it to the contact steps' tolerance.
         let newton = self.params.scheme != Scheme::Lagged && model.potential.conservative();
         let free = newton && !model.potential.engaged(&self.ws);
         self.solver.set_free_motion(free);
         let loose = (self.solver.kind().iterative() && free).then_some(descent::FIRST_FORCING);
-        let mut tf = self.solve_with_active_sets(model, state, (0, loose), self.operator())?;
+        let first = if free { loose } else { Some(linsolve::CONTACT_STEP_TOLERANCE) };
+        let mut tf = self.solve_with_active_sets(model, state, (0, first), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
-            // Contact engaged the loose solve after all: solved on from its solution to the solver's tolerance.
-            tf += self.linear_solve(state, model.pinned(), Reuse::Nearby, None)?;
+            // Contact engaged the loose solve after all: solved on from its solution.
+            let tolerance = Some(linsolve::CONTACT_STEP_TOLERANCE);
+            tf += self.linear_solve(state, model.pinned(), Reuse::Nearby, tolerance)?;
         }
         self.check_increment(state)?;
         for (y, d) in self.y.iter_mut().zip(&self.delta) {
@@ -785,8 +787,9 @@ impl Stepper {
         let mut due = violent || friction > friction_tolerance || contact_off(self);
         self.history.exact = converge;
         while due && report.iterations < cap {
-            // To the solver's own tolerance: the active sets are refined on each solve's proposal.
-            tf += self.correction(model, state, (report.iterations, None), t_assembly, &mut t_solve)?;
+            // To the contact steps' tolerance: the active sets are refined on each solve's proposal.
+            let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
+            tf += self.correction(model, state, newton, t_assembly, &mut t_solve)?;
             report.iterations += 1;
             self.counters.corrections += 1;
             // Friction's models are those of the solve until the next assembly re-linearises them: measured at
