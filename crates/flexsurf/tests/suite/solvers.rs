@@ -315,7 +315,7 @@ fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
 /// put it to far less than the step leaves unconverged, with a third fewer iterations than at 1e-11.
 #[test]
 fn contact_steps_on_multigrid_end_where_direct_solves_do() {
-    use flexsurf::integrate::linsolve::{CONTACT_STEP_TOLERANCE, ITERATIVE_TOLERANCE};
+    use flexsurf::integrate::linsolve::CONTACT_STEP_TOLERANCE;
     let scene = flexsurf::bench::scene(81, flexsurf::bench::Workload::Touching).unwrap();
     let run = |solver: SolverKind| {
         let params = StepParams { solver, ..scene.step_params() };
@@ -337,7 +337,6 @@ fn contact_steps_on_multigrid_end_where_direct_solves_do() {
     assert!(far < 1e-6 * (hi - lo).length(), "{far:e} m from the direct solves");
     // The steps are far from converged (the contact steps' rule), which is why 1e-11 bought nothing.
     assert!(residual > 1e3 * CONTACT_STEP_TOLERANCE, "{residual:e}");
-    assert!(CONTACT_STEP_TOLERANCE > 1e3 * ITERATIVE_TOLERANCE);
     let per_solve = counters.iterations as f64 / counters.solves as f64;
     assert!(per_solve <= 10.0, "{per_solve} multigrid iterations a solve");
 }
