@@ -293,20 +293,22 @@ fn auto_resumes_with_its_pick() {
     assert_eq!(counts(&whole.counters), counts(&resumed.counters));
 }
 
-/// Which solver `auto` gives the first step without contact: Cholesky on a mid-size grid (it has no history
-/// yet), multigrid from [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs as much as a free step's
-/// inexact solves; contact steps take Cholesky up to [`AUTO_MULTIGRID_NODES`].
+/// Which solver `auto` gives a grid's steps: the first step without contact takes Cholesky on a mid-size grid (it
+/// has no history yet), the steps with contact Cholesky below [`AUTO_CONTACT_NODES`] nodes and multigrid from
+/// there, and from [`AUTO_MULTIGRID_NODES`] every step takes multigrid.
 #[test]
 fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
-    use flexsurf::integrate::linsolve::{AUTO_FREE_FALL_NODES, AUTO_MULTIGRID_NODES};
-    for (n, first) in [(51, SolverKind::Cholesky), (180, SolverKind::Multigrid)] {
-        assert_eq!(n * n >= AUTO_FREE_FALL_NODES && n * n <= AUTO_MULTIGRID_NODES, n == 180);
+    use flexsurf::integrate::linsolve::{AUTO_CONTACT_NODES, AUTO_MULTIGRID_NODES};
+    let (chol, mg) = (SolverKind::Cholesky, SolverKind::Multigrid);
+    for (n, free, contact) in [(51, chol, chol), (161, chol, mg), (181, mg, mg)] {
+        assert_eq!(n * n >= AUTO_CONTACT_NODES, n > 51);
+        assert_eq!(n * n > AUTO_MULTIGRID_NODES, n == 181);
         let (model, _) = sheet(n);
         let mut solver = SolverKind::Auto.solver(model.potential.pattern(), &model.panels).unwrap();
         solver.set_free_motion(true);
-        assert_eq!(solver.kind(), first, "{n}²");
+        assert_eq!(solver.kind(), free, "{n}²");
         solver.set_free_motion(false);
-        assert_eq!(solver.kind(), SolverKind::Cholesky, "{n}²");
+        assert_eq!(solver.kind(), contact, "{n}²");
     }
 }
 

@@ -3,20 +3,21 @@
 //! §8.5, "Inexact corrections"). Measured on the tumbling sheet (`flexsurf bench --workload tumble`,
 //! docs/performance.md "Which solver `auto` takes"): multigrid takes such a step 1.4× faster than Cholesky at
 //! 51², 2.2× at 81² and 101², even at 41²; a step one exact solve converges (a free fall) is cheaper on
-//! Cholesky below about 200² ([`AUTO_FREE_FALL_NODES`]); with contact Cholesky is as fast or faster up to
-//! [`super::AUTO_MULTIGRID_NODES`] nodes, where its own factor stops paying off.
+//! Cholesky below about 200² (above [`super::AUTO_MULTIGRID_NODES`] multigrid takes every step); with contact
+//! Cholesky is as fast or faster below [`AUTO_CONTACT_NODES`] nodes (a drop's impact and sliding), multigrid
+//! from there.
 //!
 //! The stepper says which kind of step comes ([`BlockSolver::set_free_motion`]) before the step's first solve;
 //! the choice holds for the whole step (its re-solves and corrections). Both solvers are deterministic and the
 //! choice depends only on the run's own history (carried in checkpoints), so the run is too.
 
-use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind, AUTO_FREE_FALL_NODES};
+use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind, AUTO_CONTACT_NODES};
 use crate::math::Vec3;
 use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
 
-/// Cholesky for contact steps and for steps without contact that one exact solve converges, multigrid for the
-/// steps without contact that Newton iterates.
+/// Cholesky for contact steps (multigrid from [`AUTO_CONTACT_NODES`] nodes) and for steps without contact that
+/// one exact solve converges, multigrid for the steps without contact that Newton iterates.
 pub struct Auto {
     direct: Cholesky,
     /// `None` where the model's unknowns are not all grid nodes of its panels (multigrid cannot coarsen them):
@@ -30,8 +31,8 @@ pub struct Auto {
     prefer_iterative: bool,
     /// Fresh solves (the linearised step and its Newton corrections) since the last call.
     fresh: usize,
-    /// The grid is large enough for multigrid to take every step without contact ([`AUTO_FREE_FALL_NODES`]).
-    always: bool,
+    /// The grid is large enough for multigrid to take the steps with contact ([`AUTO_CONTACT_NODES`]).
+    contact: bool,
 }
 
 impl Auto {
@@ -43,9 +44,9 @@ impl Auto {
             iterative: Multigrid::new(pattern, panels).ok(),
             free: false,
             on_iterative: false,
-            prefer_iterative: pattern.nodes() >= AUTO_FREE_FALL_NODES,
+            prefer_iterative: false,
             fresh: 0,
-            always: pattern.nodes() >= AUTO_FREE_FALL_NODES,
+            contact: pattern.nodes() >= AUTO_CONTACT_NODES,
         })
     }
 
@@ -70,12 +71,8 @@ impl Auto {
     /// or more inexact solves multigrid then needs (its first is loose); a step that Newton had to correct
     /// (rotations: the tumbling sheet needs 2–3 corrections) is cheaper on multigrid. So a Cholesky step with
     /// a correction hands the next to multigrid, and a multigrid step converged in at most one correction
-    /// hands it back. From [`AUTO_FREE_FALL_NODES`] nodes, where a factorisation costs about as much as those
-    /// solves and a corrected step's several factorisations far more, always multigrid.
+    /// hands it back.
     fn pick(&self) -> bool {
-        if self.always {
-            return true;
-        }
         match (self.free && self.fresh > 0, self.on_iterative) {
             (true, true) => self.fresh > 2,
             (true, false) => self.fresh > 1,
@@ -107,7 +104,7 @@ impl BlockSolver for Auto {
     fn set_free_motion(&mut self, free: bool) {
         self.prefer_iterative = self.pick();
         self.free = free;
-        self.on_iterative = free && self.prefer_iterative && self.iterative.is_some();
+        self.on_iterative = self.iterative.is_some() && if free { self.prefer_iterative } else { self.contact };
         self.fresh = 0;
     }
 

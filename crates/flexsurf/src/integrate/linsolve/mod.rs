@@ -66,8 +66,8 @@ pub enum LinearError {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolverKind {
     /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above; from
-    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact take multigrid too ([`auto`]). The default;
-    /// docs/performance.md.
+    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact take multigrid too, and from
+    /// [`AUTO_CONTACT_NODES`] the steps with contact ([`auto`]). The default; docs/performance.md.
     #[default]
     #[cfg_attr(
         feature = "clap",
@@ -85,12 +85,14 @@ pub enum SolverKind {
     Pcg,
 }
 
-/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`]. Measured with contact
-/// from the first step (docs/performance.md, "Which solver `auto` takes"): the two are even at 161² and 281²
-/// (1.0 and 4.3 s a step), multigrid is faster from 321² (103k nodes: 6.1–6.8 s a step against 7.5–7.6 s, and
-/// 0.9 GB against 1.9 GB); at 641² Cholesky's factor alone would take about 4 GB (a 6.7 GB peak measured),
-/// multigrid's whole run 2.3 GB.
-pub const AUTO_MULTIGRID_NODES: usize = 90_000;
+/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`] for every step. Below
+/// it, from [`AUTO_CONTACT_NODES`], multigrid already takes the steps with contact and those without that Newton
+/// corrects; from here it also takes the steps one exact solve converges (a free fall: three inexact solves
+/// against one factorisation), which cost about as much on both: the ball drop's first 6 steps (`flexsurf bench
+/// --sizes N --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against 4.94, 7.50 and
+/// 11.09 s on multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s. (Until 2026-12-04 the steps
+/// with contact took Cholesky up to 90,000 nodes, where their solves went to 1e-11.)
+pub const AUTO_MULTIGRID_NODES: usize = 32_000;
 
 /// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) take the multigrid solver under
 /// [`SolverKind::Auto`] for their steps without contact that Newton's method corrects, Cholesky for the others
@@ -98,11 +100,13 @@ pub const AUTO_MULTIGRID_NODES: usize = 90_000;
 /// two are even at 41² (1,681 nodes), multigrid is 1.4× faster at 51² (2,601) and 2.2× at 81².
 pub const AUTO_FREE_MOTION_NODES: usize = 2_500;
 
-/// From this many nodes [`SolverKind::Auto`] gives multigrid every step without contact, also those one exact
-/// solve converges (a free fall: one factorisation against three inexact solves). Its first 6 steps
-/// (`flexsurf bench --sizes N --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against
-/// 4.94, 7.50 and 11.09 s on multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s.
-pub const AUTO_FREE_FALL_NODES: usize = 32_000;
+/// From this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) [`SolverKind::Auto`] gives multigrid the steps with
+/// contact, whose solves stop at [`CONTACT_STEP_TOLERANCE`] ([`auto::Auto`]). Measured side by side
+/// (docs/performance.md, "Which solver `auto` takes"): on the sheet touching the ball multigrid takes a step in
+/// 0.64× Cholesky's time at 161² (25,921 nodes) and 0.49× at 201², and 0.78× at 81²; on the ball drop, whose
+/// impact and sliding make multigrid's solves harder, it is 1.18× slower at 81² over its first 60 steps, even
+/// at 161² over 40 (1.99 against 1.97 s a step) and 1.43× faster at 201² over 30, in half the memory.
+pub const AUTO_CONTACT_NODES: usize = 25_000;
 
 impl SolverKind {
     /// Name as in scene files and summaries.
