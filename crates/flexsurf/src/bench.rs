@@ -200,7 +200,7 @@ pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Re
         n,
         nodes: n * n,
         steps,
-        solver: solver.resolve(n * n).used(c.iterative_steps),
+        solver: solver.resolve(n * n).used(c.iterative_steps, c.steps),
         wall_seconds,
         step_median,
         per_step,

@@ -59,8 +59,8 @@ pub struct Summary {
     /// `linearized` or `lagged`.
     pub integrator: String,
     /// The linear solver used: `cholesky`, `multigrid` or `pcg` (`auto` resolved by the grid's size), or
-    /// `cholesky+multigrid` where `auto` took multigrid for the steps without contact (`timings.iterative_steps`
-    /// of them); its iterations and factorisations are in `timings`.
+    /// `cholesky+multigrid` where `auto` took multigrid for some of the steps (`timings.iterative_steps` of them),
+    /// `multigrid` where it took it for all; its iterations and factorisations are in `timings`.
     pub solver: String,
     /// The solver the scene asked for (`auto` unless forced).
     pub solver_requested: String,
@@ -174,7 +174,7 @@ pub(super) fn summarize(scene: &Scene, state: &State, final_mesh: &TriMesh, done
         scene: scene.name.clone(),
         model: model.kind.name().to_string(),
         integrator: scene.method().name().to_string(),
-        solver: scene.solver().resolve(nodes).used(timings.iterative_steps).to_string(),
+        solver: scene.solver().resolve(nodes).used(timings.iterative_steps, timings.steps).to_string(),
         solver_requested: scene.solver().name().to_string(),
         calibration: format!("{:?}", scene.calibration).to_lowercase(),
         material: scene.material.clone(),

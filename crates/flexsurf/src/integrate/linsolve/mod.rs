@@ -136,10 +136,12 @@ impl SolverKind {
     }
 
     /// The name of the solvers a run took, `self` being its contact steps' ([`SolverKind::resolve`]) and
-    /// `iterative_steps` the steps an iterative solver took (`Counters::iterative_steps`): `cholesky+multigrid`
-    /// where the automatic choice gave some steps to multigrid, else `self`'s name.
-    pub fn used(self, iterative_steps: usize) -> &'static str {
+    /// The solver that took a run's `steps` steps, `iterative_steps` of them on an iterative solver
+    /// (`Counters::iterative_steps`): `cholesky+multigrid` where the automatic choice gave some but not all of them
+    /// to multigrid, `multigrid` where it gave it all, else `self`'s name.
+    pub fn used(self, iterative_steps: usize, steps: usize) -> &'static str {
         match self {
+            SolverKind::Cholesky if iterative_steps > 0 && iterative_steps == steps => "multigrid",
             SolverKind::Cholesky if iterative_steps > 0 => "cholesky+multigrid",
             k => k.name(),
         }
