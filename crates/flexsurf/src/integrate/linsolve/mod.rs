@@ -119,8 +119,9 @@ impl SolverKind {
         }
     }
 
-    /// The concrete solver of the steps with contact on a grid of `nodes` nodes ([`SolverKind::Auto`] resolved;
-    /// the others as they are).
+    /// The concrete solver of a grid of `nodes` nodes ([`SolverKind::Auto`] resolved, the others as they are):
+    /// [`SolverKind::Cholesky`] for `auto` up to [`AUTO_MULTIGRID_NODES`], which from [`AUTO_FREE_MOTION_NODES`]
+    /// holds multigrid too for some of the steps ([`auto::Auto`]).
     pub fn resolve(self, nodes: usize) -> SolverKind {
         match self {
             SolverKind::Auto if nodes > AUTO_MULTIGRID_NODES => SolverKind::Multigrid,
@@ -135,10 +136,10 @@ impl SolverKind {
         matches!(self, SolverKind::Multigrid | SolverKind::Pcg)
     }
 
-    /// The name of the solvers a run took, `self` being its contact steps' ([`SolverKind::resolve`]) and
-    /// The solver that took a run's `steps` steps, `iterative_steps` of them on an iterative solver
-    /// (`Counters::iterative_steps`): `cholesky+multigrid` where the automatic choice gave some but not all of them
-    /// to multigrid, `multigrid` where it gave it all, else `self`'s name.
+    /// The name of the solvers a run took, `self` being the one it resolved to ([`SolverKind::resolve`]),
+    /// `iterative_steps` of its `steps` steps on an iterative solver (`Counters::iterative_steps`):
+    /// `cholesky+multigrid` where the automatic choice gave some but not all of them to multigrid, `multigrid`
+    /// where it gave it all, else `self`'s name.
     pub fn used(self, iterative_steps: usize, steps: usize) -> &'static str {
         match self {
             SolverKind::Cholesky if iterative_steps > 0 && iterative_steps == steps => "multigrid",
@@ -298,9 +299,9 @@ pub const ITERATIVE_TOLERANCE: f64 = 1e-11;
 /// Relative residual `‖b − A x‖ / ‖b‖` at which the iterative solvers stop in every solve of a contact step
 /// (docs/model.md §8.5): its linearised step, its active sets' re-solves and its Newton corrections. Such a step
 /// decides its contact and friction sets on each solve's proposal by forces at 5 % of the step's largest
-/// ([`crate::potential::friction::MODEL_TOLERANCE`]), and ends with a Newton residual of the order of its force scale
-/// (it is not iterated to [`crate::integrate::StepParams::newton_tolerance`]); a solve to 1e-6 leaves errors
-/// orders of magnitude below both. Measured on the 161² sheet touching the ball (10 steps): half the multigrid
+/// ([`crate::potential::friction::MODEL_TOLERANCE`]), and ends with a Newton residual of the order of its force
+/// scale (it is not iterated to [`crate::integrate::StepParams::newton_tolerance`]); a solve to 1e-6 leaves
+/// errors orders of magnitude below both. Measured on the 161² sheet touching the ball (10 steps): half the multigrid
 /// iterations of [`ITERATIVE_TOLERANCE`], the same solves, and final positions within 2.1e-6 m (1.5e-6 of
 /// the sheet's size) of those solves' (docs/performance.md). Sparse Cholesky solves exactly whatever it is
 /// asked, and its preconditioned re-solves keep [`ITERATIVE_TOLERANCE`].
