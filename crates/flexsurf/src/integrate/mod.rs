@@ -143,7 +143,7 @@ pub struct Counters {
     /// Refits of the same trees (a refit keeps the tree and recomputes its boxes).
     pub broad_refits: usize,
     /// Steps whose solves an iterative solver made (every step of a multigrid or PCG run; under `auto` on
-    /// mid-size grids, the steps without contact: [`linsolve::auto`]).
+    /// mid-size grids, the steps it gave multigrid: [`linsolve::auto`]).
     pub iterative_steps: usize,
 }
 

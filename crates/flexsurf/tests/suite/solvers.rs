@@ -317,7 +317,7 @@ fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
 
 /// A contact step's solves on multigrid stop at `CONTACT_STEP_TOLERANCE` (1e-6), not at the forcing terms of a
 /// converged step nor at 1e-11: the 81² sheet touching the ball ends its first steps where the direct solves
-/// put it to far less than the step leaves unconverged, with a third fewer iterations than at 1e-11.
+/// put it to far less than the step leaves unconverged, with fewer than half the iterations it made at 1e-11.
 #[test]
 fn contact_steps_on_multigrid_end_where_direct_solves_do() {
     use flexsurf::integrate::linsolve::CONTACT_STEP_TOLERANCE;
