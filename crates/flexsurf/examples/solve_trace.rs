@@ -1,7 +1,8 @@
 //! Per-step solver trace of the bench ball drop: `cargo run --release -p flexsurf --example solve_trace -- N
 //! STEPS [auto|cholesky|multigrid|pcg]` prints each step's solves, iterations, factorisations, re-solves and
 //! Newton corrections (`SCENE=path.toml`: that scene's sheet at N × N instead of the bench's ball drop;
-//! `TOUCHING=1`: the bench's touching workload, the sheet placed on the ball).
+//! `TOUCHING=1`: the bench's touching workload, the sheet placed on the ball; `POSITIONS=path`: the final
+//! positions written there, a node a line), and each step's relative Newton residual at its end.
 use flexsurf::integrate::{linsolve::SolverKind, Stepper};
 
 fn main() {
@@ -37,7 +38,7 @@ fn main() {
         let info = stepper.step(&scene.model, &mut state).expect("step");
         let c = info.timings;
         println!(
-            "step {:4} contacts {:5} solves {} iters {:3} factor {} resolves {} corrections {} setup {:.2} ms solve {:.2} ms",
+            "step {:4} contacts {:5} solves {} iters {:3} factor {} resolves {} corrections {} setup {:.2} ms solve {:.2} ms res {:.3e}",
             state.step,
             info.contacts,
             c.solves,
@@ -46,8 +47,13 @@ fn main() {
             c.resolves,
             c.corrections,
             1e3 * c.factorization,
-            1e3 * c.solve
+            1e3 * c.solve,
+            info.newton.residual
         );
+    }
+    if let Ok(path) = std::env::var("POSITIONS") {
+        let text: String = state.x.iter().map(|p| format!("{:.17e} {:.17e} {:.17e}\n", p.x, p.y, p.z)).collect();
+        std::fs::write(path, text).expect("dump");
     }
     let c = stepper.counters;
     eprintln!(

@@ -251,6 +251,16 @@ pub struct Stepper {
     pin_moves: Vec<(usize, Vec3, Vec3)>,
     /// Contact seconds spent refining active sets inside the solves (counted as contact, not as solve).
     refine_seconds: f64,
+    /// The first solve of this contact step may leave a change of its contact set to a Newton correction
+    /// ([`Stepper::merges`]).
+    merge: bool,
+    /// It did: the refinement's records are held for the correction.
+    merged: bool,
+    /// The first solve's proposal, the gradient there of the terms without contact, and the nodes a contact
+    /// record or lagged friction acts on ([`Stepper::merges`]).
+    proposal: Vec<Vec3>,
+    field: Vec<Vec3>,
+    touched: Vec<bool>,
 }
 
 /// Most trial points of a Newton correction's line search ([`Stepper::line_search`]).
@@ -366,6 +376,11 @@ impl Stepper {
             split: (0, 0),
             pin_moves: Vec::new(),
             refine_seconds: 0.0,
+            merge: false,
+            merged: false,
+            proposal: Vec::new(),
+            field: Vec::new(),
+            touched: Vec::new(),
         })
     }
 
@@ -379,6 +394,10 @@ impl Stepper {
     /// Assembles the step system at `state` without solving: afterwards [`Stepper::matrix`] is `A_t` (before
     /// pinned unknowns are eliminated) and [`Stepper::rhs`] the right-hand side for the increment `x⁺ − x_t`.
     pub fn assemble(&mut self, model: &Model, state: &State) -> Values {
+        if std::mem::take(&mut self.merged) {
+            // A failed step may have left the records held: a step detects its own.
+            model.potential.hold(&mut self.ws, false);
+        }
         self.history.fill(self.params.scheme, state, self.h);
         self.y.copy_from_slice(&state.x);
         for &(k, _, to) in &self.pin_moves {
@@ -448,10 +467,52 @@ impl Stepper {
             if !changed {
                 break;
             }
+            if newton == 0 && self.merge && self.merges(model, state) {
+                break;
+            }
             self.counters.resolves += 1;
             self.residual_from_gradient(model);
         }
         Ok(tf)
+    }
+
+    /// Whether the change of contact set that the first solve of a contact step found (after the refinement)
+    /// is left to a Newton correction at its proposal instead of a re-solve: where the step will take that
+    /// correction anyway, because the terms without contact are off their linear model at the proposal by more
+    /// than the violent rule's force ([`StepParams::contact_correction`] times the largest nodal weight) at a
+    /// node no contact acts on (the membrane's forces of a sheet pressed into a new shape: docs/model.md §8.5).
+    /// The correction then solves the new contacts with the membrane linearised where the step goes, one solve
+    /// instead of two. True when it does: the refinement's records are then held for the correction's assembly
+    /// ([`crate::potential::ActiveSet::hold`]), so that a node whose path crossed the obstacle keeps the contact
+    /// found where it entered.
+    fn merges(&mut self, model: &Model, state: &State) -> bool {
+        let n = self.y.len();
+        if self.proposal.len() != n {
+            self.proposal = vec![Vec3::ZERO; n];
+            self.field = vec![Vec3::ZERO; n];
+            self.touched = vec![false; n];
+        }
+        for ((p, y), d) in self.proposal.iter_mut().zip(&self.y).zip(&self.delta) {
+            *p = *y + *d;
+        }
+        if !model.potential.engaged(&self.ws) || !model.potential.can_hold(&self.proposal, &self.ws) {
+            return false;
+        }
+        let cx = model.potential.context(Some(self.history.motion(model, state, self.h, false)));
+        let out = (&mut self.field[..], &mut self.touched[..]);
+        model.potential.field_gradient(&self.proposal, &cx, &Inertia, out, &mut self.ws);
+        let fixed = model.pinned();
+        let threshold = self.params.contact_correction;
+        let violent = (0..n).any(|k| {
+            !fixed[k]
+                && !self.touched[k]
+                && self.field[k].length() > threshold * self.weights[self.panel_of[k] as usize]
+        });
+        if violent {
+            model.potential.hold(&mut self.ws, true);
+            self.merged = true;
+        }
+        violent
     }
 
     /// One solve of the assembled system for `self.delta` (from the guess in it), counted; returns the set-up
@@ -698,6 +759,7 @@ impl Stepper {
         self.solver.set_free_motion(free);
         let loose = (self.solver.kind().iterative() && free).then_some(descent::FIRST_FORCING);
         let first = if free { loose } else { Some(linsolve::CONTACT_STEP_TOLERANCE) };
+        self.merge = newton && !free;
         let mut tf = self.solve_with_active_sets(model, state, (0, first), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
             // Contact engaged the loose solve after all: solved on from its solution.
@@ -772,12 +834,24 @@ impl Stepper {
             let cx = model.potential.context(Some(s.history.motion(model, state, s.h, false)));
             model.potential.model_error(&s.y, &cx, &mut s.ws)
         };
+        let merged = std::mem::take(&mut self.merged);
+        if merged {
+            // The first solve's new contacts and the membrane at its proposal, in one correction taken whole
+            // (the violent rule's: [`Stepper::merges`]).
+            let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
+            let done = self.correction(model, state, newton, t_assembly, &mut t_solve);
+            model.potential.hold(&mut self.ws, false);
+            tf += done?;
+            report.iterations += 1;
+            self.counters.corrections += 1;
+            self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y += *d);
+        }
         let friction = friction_error(self);
         let ta = Instant::now();
         let mut phi = self.assemble_at(model, state, false, Want::GRADIENT).total;
         *t_assembly += ta.elapsed().as_secs_f64();
         report.residual = self.relative_residual(model);
-        let violent = self.violent(model);
+        let violent = merged || self.violent(model);
         let converge = !violent && model.potential.convergent(&self.ws);
         // The models' tolerances: friction's Coulomb limit for the former rule, 5 % of the largest force for
         // the iterated one (the re-solves' own tolerance).

@@ -98,6 +98,10 @@ impl ActiveSet for BodyContact {
         self.pairs.engaged(scratch)
     }
 
+    fn can_hold(&self, x: &[Vec3], scratch: &Scratch) -> bool {
+        self.pairs.can_hold(x, scratch)
+    }
+
     fn convergent(&self) -> bool {
         self.pairs.convergent()
     }

@@ -463,6 +463,9 @@ pub struct ContactScratch {
     /// The records before the last detection ([`ContactScratch::linear_error`]).
     #[serde(skip)]
     previous: Vec<Contact>,
+    /// The records are held ([`ActiveSet::hold`]): assemblies keep them instead of detecting.
+    #[serde(skip)]
+    held: bool,
 }
 
 /// Lagged Coulomb friction in a static solve (docs/model.md §9, §10.2): the tangential displacement from
@@ -534,6 +537,7 @@ impl PenaltyContact {
             sample_contacts: Vec::new(),
             linear_error: 0.0,
             previous: Vec::new(),
+            held: false,
         }
     }
 
@@ -669,12 +673,22 @@ impl ActiveSet for PenaltyContact {
         }
         // The last solve's records are kept aside (in a buffer reused from step to step) to measure their
         // linear models against the contacts found again here.
-        std::mem::swap(&mut s.contacts, &mut s.previous);
-        detect_predicted(&self.obstacles, &self.params, &self.area, y, &s.predicted, &mut s.cache, &mut s.contacts);
-        let iterate = cx.motion.is_some_and(|m| !m.predict);
-        s.linear_error = if iterate { linear_error(&s.previous, &s.contacts, self.params.offset, y) } else { 0.0 };
-        if let Some(samples) = &self.samples {
-            detect_samples(&self.sampled, &self.params, samples, y, s);
+        if s.held {
+            // The refinement's records, their forces at the iterate (the penalty of their linearised gaps).
+            let offset = self.params.offset;
+            for c in s.contacts.iter_mut().chain(s.sample_contacts.iter_mut()) {
+                c.force = c.stiffness * (offset - c.gap(c.stencil.point(y)));
+            }
+            s.linear_error = 0.0;
+        } else {
+            std::mem::swap(&mut s.contacts, &mut s.previous);
+            let (obstacles, params, area) = (&self.obstacles, &self.params, &self.area);
+            detect_predicted(obstacles, params, area, y, &s.predicted, &mut s.cache, &mut s.contacts);
+            let iterate = cx.motion.is_some_and(|m| !m.predict);
+            s.linear_error = if iterate { linear_error(&s.previous, &s.contacts, self.params.offset, y) } else { 0.0 };
+            if let Some(samples) = &self.samples {
+                detect_samples(&self.sampled, &self.params, samples, y, s);
+            }
         }
         s.relinearized = 0;
         match cx.motion {
@@ -893,6 +907,27 @@ impl ActiveSet for PenaltyContact {
         if statics.is_some() {
             scratch.set(ContactScratch { statics, ..self.fresh() });
         }
+    }
+
+    fn can_hold(&self, x: &[Vec3], scratch: &Scratch) -> bool {
+        let offset = self.params.offset;
+        scratch
+            .get::<ContactScratch>()
+            .is_none_or(|s| s.contacts.iter().chain(&s.sample_contacts).all(|c| c.gap(c.stencil.point(x)) >= -offset))
+    }
+
+    fn hold(&self, scratch: &mut Scratch, on: bool) {
+        if let Some(s) = scratch.0.as_mut().and_then(|b| b.downcast_mut::<ContactScratch>()) {
+            s.held = on;
+        }
+    }
+
+    fn mark_touched(&self, scratch: &Scratch, touched: &mut [bool]) {
+        let Some(s) = scratch.get::<ContactScratch>() else { return };
+        for c in s.contacts.iter().chain(&s.sample_contacts) {
+            c.stencil.terms().for_each(|(k, _)| touched[k] = true);
+        }
+        s.lagged.iter().for_each(|l| touched[l.node] = true);
     }
 
     fn relag(&self, x: &[Vec3], start: bool, slip_time: f64, scratch: &mut Scratch) -> bool {

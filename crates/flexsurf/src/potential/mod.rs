@@ -314,6 +314,19 @@ pub trait ActiveSet {
     fn relag(&self, _x: &[Vec3], _start: bool, _slip_time: f64, _scratch: &mut Scratch) -> bool {
         false
     }
+    /// Whether the records in `scratch` can be held ([`ActiveSet::hold`]) for an assembly at `x`: none is
+    /// deeper there than the contact offset below the obstacle's surface (the proposal of a solve that missed
+    /// only shallow contacts). The default: only when it holds none (a term that cannot hold).
+    fn can_hold(&self, _x: &[Vec3], scratch: &Scratch) -> bool {
+        !self.engaged(scratch)
+    }
+    /// Holds the records of the last refinement (`on`) or releases them: while held, [`ActiveSet::prepare`]
+    /// keeps them, their linear models evaluated at the iterate, instead of detecting the support again there.
+    /// The default (a term that cannot hold) does nothing.
+    fn hold(&self, _scratch: &mut Scratch, _on: bool) {}
+    /// Sets `touched[k]` for every node a record in `scratch` acts on (contact, lagged friction); the default
+    /// (a term that cannot hold, [`ActiveSet::can_hold`]) marks none.
+    fn mark_touched(&self, _scratch: &Scratch, _touched: &mut [bool]) {}
 }
 
 /// Fixed (pinned) nodes: constraints held exactly at their position. The assembly zeroes their gradient rows
@@ -703,6 +716,46 @@ impl Potential {
     /// Whether any term's active set in `ws` holds a contact record or lagged friction ([`ActiveSet::engaged`]).
     pub fn engaged(&self, ws: &Workspace) -> bool {
         self.active_sets().any(|(t, a)| a.engaged(&ws.scratch[t]))
+    }
+
+    /// Whether every term's records can be held for an assembly at `x` ([`ActiveSet::can_hold`]).
+    pub fn can_hold(&self, x: &[Vec3], ws: &Workspace) -> bool {
+        self.active_sets().all(|(t, a)| a.can_hold(x, &ws.scratch[t]))
+    }
+
+    /// Holds (`on`) or releases every term's records ([`ActiveSet::hold`]); only where [`Potential::can_hold`].
+    pub fn hold(&self, ws: &mut Workspace, on: bool) {
+        for (t, a) in self.active_sets() {
+            a.hold(&mut ws.scratch[t], on);
+        }
+    }
+
+    /// The gradient at `x` of every term but the contact stage's, and of `extra` (the step's inertia), into
+    /// `grad` (overwritten; fixed nodes' rows zero), with the terms' scratch of `ws` (nothing in it changes
+    /// for a step's motion); `touched[k]` set for every node a contact record or lagged friction acts on
+    /// ([`ActiveSet::mark_touched`], where [`Potential::can_hold`]), whose gradient misses those terms.
+    pub fn field_gradient(
+        &self,
+        x: &[Vec3],
+        cx: &Context,
+        extra: &dyn Term,
+        (grad, touched): (&mut [Vec3], &mut [bool]),
+        ws: &mut Workspace,
+    ) {
+        grad.fill(Vec3::ZERO);
+        touched.fill(false);
+        let mut sink = Sink { grad: Some(&mut *grad), hess: None, energy: 0.0, journal: None };
+        extra.evaluate(x, cx, &mut ws.extra, &mut sink);
+        for (t, term) in self.terms.iter().enumerate() {
+            match term.active_set() {
+                Some(a) => a.mark_touched(&ws.scratch[t], touched),
+                None if term.info().stage != Stage::Contact => {
+                    term.evaluate(x, cx, &mut ws.scratch[t], &mut sink);
+                }
+                None => {}
+            }
+        }
+        self.zero_fixed(grad);
     }
 
     /// Whether every engaged term lets a contact step be iterated ([`ActiveSet::convergent`]).

@@ -84,6 +84,10 @@ pub struct SelfScratch {
     /// The broad phase's trees, refit each step to its swept boxes (rebuilt when they degrade).
     #[serde(skip)]
     broad: Broad,
+    /// The last refinement changed the pairs (or their friction): a re-solve takes the change, not a held
+    /// correction ([`ActiveSet::can_hold`]).
+    #[serde(skip)]
+    changed: bool,
 }
 
 /// How far (a multiple of the thickness, per coordinate) a configuration may leave a step's swept boxes and
@@ -438,6 +442,7 @@ impl ActiveSet for SelfContact {
         s.pairs.clear();
         s.contacts.clear();
         s.relinearized = 0;
+        s.changed = false;
         let target = cx.motion.filter(|m| m.predict).map(|m| self.with_fixed(m.target));
         if let Some(target) = &target {
             let radius = (1.0 + 2.0 * SLACK) * self.params.thickness;
@@ -466,6 +471,18 @@ impl ActiveSet for SelfContact {
             }
             None => s.lagged.clear(),
         }
+    }
+
+    /// Only where the step holds no pair (none close, no lagged friction), the last refinement (at `x`)
+    /// changed nothing and found no close pair among the candidates, and these were swept over a configuration
+    /// within the slack of `x`: an assembly at `x` then finds no pair, as it would after a re-solve.
+    fn can_hold(&self, x: &[Vec3], scratch: &Scratch) -> bool {
+        let Some(s) = scratch.get::<SelfScratch>() else { return true };
+        let none = !s.changed && s.pairs.is_empty() && s.contacts.is_empty() && s.lagged.is_empty();
+        none && s.candidates.as_ref().is_some_and(|(_, boxes)| {
+            let x = self.with_fixed(x);
+            boxes.len() == x.len() && Faces::within_boxes(&x, boxes, SLACK * self.params.thickness)
+        })
     }
 
     /// How far the layer friction at `y` is from the linear models the last assembly solved with, relative to
@@ -505,7 +522,8 @@ impl ActiveSet for SelfContact {
         (s.pairs, s.contacts) = kept.into_iter().unzip();
         let missed = self.add_close(s, &self.with_fixed(&z), y, &z);
         let relinearized = cx.motion.is_some_and(|m| self.relinearize(s, &z, &m));
-        changed || relinearized || (missed > tolerance && missed > 0.0)
+        s.changed = changed || relinearized || (missed > tolerance && missed > 0.0);
+        s.changed
     }
 
     /// The first node of a pair whose elements would come within `10⁻³ δ` of each other on the straight

