@@ -319,3 +319,47 @@ mod friction {
         }
     }
 }
+
+/// Held records of the obstacle contact (`potential/contact.rs`, `ActiveSet::hold`).
+mod penalty_hold {
+    use flexsurf::contact::Obstacle;
+    use flexsurf::math::Vec3;
+    use flexsurf::potential::contact::{ContactParams, PenaltyContact};
+    use flexsurf::potential::{Pins, Potential, Want, Workspace};
+
+    /// One free node (area 0.01 m²) 2 cm over a ball of radius 0.3 m; a solve proposes it 2 mm under the
+    /// surface, tilted off the pole, and the refinement gives it a contact linearised there. Held, an assembly
+    /// 5 cm along the tangent plane keeps that record, its push the penalty of the linearised gap
+    /// `c a (δ − d(q) − n·(p − q))` along `n` at the proposal `q`; released, the assembly finds the contact at
+    /// `p` itself, `c a (δ − (|p| − R))` along `p/|p|`.
+    #[test]
+    fn a_held_record_keeps_its_linear_gap_where_detection_would_not() {
+        let (radius, offset, c, area) = (0.3, 0.005, 1e4, 0.01);
+        let ball = Obstacle::Sphere { center: Vec3::ZERO, radius };
+        let params = ContactParams { stiffness: c, offset, friction: 0.0, ..ContactParams::default() };
+        let potential =
+            Potential::new(1, vec![Box::new(PenaltyContact::new(vec![ball], params, vec![area]))], Pins::none(1));
+        let mut ws = Workspace::new(&potential);
+        let cx = potential.context(None);
+        let start = [Vec3::new(0.0, 0.0, radius + 0.02)];
+        potential.assemble(&start, &cx, None, Want::GRADIENT, &mut ws);
+        assert!(!potential.engaged(&ws), "2 cm over the ball is outside the 5 mm layer");
+        let n = Vec3::new(0.1, 0.0, 1.0).normalize();
+        let q = n * (radius - 0.002);
+        let delta = [q - start[0]];
+        assert!(potential.refine(&start, &delta, &cx, Want::GRADIENT, &mut ws), "the proposal entered the layer");
+        assert!(potential.can_hold(&[q], &ws), "2 mm under the surface is within the offset");
+        potential.hold(&mut ws, true);
+        let p = q + Vec3::new(n.z, 0.0, -n.x) * 0.05;
+        potential.assemble(&[p], &cx, None, Want::GRADIENT, &mut ws);
+        let held = n * (c * area * (offset + 0.002 - n.dot(p - q)));
+        assert!((-ws.grad[0] - held).length() < 1e-9 * held.length(), "held: {:?} against {held:?}", -ws.grad[0]);
+        potential.hold(&mut ws, false);
+        potential.assemble(&[p], &cx, None, Want::GRADIENT, &mut ws);
+        let found = p.normalize() * (c * area * (offset - (p.length() - radius)));
+        assert!((-ws.grad[0] - found).length() < 1e-9 * found.length(), "found: {:?} against {found:?}", -ws.grad[0]);
+        assert!((held - found).length() > 0.05 * found.length(), "the two should differ on the curved ball");
+        // Deeper than the offset under the surface, the proposal's record is not held.
+        assert!(!potential.can_hold(&[n * (radius - 0.006)], &ws));
+    }
+}
