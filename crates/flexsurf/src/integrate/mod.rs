@@ -428,7 +428,8 @@ impl Stepper {
         }
     }
 
-    /// Solves the assembled system for `self.delta`, correcting the active sets (contact) by re-solving.
+    /// Solves the assembled system for `self.delta`, correcting the active sets (contact) by re-solving (a
+    /// violent contact step's first solve leaves the correction to its Newton correction: [`Stepper::merges`]).
     /// `newton`: the iteration of the step (0: the linearised step, started from the last step's increment;
     /// a correction starts from zero); a re-solve starts from the solution before it. Returns the set-up
     /// (factorisation) seconds. `tolerance`: the iterative solves' relative tolerance (a Newton correction's
@@ -482,9 +483,11 @@ impl Stepper {
     /// than the violent rule's force ([`StepParams::contact_correction`] times the largest nodal weight) at a
     /// node no contact acts on (the membrane's forces of a sheet pressed into a new shape: docs/model.md §8.5).
     /// The correction then solves the new contacts with the membrane linearised where the step goes, one solve
-    /// instead of two. True when it does: the refinement's records are then held for the correction's assembly
-    /// ([`crate::potential::ActiveSet::hold`]), so that a node whose path crossed the obstacle keeps the contact
-    /// found where it entered.
+    /// instead of two. Only where every record is shallow at the proposal (no deeper than the contact offset
+    /// under the obstacle's surface: no path crossed it) and no pair between faces changed
+    /// ([`crate::potential::ActiveSet::can_hold`]). True when it does: the refinement's records are then held
+    /// for the correction's assembly ([`crate::potential::ActiveSet::hold`]), their linearised gaps evaluated
+    /// at the proposal instead of the contacts being detected again there.
     fn merges(&mut self, model: &Model, state: &State) -> bool {
         let n = self.y.len();
         if self.proposal.len() != n {
