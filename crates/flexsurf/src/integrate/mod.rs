@@ -504,13 +504,7 @@ impl Stepper {
         let cx = model.potential.context(Some(self.history.motion(model, state, self.h, false)));
         let out = (&mut self.field[..], &mut self.touched[..]);
         model.potential.field_gradient(&self.proposal, &cx, &Inertia, out, &mut self.ws);
-        let fixed = model.pinned();
-        let threshold = self.params.contact_correction;
-        let violent = (0..n).any(|k| {
-            !fixed[k]
-                && !self.touched[k]
-                && self.field[k].length() > threshold * self.weights[self.panel_of[k] as usize]
-        });
+        let violent = self.violent_force(model, &self.field, Some(&self.touched));
         if violent {
             model.potential.hold(&mut self.ws, true);
             self.merged = true;
@@ -841,13 +835,9 @@ impl Stepper {
         if merged {
             // The first solve's new contacts and the membrane at its proposal, in one correction taken whole
             // (the violent rule's: [`Stepper::merges`]).
-            let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
-            let done = self.correction(model, state, newton, t_assembly, &mut t_solve);
+            let done = self.contact_correction(model, state, &mut report, t_assembly, &mut t_solve);
             model.potential.hold(&mut self.ws, false);
             tf += done?;
-            report.iterations += 1;
-            self.counters.corrections += 1;
-            self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y += *d);
         }
         let friction = friction_error(self);
         let ta = Instant::now();
@@ -864,14 +854,9 @@ impl Stepper {
         let mut due = violent || friction > friction_tolerance || contact_off(self);
         self.history.exact = converge;
         while due && report.iterations < cap {
-            // To the contact steps' tolerance: the active sets are refined on each solve's proposal.
-            let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
-            tf += self.correction(model, state, newton, t_assembly, &mut t_solve)?;
-            report.iterations += 1;
-            self.counters.corrections += 1;
             // Friction's models are those of the solve until the next assembly re-linearises them: measured at
             // the full step.
-            self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y += *d);
+            tf += self.contact_correction(model, state, &mut report, t_assembly, &mut t_solve)?;
             let friction_off = friction_error(self) > friction_tolerance;
             let ta = Instant::now();
             if converge {
@@ -893,13 +878,40 @@ impl Stepper {
         Ok((tf, t_solve, report))
     }
 
+    /// One Newton correction of a contact step ([`Stepper::correction`], its solves to the contact steps'
+    /// tolerance, the active sets refined on each solve's proposal), counted and taken whole: `y` moves by it.
+    /// Returns the factorisation seconds.
+    fn contact_correction(
+        &mut self,
+        model: &Model,
+        state: &State,
+        report: &mut NewtonReport,
+        t_assembly: &mut f64,
+        t_solve: &mut f64,
+    ) -> Result<f64, StepError> {
+        let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
+        let tf = self.correction(model, state, newton, t_assembly, t_solve)?;
+        report.iterations += 1;
+        self.counters.corrections += 1;
+        self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y += *d);
+        Ok(tf)
+    }
+
     /// Whether a free node's residual force in the last assembly exceeds [`StepParams::contact_correction`]
     /// times the largest nodal weight (or load) of its panel.
     fn violent(&self, model: &Model) -> bool {
+        self.violent_force(model, &self.rhs, None)
+    }
+
+    /// The violent rule's test on `force` ([`Stepper::violent`]), the nodes `skip` marks left out.
+    fn violent_force(&self, model: &Model, force: &[Vec3], skip: Option<&[bool]>) -> bool {
         let fixed = model.pinned();
         let threshold = self.params.contact_correction;
-        (0..self.rhs.len())
-            .any(|k| !fixed[k] && self.rhs[k].length() > threshold * self.weights[self.panel_of[k] as usize])
+        (0..force.len()).any(|k| {
+            !fixed[k]
+                && !skip.is_some_and(|s| s[k])
+                && force[k].length() > threshold * self.weights[self.panel_of[k] as usize]
+        })
     }
 
     /// Solves Newton correction `newton.0` at the iterate `y` with the step's operator (its gradient kept in
