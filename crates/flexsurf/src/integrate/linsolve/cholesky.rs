@@ -182,6 +182,11 @@ impl Cholesky {
         result
     }
 
+    /// Whether `faer`'s analysis chose the supernodal factorisation (the simplicial one otherwise).
+    pub fn supernodal(&self) -> bool {
+        matches!(self.st.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
     /// `x = (L Lᵀ)⁻¹ b` with the current factor.
     pub(crate) fn apply(&mut self, b: &[Vec3], x: &mut [Vec3]) {
         apply_factor(&self.st.symbolic, &self.st.l_values, &mut self.st.mem, &mut self.flat, b, x);
