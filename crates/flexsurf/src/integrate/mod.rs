@@ -30,7 +30,7 @@ mod resume;
 use crate::energy::Operator;
 use crate::math::{finite, Vec3};
 use crate::model::{Energies, Model};
-use crate::potential::friction::MODEL_TOLERANCE;
+use crate::potential::friction::{Misfit, MODEL_TOLERANCE};
 use crate::potential::inertia::Inertia;
 use crate::potential::self_contact::SelfContact;
 use crate::potential::{Motion, Values, Want, Workspace};
@@ -846,18 +846,27 @@ impl Stepper {
         report.residual = self.relative_residual(model);
         let violent = merged || self.violent(model);
         let converge = !violent && model.potential.convergent(&self.ws);
-        // The models' tolerances: friction's Coulomb limit for the former rule, 5 % of the largest force for
-        // the iterated one (the re-solves' own tolerance).
-        let friction_tolerance = if converge { MODEL_TOLERANCE } else { crate::potential::friction::NEWTON_TOLERANCE };
+        // The models' tolerances: a record's friction off by its Coulomb limit for the former rule (a slip
+        // reversed within the step); for the iterated one, the friction field off by 5 % of the largest limit in
+        // the root mean square over the records, so that a few records flickering between sticking and sliding
+        // at the edge of a large sticking region do not keep the whole step iterating (the re-solves' own
+        // tolerance, per record, still re-linearises those).
+        let friction_off = |m: Misfit| {
+            if converge {
+                m.rms() > MODEL_TOLERANCE
+            } else {
+                m.largest > crate::potential::friction::NEWTON_TOLERANCE
+            }
+        };
         let contact_off = |s: &Self| converge && model.potential.linear_error(&s.ws) > MODEL_TOLERANCE;
         let cap = if converge { self.params.newton_iterations } else { self.params.newton_iterations.min(2) };
-        let mut due = violent || friction > friction_tolerance || contact_off(self);
+        let mut due = violent || friction_off(friction) || contact_off(self);
         self.history.exact = converge;
         while due && report.iterations < cap {
             // Friction's models are those of the solve until the next assembly re-linearises them: measured at
             // the full step.
             tf += self.contact_correction(model, state, &mut report, t_assembly, &mut t_solve)?;
-            let friction_off = friction_error(self) > friction_tolerance;
+            let friction_off = friction_off(friction_error(self));
             let ta = Instant::now();
             if converge {
                 self.y.iter_mut().zip(&self.delta).for_each(|(y, d)| *y -= *d);

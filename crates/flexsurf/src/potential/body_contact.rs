@@ -78,7 +78,7 @@ impl ActiveSet for BodyContact {
         self.pairs.prepare(y, cx, scratch);
     }
 
-    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> super::friction::Misfit {
         self.pairs.model_error(y, cx, scratch)
     }
 

@@ -8,7 +8,7 @@
 //! the obstacles' geometry lives in [`crate::contact`].
 
 use super::face_samples::FaceSamples;
-use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
+use super::friction::{FrictionLaw, Lagged, Misfit, MODEL_TOLERANCE};
 use super::{ActiveSet, Context, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::{closest_cached, first_hit, passes_inside, ContactCache, Obstacle};
 use crate::energy::Sink;
@@ -740,18 +740,18 @@ impl ActiveSet for PenaltyContact {
 
     /// How far the friction force at `y` is from the linear model the last assembly solved with, relative to
     /// the largest Coulomb limit `μλ` of the step's contacts (largest over the nodes).
-    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
-        let Some(m) = cx.motion else { return 0.0 };
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> Misfit {
+        let mut misfit = Misfit::default();
+        let Some(m) = cx.motion else { return misfit };
         let eps = self.params.slip_speed * m.dt;
         let s = self.scratch(scratch);
         let scale = s.lagged.iter().map(|l| l.limit).fold(0.0, f64::max);
-        let mut worst: f64 = 0.0;
         for l in &s.lagged {
             let law = FrictionLaw { limit: l.limit, eps };
             let u = l.tangential(y[l.node] - m.x[l.node]);
-            worst = worst.max(l.model_error(&law, u) / scale);
+            misfit.add(l.model_error(&law, u) / scale);
         }
-        worst
+        misfit
     }
 
     /// Active-set update after a solve giving the correction `delta` of `y`: a contact stays if its linearised

@@ -34,6 +34,44 @@ use crate::math::{outer, Mat3, Vec3};
 /// re-solve per Newton iteration).
 pub const MODEL_TOLERANCE: f64 = 0.05;
 
+/// How far friction's linear models are off at an iterate, each record's force error relative to the largest
+/// Coulomb limit `μλ` of its term: the largest record's, and the sum of squares over the records with their count,
+/// whose root mean square ([`Misfit::rms`]) measures the error of the friction field as a whole (docs/model.md
+/// §8.5: the converge rule iterates on it, the violent rule's slip-reversal test on the largest).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Misfit {
+    /// The largest record's relative error.
+    pub largest: f64,
+    /// The sum of the records' squared relative errors.
+    pub squares: f64,
+    /// The records.
+    pub count: usize,
+}
+
+impl Misfit {
+    /// Adds one record's relative error.
+    pub fn add(&mut self, error: f64) {
+        self.largest = self.largest.max(error);
+        self.squares += error * error;
+        self.count += 1;
+    }
+
+    /// Both misfits' records together.
+    pub fn merge(self, other: Misfit) -> Misfit {
+        let largest = self.largest.max(other.largest);
+        Misfit { largest, squares: self.squares + other.squares, count: self.count + other.count }
+    }
+
+    /// The root mean square of the records' relative errors (0 without records).
+    pub fn rms(&self) -> f64 {
+        if self.count == 0 {
+            0.0
+        } else {
+            (self.squares / self.count as f64).sqrt()
+        }
+    }
+}
+
 /// Friction model error (relative to the largest `μλ`) above which a step makes a Newton correction: a slip reversed or
 /// stopped within the step that the re-solves did not settle.
 pub const NEWTON_TOLERANCE: f64 = 1.0;

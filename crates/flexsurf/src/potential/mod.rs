@@ -262,10 +262,10 @@ pub trait ActiveSet {
     /// After a solve proposing `x + delta`, updates the support; true if it changed.
     fn refine(&self, x: &[Vec3], delta: &[Vec3], cx: &Context, scratch: &mut Scratch) -> bool;
     /// How far the term at `x` is from the linear model of it that the last assembly solved with (a lagged
-    /// or linearised law, friction), relative to the term's own force scale; 0 for terms whose model is their
-    /// Newton linearisation. A step makes Newton corrections while this exceeds its tolerance.
-    fn model_error(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> f64 {
-        0.0
+    /// or linearised law, friction), each record relative to the term's own force scale; none for terms whose
+    /// model is their Newton linearisation. A step makes Newton corrections while this exceeds its tolerance.
+    fn model_error(&self, _x: &[Vec3], _cx: &Context, _scratch: &mut Scratch) -> friction::Misfit {
+        friction::Misfit::default()
     }
     /// A node whose straight path from `from` to `to` passed through an obstacle (continuous detection after a
     /// step); `None` when none did.
@@ -704,13 +704,13 @@ impl Potential {
         self.active_sets().flat_map(|(_, a)| a.coulomb(x)).collect()
     }
 
-    /// Largest [`Term::model_error`] over every term at `x`.
-    pub fn model_error(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> f64 {
-        let mut worst: f64 = 0.0;
+    /// Every term's [`ActiveSet::model_error`] at `x`, their records together.
+    pub fn model_error(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) -> friction::Misfit {
+        let mut all = friction::Misfit::default();
         for (t, a) in self.active_sets() {
-            worst = worst.max(a.model_error(x, cx, &mut ws.scratch[t]));
+            all = all.merge(a.model_error(x, cx, &mut ws.scratch[t]));
         }
-        worst
+        all
     }
 
     /// Whether any term's active set in `ws` holds a contact record or lagged friction ([`ActiveSet::engaged`]).

@@ -26,7 +26,7 @@
 //! (second order in the grid spacing) of it, so a thickness larger than that deviation keeps it clear too.
 
 use super::contact::{add_all, records_fit, restore_scratch, save_scratch, Contact, Other, Stencil, FRICTION_ROUNDS};
-use super::friction::{FrictionLaw, Lagged, MODEL_TOLERANCE};
+use super::friction::{FrictionLaw, Lagged, Misfit, MODEL_TOLERANCE};
 use super::{ActiveSet, Context, Motion, Part, Scratch, Stage, Term, TermInfo};
 use crate::contact::proximity::{Bounds, Broad, Closest, Faces, Pair};
 use crate::energy::Sink;
@@ -487,17 +487,17 @@ impl ActiveSet for SelfContact {
 
     /// How far the layer friction at `y` is from the linear models the last assembly solved with, relative to
     /// the largest limit `μλ` of the step.
-    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> f64 {
-        let Some(m) = cx.motion else { return 0.0 };
+    fn model_error(&self, y: &[Vec3], cx: &Context, scratch: &mut Scratch) -> Misfit {
+        let mut misfit = Misfit::default();
+        let Some(m) = cx.motion else { return misfit };
         let eps = self.params.slip_speed * m.dt;
         let s = self.scratch(scratch);
         let scale = s.lagged.iter().map(|(_, l)| l.limit).fold(0.0, f64::max);
-        let mut worst: f64 = 0.0;
         for (st, l) in &s.lagged {
             let law = FrictionLaw { limit: l.limit, eps };
-            worst = worst.max(l.model_error(&law, l.tangential(st.point(y) - st.point(m.x))) / scale);
+            misfit.add(l.model_error(&law, l.tangential(st.point(y) - st.point(m.x))) / scale);
         }
-        worst
+        misfit
     }
 
     /// After a solve proposing `y + delta`: a contact stays while its gap there is inside the layer; the pairs
