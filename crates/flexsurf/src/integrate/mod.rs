@@ -813,9 +813,10 @@ impl Stepper {
     ///   ([`Stepper::line_search`], at most [`StepParams::newton_iterations`] iterations) while the contacts'
     ///   linear models of the last solve are off at the iterate by more than [`MODEL_TOLERANCE`] of the largest
     ///   contact force (the linearised gap misses the obstacle's curvature under a node that slides: the
-    ///   capstan), or friction's by more than the same fraction of the largest Coulomb limit (near the limit,
-    ///   nodes switching between sticking and sliding); friction's model in these corrections is its law's
-    ///   own second-order one at each iterate ([`crate::potential::Motion::exact`]).
+    ///   capstan), or friction's by more than the same fraction of the largest Coulomb limit in the root mean
+    ///   square over the records ([`Misfit::rms`]: a sliding region, not a few records flickering at the edge
+    ///   of a sticking one); friction's model in these corrections is its law's own second-order one at each
+    ///   iterate ([`crate::potential::Motion::exact`]).
     ///
     /// The residual relative to the step's force scale is measured after the last solve and reported, the step
     /// counted converged only where it is within [`StepParams::newton_tolerance`].
