@@ -901,8 +901,7 @@ impl ActiveSet for PenaltyContact {
     }
 
     fn forget(&self, scratch: &mut Scratch) {
-        let statics =
-            scratch.0.as_mut().and_then(|b| b.downcast_mut::<ContactScratch>()).and_then(|c| c.statics.take());
+        let statics = scratch.get_mut::<ContactScratch>().and_then(|c| c.statics.take());
         scratch.clear();
         if statics.is_some() {
             scratch.set(ContactScratch { statics, ..self.fresh() });
@@ -917,7 +916,7 @@ impl ActiveSet for PenaltyContact {
     }
 
     fn hold(&self, scratch: &mut Scratch, on: bool) {
-        if let Some(s) = scratch.0.as_mut().and_then(|b| b.downcast_mut::<ContactScratch>()) {
+        if let Some(s) = scratch.get_mut::<ContactScratch>() {
             s.held = on;
         }
     }

@@ -161,7 +161,7 @@ impl Scratch {
         if !self.0.as_ref().is_some_and(|b| b.is::<T>()) {
             self.0 = Some(Box::new(make()));
         }
-        match self.0.as_mut().and_then(|b| b.downcast_mut::<T>()) {
+        match self.get_mut::<T>() {
             Some(t) => t,
             None => unreachable!("the scratch was just set to a T"),
         }

@@ -71,6 +71,11 @@ impl Scratch {
         self.0.as_ref().and_then(|b| b.downcast_ref::<T>())
     }
 
+    /// The scratch as a `T`, mutable, if it is one.
+    pub fn get_mut<T: std::any::Any>(&mut self) -> Option<&mut T> {
+        self.0.as_mut().and_then(|b| b.downcast_mut::<T>())
+    }
+
     /// Holds `value` from now on.
     pub fn set<T: std::any::Any + Send>(&mut self, value: T) {
         self.0 = Some(Box::new(value));
