@@ -3,10 +3,12 @@
 //! gradients from zero, against one product with the same matrix in full block rows on one thread (the bench's
 //! matrix stream).
 //!
-//!     cargo run --release -p flexsurf --example mg_micro -- 321 [solves]
+//!     cargo run --release -p flexsurf --example mg_micro -- 321 [solves] [v|w]
 //!
-//! Prints the median solve's iterations, seconds per iteration and streams per iteration.
+//! Prints the median solve's iterations, seconds per iteration and streams per iteration (`v` or `w`: that
+//! cycle, whatever the hierarchy's depth would choose).
 use flexsurf::bench::{product_time, scene, Workload};
+use flexsurf::integrate::linsolve::multigrid::Cycle;
 use flexsurf::integrate::linsolve::{BlockSolver, Multigrid, Reuse};
 use flexsurf::integrate::{StepParams, Stepper};
 use flexsurf::math::Vec3;
@@ -16,6 +18,11 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(161);
     let solves: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(5);
+    let cycle = match args.next().as_deref() {
+        Some("v") => Some(Cycle::V),
+        Some("w") => Some(Cycle::W),
+        _ => None,
+    };
     let scene = scene(n, Workload::Touching).expect("the touching scene builds");
     let mut state = scene.state.clone();
     let mut stepper = Stepper::new(&scene.model, &StepParams { ..scene.step_params() }).expect("stepper");
@@ -27,7 +34,11 @@ fn main() {
     let a = stepper.matrix().clone();
     let fixed = scene.model.pinned().to_vec();
     let b: Vec<Vec3> = stepper.rhs().to_vec();
-    let mut mg = Multigrid::new(pattern, &scene.model.panels).expect("multigrid");
+    let mg = Multigrid::new(pattern, &scene.model.panels).expect("multigrid");
+    let mut mg = match cycle {
+        Some(c) => mg.with_cycle(c),
+        None => mg,
+    };
     mg.set_positions(&state.x);
     let product = product_time(&BlockRows::from_symmetric(&a, pattern));
     let mut rows = Vec::new();
@@ -46,9 +57,10 @@ fn main() {
     rows.sort_by(|p, q| p.0.total_cmp(&q.0));
     let (per_iter, iters, setup) = rows[rows.len() / 2];
     println!(
-        "{n}²: {} levels, {iters} iterations, {:.3} ms an iteration, product {:.3} ms: {:.2} streams an iteration; \
-         set-up {:.1} ms ({:.1} streams)",
+        "{n}²: {} levels, {:?}-cycle, {iters} iterations, {:.3} ms an iteration, product {:.3} ms: {:.2} streams \
+         an iteration; set-up {:.1} ms ({:.1} streams)",
         mg.levels(),
+        mg.cycle(),
         1e3 * per_iter,
         1e3 * product,
         per_iter / product,

@@ -7,7 +7,7 @@
 //! anywhere in space (a draped sheet).
 //!
 //! A level's nodes are `m × n` (flat index `i + m j`). The `u1` lines (fixed `j`) are swept, then the `u2`
-//! lines; the post-smoothing sweeps the same lines in the reverse order, so the V-cycle stays symmetric. A
+//! lines; the post-smoothing sweeps the same lines in the reverse order, so the cycle stays symmetric. A
 //! periodic line is split into two halves, each a principal submatrix (SPD) with a banded structure. The line
 //! matrices are factorised by a banded Cholesky at each refill. Masked nodes (pinned) are never changed.
 //!
@@ -350,6 +350,11 @@ impl LineSmoother {
             .map(|s| s.band.len() * 8 + (s.gather.len() + s.nodes.len()) * 4)
             .sum();
         5 * self.rows.bytes() + 2 * lines + 12 * self.masked.len() * std::mem::size_of::<Vec3>()
+    }
+
+    /// Bytes [`LineSmoother::residual`] reads and writes: one pass over the rows and three over the vectors.
+    pub(crate) fn residual_bytes(&self) -> usize {
+        self.rows.bytes() + 3 * self.masked.len() * std::mem::size_of::<Vec3>()
     }
 
     /// Scratch scalars [`LineSmoother::pre`] and [`LineSmoother::post`] need.

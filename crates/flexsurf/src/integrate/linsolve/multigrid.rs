@@ -1,4 +1,4 @@
-//! Conjugate gradients preconditioned by a geometric multigrid V-cycle on the parametric grid's hierarchy
+//! Conjugate gradients preconditioned by a geometric multigrid cycle on the parametric grid's hierarchy
 //! ([`BlockSolver`]), for grids where a factorisation's fill (memory growing faster than the nodes, work like
 //! `n^1.4`) dominates a step.
 //!
@@ -21,9 +21,14 @@
 //!   at a fifth less set-up on the 321² sheet touching the ball); whatever couples nodes (the grid's stencils,
 //!   seams, springs) is carried.
 //! - **Smoothing** is block Gauss–Seidel by grid lines ([`super::lines`]): the `u1` lines then the `u2` lines
-//!   before the coarse correction, the same in reverse after it, so the V-cycle is a symmetric positive definite
+//!   before the coarse correction, the same in reverse after it, so the cycle is a symmetric positive definite
 //!   preconditioner; the coarsest level is solved by sparse Cholesky. Point smoothers measured 5–10× more
 //!   iterations on fabrics (docs/performance.md): their membrane is far stiffer in tension than in shear.
+//! - **Cycles.** Each coarse level's correction is one cycle of the levels below it (a V-cycle) on hierarchies
+//!   of fewer than [`Multigrid::W_CYCLE_LEVELS`] levels, two from there (a W-cycle: the second on the residual
+//!   the first leaves, [`Cycle`]). The V-cycle's iterations grow with the depth (17, 25, 33 and 37 from zero
+//!   to 1e-11 on the sheet touching the ball at 161², 321², 481² and 641²), the W-cycle's far less (15, 18, 20,
+//!   21) at about 1.5 times the cost an iteration, which pays from six levels (docs/performance.md).
 //! - **Conjugate gradients** ([`super::cg`]) start from the caller's guess (the stepper passes the previous
 //!   step's increment) and stop at the relative residual they are asked for (the stepper's: a forcing term,
 //!   [`super::CONTACT_STEP_TOLERANCE`]), or [`super::ITERATIVE_TOLERANCE`].
@@ -190,6 +195,18 @@ struct Level {
     b: Vec<Vec3>,
     x: Vec<Vec3>,
     r: Vec<Vec3>,
+    /// A W-cycle's right-hand side and first correction, kept while it solves again (empty in a V-cycle and on
+    /// the coarsest level).
+    held: [Vec<Vec3>; 2],
+}
+
+/// How each coarse level's correction is solved within a cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cycle {
+    /// By one cycle of the levels below it, from zero.
+    V,
+    /// By two: the second on the residual the first leaves, its result added (symmetric, as the V-cycle).
+    W,
 }
 
 /// Multigrid-preconditioned conjugate gradients.
@@ -205,14 +222,18 @@ pub struct Multigrid {
     coarse: Coarse,
     /// The fixed set the hierarchy was built for.
     built_fixed: Vec<bool>,
+    /// The cycle asked for ([`Multigrid::with_cycle`]); `None`: by the hierarchy's depth.
+    cycle: Option<Cycle>,
 }
 
-/// The levels below the finest and the V-cycle's scratch.
+/// The levels below the finest and the cycle's scratch.
 struct Coarse {
     levels: Vec<Level>,
     coarsest: Option<Cholesky>,
     fine_r: Vec<Vec3>,
     line_rhs: Vec<f64>,
+    /// The cycle of this hierarchy.
+    cycle: Cycle,
 }
 
 impl Multigrid {
@@ -220,6 +241,11 @@ impl Multigrid {
     pub const COARSEST_NODES: usize = 800;
     /// Most conjugate-gradient iterations of one solve.
     pub const MAX_ITERATIONS: usize = 200;
+    /// Levels (the finest included) from which the hierarchy takes W-cycles ([`Cycle`]). Measured on the sheet
+    /// touching the ball (docs/performance.md): at 161² (four levels) the W-cycle's iterations cost more than
+    /// they save, at 321² (five) as much, at 481² and 641² (six) it is 5–14 % faster from zero to 1e-11 and
+    /// 11 % on the bench's steps (their solves to 1e-6) at 641².
+    pub const W_CYCLE_LEVELS: usize = 6;
 
     /// Buffers for `pattern` on a model's `panels` (the hierarchy is built at the first solve, for its fixed
     /// set): each panel is coarsened on its own grid, a node joined by a seam with the first panel that has it;
@@ -260,9 +286,27 @@ impl Multigrid {
             shapes,
             positions,
             fine: None,
-            coarse: Coarse { levels: Vec::new(), coarsest: None, fine_r: vec![Vec3::ZERO; n], line_rhs: Vec::new() },
+            coarse: Coarse {
+                levels: Vec::new(),
+                coarsest: None,
+                fine_r: vec![Vec3::ZERO; n],
+                line_rhs: Vec::new(),
+                cycle: Cycle::V,
+            },
             built_fixed: Vec::new(),
+            cycle: None,
         })
+    }
+
+    /// The same solver with every hierarchy it builds taking `cycle`, whatever its depth.
+    pub fn with_cycle(mut self, cycle: Cycle) -> Self {
+        self.cycle = Some(cycle);
+        self
+    }
+
+    /// The cycle of the hierarchy built at the last solve.
+    pub fn cycle(&self) -> Cycle {
+        self.coarse.cycle
     }
 
     /// Number of levels, the finest included.
@@ -304,6 +348,12 @@ impl Multigrid {
             Some(last) => Some(Cholesky::new(&last.pattern)?),
             None => None,
         };
+        let deep = c.levels.len() + 1 >= Self::W_CYCLE_LEVELS;
+        c.cycle = self.cycle.unwrap_or(if deep { Cycle::W } else { Cycle::V });
+        let held = if c.cycle == Cycle::W { c.levels.len().saturating_sub(1) } else { 0 };
+        for level in &mut c.levels[..held] {
+            level.held = [level.b.clone(), level.x.clone()];
+        }
         let fine_len = self.fine.as_ref().map_or(0, LineSmoother::scratch_len);
         let longest = c.levels.iter().map(|l| l.smoother.scratch_len()).fold(fine_len, usize::max);
         c.line_rhs = vec![0.0; longest];
@@ -331,21 +381,42 @@ impl Coarse {
         Ok(())
     }
 
-    /// `out ≈ A⁻¹ r`: one V-cycle from zero, `fine` the finest level's smoother.
-    fn v_cycle(&mut self, fine: &LineSmoother, r: &[Vec3], out: &mut [Vec3]) {
+    /// `out ≈ A⁻¹ r`: one cycle from zero, `fine` the finest level's smoother.
+    fn precondition(&mut self, fine: &LineSmoother, r: &[Vec3], out: &mut [Vec3]) {
         fine.pre(r, out, &mut self.line_rhs);
         if !self.levels.is_empty() {
             fine.residual(r, out, &mut self.fine_r);
             self.levels[0].restrict(&self.fine_r);
-            cycle(&mut self.levels, self.coarsest.as_mut(), &mut self.line_rhs);
+            correct(&mut self.levels, self.coarsest.as_mut(), &mut self.line_rhs, self.cycle);
             self.levels[0].prolong_add(out);
         }
         fine.post(r, out, &mut self.line_rhs);
     }
 }
 
-/// The V-cycle below the finest level: `levels[0].x ≈ A₀⁻¹ levels[0].b`.
-fn cycle(levels: &mut [Level], coarsest: Option<&mut Cholesky>, line_rhs: &mut [f64]) {
+/// `levels[0].x ≈ A₀⁻¹ levels[0].b`: one cycle of `levels` from zero, and in a W-cycle, where `levels[0]` is
+/// not the coarsest (solved exactly), a second on the residual the first leaves, added to it.
+fn correct(levels: &mut [Level], mut coarsest: Option<&mut Cholesky>, line_rhs: &mut [f64], kind: Cycle) {
+    cycle(levels, coarsest.as_deref_mut(), line_rhs, kind);
+    if kind == Cycle::V || levels.len() < 2 {
+        return;
+    }
+    let first = &mut levels[0];
+    first.smoother.residual(&first.b, &first.x, &mut first.r);
+    // Keep `b` and the first cycle's `x`; solve again with the residual as the right-hand side.
+    let [held_b, held_x] = &mut first.held;
+    std::mem::swap(held_b, &mut first.b);
+    std::mem::swap(&mut first.b, &mut first.r);
+    std::mem::swap(held_x, &mut first.x);
+    cycle(levels, coarsest, line_rhs, kind);
+    let first = &mut levels[0];
+    let [held_b, held_x] = &mut first.held;
+    first.x.iter_mut().zip(held_x.iter()).for_each(|(x, h)| *x += *h);
+    std::mem::swap(held_b, &mut first.b);
+}
+
+/// One cycle below the finest level from zero: `levels[0].x ≈ A₀⁻¹ levels[0].b`.
+fn cycle(levels: &mut [Level], coarsest: Option<&mut Cholesky>, line_rhs: &mut [f64], kind: Cycle) {
     let Some((first, rest)) = levels.split_first_mut() else { return };
     if rest.is_empty() {
         if let Some(chol) = coarsest {
@@ -356,7 +427,7 @@ fn cycle(levels: &mut [Level], coarsest: Option<&mut Cholesky>, line_rhs: &mut [
     first.smoother.pre(&first.b, &mut first.x, line_rhs);
     first.smoother.residual(&first.b, &first.x, &mut first.r);
     rest[0].restrict(&first.r);
-    cycle(rest, coarsest, line_rhs);
+    correct(rest, coarsest, line_rhs, kind);
     rest[0].prolong_add(&mut first.x);
     first.smoother.post(&first.b, &mut first.x, line_rhs);
 }
@@ -397,6 +468,7 @@ impl Level {
             b: vec![Vec3::ZERO; nodes],
             x: vec![Vec3::ZERO; nodes],
             r: vec![Vec3::ZERO; nodes],
+            held: [Vec::new(), Vec::new()],
         }
     }
 
@@ -624,7 +696,7 @@ impl BlockSolver for Multigrid {
             a,
             fixed,
             x,
-            |r, out| coarse.v_cycle(fine, r, out),
+            |r, out| coarse.precondition(fine, r, out),
             tolerance.unwrap_or(super::ITERATIVE_TOLERANCE),
             Self::MAX_ITERATIONS,
         )?;
@@ -636,17 +708,23 @@ impl BlockSolver for Multigrid {
     /// forward and backward solves (values and row indices).
     fn iteration_bytes(&self) -> usize {
         let Some(fine) = &self.fine else { return 0 };
+        // `calls`: the corrections of a level an iteration makes (each a restriction and a prolongation);
+        // `visits`: its cycles (two a correction in a W-cycle, the second after a residual).
+        let (mut calls, mut below) = (1, 0);
         let levels = &self.coarse.levels;
-        let below: usize = levels
-            .iter()
-            .enumerate()
-            .map(|(l, level)| {
-                let smoothing = if l + 1 < levels.len() { level.smoother.cycle_bytes() } else { 0 };
-                2 * level.transfer_bytes() + smoothing
-            })
-            .sum();
-        let coarsest = self.coarse.coarsest.as_ref().map_or(0, |c| 2 * c.factor_nnz() * 16);
-        self.system.iteration_bytes() + fine.cycle_bytes() + below + coarsest
+        for (l, level) in levels.iter().enumerate() {
+            if l + 1 == levels.len() {
+                let coarsest = self.coarse.coarsest.as_ref().map_or(0, |c| 2 * c.factor_nnz() * 16);
+                below += calls * (2 * level.transfer_bytes() + coarsest);
+                break;
+            }
+            let visits = if self.coarse.cycle == Cycle::W { 2 * calls } else { calls };
+            below += calls * 2 * level.transfer_bytes()
+                + visits * level.smoother.cycle_bytes()
+                + (visits - calls) * level.smoother.residual_bytes();
+            calls = visits;
+        }
+        self.system.iteration_bytes() + fine.cycle_bytes() + below
     }
 
     fn set_positions(&mut self, x: &[Vec3]) {
@@ -697,10 +775,10 @@ pub mod internals {
         mg.coarse.refill(a, x)
     }
 
-    /// `out ≈ A⁻¹ r`: one V-cycle from zero with the finest level's smoother.
-    pub fn v_cycle(mg: &mut Multigrid, r: &[Vec3], out: &mut [Vec3]) {
+    /// `out ≈ A⁻¹ r`: one cycle from zero with the finest level's smoother.
+    pub fn cycle(mg: &mut Multigrid, r: &[Vec3], out: &mut [Vec3]) {
         let fine = mg.fine.as_ref().expect("the hierarchy is built");
-        mg.coarse.v_cycle(fine, r, out);
+        mg.coarse.precondition(fine, r, out);
     }
 
     /// Coarse level `l`.
