@@ -1,7 +1,7 @@
 //! The step's linear solvers against each other: multigrid-preconditioned conjugate gradients against the
 //! sparse Cholesky factorisation on the step matrices of a free sheet, a periodic tube (a skirt's topology) and
-//! the polar grid of a Cusick specimen, with pinned nodes; its iteration count under grid refinement; and the
-//! same bits on 1, 2 and 5 threads.
+//! the polar grid of a Cusick specimen, with pinned nodes; its iteration count under grid refinement and with
+//! W-cycles; and the same bits on 1, 2 and 5 threads.
 
 use flexsurf::contact::Obstacle;
 use flexsurf::grid::{Grid, Topology};

@@ -6,8 +6,8 @@
 //!   per run; a factor is kept across solves and steps as the preconditioner of conjugate gradients until they
 //!   need too many iterations, then the matrix is refactorised (docs/performance.md);
 //! - [`multigrid`]: conjugate gradients preconditioned by a geometric multigrid cycle (V, or W from six levels)
-//!   on the parametric grid's hierarchy (Galerkin coarse operators, symmetric block Gauss–Seidel smoothing, Cholesky on the coarsest
-//!   level): memory and work proportional to the number of nodes;
+//!   on the parametric grid's hierarchy (Galerkin coarse operators, symmetric block Gauss–Seidel smoothing,
+//!   Cholesky on the coarsest level): memory and work proportional to the number of nodes;
 //! - [`pcg`]: block-Jacobi preconditioned conjugate gradients (a reference, slow on stiff sheets);
 //! - [`auto`]: the automatic choice on mid-size grids, Cholesky for the steps with contact and multigrid for
 //!   those without.
