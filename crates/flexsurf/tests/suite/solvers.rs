@@ -172,8 +172,9 @@ fn multigrid_iterations_grow_slowly_under_refinement() {
 /// from zero to 1e-11), on the first step matrix of the 161² sheet lying on the ball (`flexsurf bench --workload
 /// touching`), a four-level hierarchy whose own choice is the V-cycle ([`Multigrid::W_CYCLE_LEVELS`]). The
 /// W-cycle solves each coarse level's correction more accurately; on flat sheets and tubes of three to five
-/// levels the V-cycle's coarse corrections are already as good (the same counts), on the touching sheet they
-/// lose accuracy level by level (docs/performance.md, "W-cycles on deep hierarchies").
+/// levels the V-cycle's coarse corrections are already as good (the same counts), on the touching sheet one
+/// cycle solves the first coarse levels' corrections too inexactly (docs/performance.md, "W-cycles on deep
+/// hierarchies").
 #[test]
 fn a_w_cycle_solves_as_the_v_cycle_in_fewer_iterations() {
     let scene = flexsurf::bench::scene(161, flexsurf::bench::Workload::Touching).unwrap();

@@ -26,7 +26,7 @@
 //!   iterations on fabrics (docs/performance.md): their membrane is far stiffer in tension than in shear.
 //! - **Cycles.** Each coarse level's correction is one cycle of the levels below it (a V-cycle) on hierarchies
 //!   of fewer than [`Multigrid::W_CYCLE_LEVELS`] levels, two from there (a W-cycle: the second on the residual
-//!   the first leaves, [`Cycle`]). The V-cycle's iterations grow with the depth (17, 25, 33 and 37 from zero
+//!   the first leaves, [`Cycle`]). The V-cycle's iterations grow with the grid (17, 25, 33 and 37 from zero
 //!   to 1e-11 on the sheet touching the ball at 161², 321², 481² and 641²), the W-cycle's far less (15, 18, 20,
 //!   21) at about 1.5 times the cost an iteration, which pays from six levels (docs/performance.md).
 //! - **Conjugate gradients** ([`super::cg`]) start from the caller's guess (the stepper passes the previous
