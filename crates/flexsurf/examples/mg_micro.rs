@@ -34,11 +34,10 @@ fn main() {
     let a = stepper.matrix().clone();
     let fixed = scene.model.pinned().to_vec();
     let b: Vec<Vec3> = stepper.rhs().to_vec();
-    let mg = Multigrid::new(pattern, &scene.model.panels).expect("multigrid");
-    let mut mg = match cycle {
-        Some(c) => mg.with_cycle(c),
-        None => mg,
-    };
+    let mut mg = Multigrid::new(pattern, &scene.model.panels).expect("multigrid");
+    if let Some(c) = cycle {
+        mg = mg.with_cycle(c);
+    }
     mg.set_positions(&state.x);
     let product = product_time(&BlockRows::from_symmetric(&a, pattern));
     let mut rows = Vec::new();

@@ -4,6 +4,7 @@
 //! `cargo test --profile ci -p flexsurf --test suite derivatives::` (docs/testing.md).
 
 mod body_contact;
+mod common;
 mod contact_records;
 mod converged_step;
 mod curved_multigrid;

@@ -5,6 +5,7 @@
 //! joined inside its stencils, through the shared finite-difference checker; and a seam that cannot be made is
 //! an error naming it.
 
+use crate::common::largest_difference;
 use flexsurf::contact::Obstacle;
 use flexsurf::energy::Operator;
 use flexsurf::grid::{Grid, Topology};
@@ -33,11 +34,6 @@ fn run(model: &Model, x: Vec<Vec3>, dt: f64, steps: usize) -> State {
         stepper.step(model, &mut state).unwrap();
     }
     state
-}
-
-fn largest_difference(a: &[Vec3], b: &[Vec3]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max)
 }
 
 /// The periodic skirt of `scenes/skirt.toml` (28 around × 14 down on the mannequin, waist springs, contact

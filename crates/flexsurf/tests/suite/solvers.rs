@@ -3,6 +3,7 @@
 //! the polar grid of a Cusick specimen, with pinned nodes; its iteration count under grid refinement and with
 //! W-cycles; and the same bits on 1, 2 and 5 threads.
 
+use crate::common::{largest_difference, largest_length};
 use flexsurf::contact::Obstacle;
 use flexsurf::grid::{Grid, Topology};
 use flexsurf::integrate::linsolve::multigrid::Cycle;
@@ -124,8 +125,7 @@ fn cholesky_solves_its_system_with_either_factorisation() {
         kinds.push(chol.supernodal());
         let mut au = vec![Vec3::ZERO; b.len()];
         a.mul_add(pattern, &u, &mut au);
-        let scale = b.iter().map(|v| v.length()).fold(0.0, f64::max);
-        let worst = au.iter().zip(&b).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+        let (scale, worst) = (largest_length(&b), largest_difference(&au, &b));
         eprintln!("{n}x{n}: supernodal {}, largest residual {worst:.2e} of {scale:.2e}", chol.supernodal());
         assert!(worst <= 1e-9 * scale, "{n}x{n}: residual {worst:e} of {scale:e}");
     }
@@ -139,8 +139,7 @@ fn multigrid_matches_cholesky_on_free_periodic_and_polar_grids() {
         let (a, b) = system(&model, &x);
         let (direct, _) = solve(SolverKind::Cholesky, &model, &a, &b);
         let (mg, iterations) = solve(SolverKind::Multigrid, &model, &a, &b);
-        let scale = direct.iter().map(|v| v.length()).fold(0.0, f64::max);
-        let diff = direct.iter().zip(&mg).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+        let (scale, diff) = (largest_length(&direct), largest_difference(&direct, &mg));
         eprintln!("{name}: {iterations} multigrid iterations, max difference {diff:.2e} of {scale:.2e}");
         assert!(diff <= 1e-6 * scale, "{name}: multigrid differs from Cholesky by {diff:e} of {scale:e}");
         assert!(iterations <= 60, "{name}: {iterations} iterations");
@@ -183,19 +182,18 @@ fn a_w_cycle_solves_as_the_v_cycle_in_fewer_iterations() {
     st.assemble(model, state);
     let (a, b) = (st.matrix().clone(), st.rhs().to_vec());
     let (direct, _) = solve(SolverKind::Cholesky, model, &a, &b);
-    let scale = direct.iter().map(|v| v.length()).fold(0.0, f64::max);
+    let scale = largest_length(&direct);
     let mut counts = Vec::new();
     for cycle in [None, Some(Cycle::W)] {
-        let mg = Multigrid::new(model.potential.pattern(), &model.panels).unwrap();
-        let mut mg = match cycle {
-            Some(c) => mg.with_cycle(c),
-            None => mg,
-        };
+        let mut mg = Multigrid::new(model.potential.pattern(), &model.panels).unwrap();
+        if let Some(c) = cycle {
+            mg = mg.with_cycle(c);
+        }
         mg.set_positions(&state.x);
         let mut u = vec![Vec3::ZERO; b.len()];
         let stats = mg.solve(&a, model.pinned(), &b, &mut u, Reuse::Fresh).unwrap();
         assert_eq!((mg.levels(), mg.cycle()), (4, cycle.unwrap_or(Cycle::V)));
-        let diff = direct.iter().zip(&u).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+        let diff = largest_difference(&direct, &u);
         eprintln!("{:?}: {} iterations, {diff:.2e} of {scale:.2e} from Cholesky", mg.cycle(), stats.iterations);
         assert!(diff <= 1e-6 * scale, "{:?}: {diff:e} of {scale:e} from Cholesky", mg.cycle());
         counts.push(stats.iterations);
@@ -322,7 +320,7 @@ fn auto_takes_multigrid_for_the_steps_newton_corrects_without_contact() {
     assert!(c.corrections >= steps && c.iterative_steps == 0, "{c:?}");
     let (auto, c) = bench_run(n, steps, Workload::Tumble, SolverKind::Auto);
     assert_eq!((c.iterative_steps, c.unconverged), (steps - 1, 0), "{c:?}");
-    let apart = direct.iter().zip(&auto).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    let apart = largest_difference(&direct, &auto);
     // The sheet is 1 m across; Newton stops at 1e-6 of each step's force scale.
     assert!(apart > 0.0 && apart < 1e-6, "{apart:e} m apart");
 }
@@ -397,7 +395,7 @@ fn contact_steps_on_multigrid_end_where_direct_solves_do() {
     let (mg, counters, residual) = run(SolverKind::Multigrid);
     let (direct, ..) = run(SolverKind::Cholesky);
     let (lo, hi) = direct.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
-    let far = mg.iter().zip(&direct).map(|(p, q)| (*p - *q).length()).fold(0.0, f64::max);
+    let far = largest_difference(&mg, &direct);
     eprintln!("81² touching, 3 steps: {far:.3e} m from the direct solves; {counters:?}; residual {residual:.3e}");
     assert!(far < 1e-6 * (hi - lo).length(), "{far:e} m from the direct solves");
     // The steps are far from converged (the contact steps' rule), which is why 1e-11 bought nothing.
