@@ -451,10 +451,9 @@ impl Stepper {
         // Multigrid's coarse space carries the rigid-body modes of the shape the step is at.
         self.solver.set_positions(&self.y);
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
-        // A re-solve (the active set changed: contact engages) to the contact steps' tolerance.
-        let loose = |round: usize| if round == 0 { tolerance } else { Some(linsolve::CONTACT_STEP_TOLERANCE) };
         for round in 0..=self.params.active_set_rounds {
-            tf += self.linear_solve(state, model.pinned(), reuse(round), loose(round))?;
+            let tolerance = if round == 0 { tolerance } else { self.resolve_tolerance(model) };
+            tf += self.linear_solve(state, model.pinned(), reuse(round), tolerance)?;
             if newton == 0 && round == 0 {
                 self.guess.copy_from_slice(&self.delta);
             }
@@ -475,6 +474,17 @@ impl Stepper {
             self.residual_from_gradient(model);
         }
         Ok(tf)
+    }
+
+    /// The tolerance of a re-solve (the active set changed: contact engages or leaves): the contact steps'
+    /// [`linsolve::CONTACT_STEP_TOLERANCE`], but the direct solver's re-solves (conjugate gradients
+    /// preconditioned by its kept factor) while pairs between faces are engaged stay at the solver's own
+    /// [`linsolve::ITERATIVE_TOLERANCE`]: those pairs are decided on every re-solve's proposal and keep what the
+    /// step's start fixed ([`crate::potential::ActiveSet::convergent`]), so their re-solves stay those of exact
+    /// solves (docs/performance.md, "Cholesky's re-solves at the contact steps' tolerance").
+    fn resolve_tolerance(&self, model: &Model) -> Option<f64> {
+        let exact = !self.solver.kind().iterative() && !model.potential.convergent(&self.ws);
+        (!exact).then_some(linsolve::CONTACT_STEP_TOLERANCE)
     }
 
     /// Whether the change of contact set that the first solve of a contact step found (after the refinement)

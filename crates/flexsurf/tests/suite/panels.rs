@@ -1,7 +1,8 @@
 //! Models of several panels (issue 18): panels that do not touch each other move as if each were alone.
-//! Two identical sheets side by side fall onto a floor with friction exactly as one sheet does (the second one
-//! translated); two different clamped sheets sag to the equilibria each has alone (static solve, tolerance);
-//! each panel's masses, pins and elastic terms act on its own node range.
+//! Two identical sheets side by side fall onto a floor with friction as one sheet does (the second one
+//! translated; to 1e-8 m, what the contact steps' re-solve tolerance leaves); two different clamped sheets sag
+//! to the equilibria each has alone (static solve, tolerance); each panel's masses, pins and elastic terms act
+//! on its own node range.
 
 use flexsurf::contact::Obstacle;
 use flexsurf::grid::Grid;
@@ -78,7 +79,10 @@ fn two_identical_sheets_fall_as_one_does() {
     let n = grid.len();
     let first = (0..n).map(|k| (both.x[k] - alone.x[k]).length()).fold(0.0, f64::max);
     let second = (0..n).map(|k| (both.x[n + k] - away - alone.x[k]).length()).fold(0.0, f64::max);
-    assert!(first < 1e-9 && second < 1e-9, "panels differ from the sheet alone by {first:e} and {second:e} m");
+    // The contact steps' re-solves stop at a relative residual of 1e-6 (`CONTACT_STEP_TOLERANCE`), measured over
+    // the whole model: two panels stop their conjugate gradients at other iterations than one, so each re-solve
+    // may leave 1e-6 of its increment (a centimetre or less) between them.
+    assert!(first < 1e-8 && second < 1e-8, "panels differ from the sheet alone by {first:e} and {second:e} m");
 }
 
 /// A square sheet clamped along its edge u2 = 0, sagging under its weight.

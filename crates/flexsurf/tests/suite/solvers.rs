@@ -351,15 +351,14 @@ fn auto_resumes_with_its_pick() {
     assert_eq!(counts(&whole.counters), counts(&resumed.counters));
 }
 
-/// Which solver `auto` gives a grid's steps: the first step without contact takes Cholesky on a mid-size grid (it
-/// has no history yet), the steps with contact Cholesky below [`AUTO_CONTACT_NODES`] nodes and multigrid from
-/// there, and from [`AUTO_MULTIGRID_NODES`] every step takes multigrid.
+/// Which solver `auto` gives a grid's steps: on a mid-size grid the first step without contact (it has no
+/// history yet) and the steps with contact take Cholesky, and from [`AUTO_MULTIGRID_NODES`] every step takes
+/// multigrid.
 #[test]
 fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
-    use flexsurf::integrate::linsolve::{AUTO_CONTACT_NODES, AUTO_MULTIGRID_NODES};
+    use flexsurf::integrate::linsolve::AUTO_MULTIGRID_NODES;
     let (chol, mg) = (SolverKind::Cholesky, SolverKind::Multigrid);
-    for (n, free, contact) in [(51, chol, chol), (161, chol, mg), (181, mg, mg)] {
-        assert_eq!(n * n >= AUTO_CONTACT_NODES, n > 51);
+    for (n, free, contact) in [(51, chol, chol), (161, chol, chol), (181, mg, mg)] {
         assert_eq!(n * n > AUTO_MULTIGRID_NODES, n == 181);
         let (model, _) = sheet(n);
         let mut solver = SolverKind::Auto.solver(model.potential.pattern(), &model.panels).unwrap();

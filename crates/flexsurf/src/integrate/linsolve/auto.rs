@@ -3,21 +3,21 @@
 //! §8.5, "Inexact corrections"). Measured on the tumbling sheet (`flexsurf bench --workload tumble`,
 //! docs/performance.md "Which solver `auto` takes"): multigrid takes such a step 1.4× faster than Cholesky at
 //! 51², 2.2× at 81² and 101², even at 41²; a step one exact solve converges (a free fall) is cheaper on
-//! Cholesky below about 200² (above [`super::AUTO_MULTIGRID_NODES`] multigrid takes every step); with contact
-//! Cholesky is as fast or faster below [`AUTO_CONTACT_NODES`] nodes (a drop's impact and sliding), multigrid
-//! from there.
+//! Cholesky below about 200², and so is a contact step (a drop's impact and sliding: 1.35× faster at 161² since
+//! Cholesky's re-solves stop at the contact steps' tolerance); above [`super::AUTO_MULTIGRID_NODES`] multigrid
+//! takes every step.
 //!
 //! The stepper says which kind of step comes ([`BlockSolver::set_free_motion`]) before the step's first solve;
 //! the choice holds for the whole step (its re-solves and corrections). Both solvers are deterministic and the
 //! choice depends only on the run's own history (carried in checkpoints), so the run is too.
 
-use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind, AUTO_CONTACT_NODES};
+use super::{BlockSolver, Cholesky, LinearError, Multigrid, Reuse, SolveStats, SolverKind};
 use crate::math::Vec3;
 use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
 
-/// Cholesky for contact steps (multigrid from [`AUTO_CONTACT_NODES`] nodes) and for steps without contact that
-/// one exact solve converges, multigrid for the steps without contact that Newton iterates.
+/// Cholesky for contact steps and for steps without contact that one exact solve converges, multigrid for the
+/// steps without contact that Newton iterates.
 pub struct Auto {
     direct: Cholesky,
     /// `None` where the model's unknowns are not all grid nodes of its panels (multigrid cannot coarsen them):
@@ -31,8 +31,6 @@ pub struct Auto {
     prefer_iterative: bool,
     /// Fresh solves (the linearised step and its Newton corrections) since the last call.
     fresh: usize,
-    /// The grid is large enough for multigrid to take the steps with contact ([`AUTO_CONTACT_NODES`]).
-    contact: bool,
 }
 
 impl Auto {
@@ -46,7 +44,6 @@ impl Auto {
             on_iterative: false,
             prefer_iterative: false,
             fresh: 0,
-            contact: pattern.nodes() >= AUTO_CONTACT_NODES,
         })
     }
 
@@ -104,7 +101,7 @@ impl BlockSolver for Auto {
     fn set_free_motion(&mut self, free: bool) {
         self.prefer_iterative = self.pick();
         self.free = free;
-        self.on_iterative = self.iterative.is_some() && if free { self.prefer_iterative } else { self.contact };
+        self.on_iterative = self.iterative.is_some() && free && self.prefer_iterative;
         self.fresh = 0;
     }
 

@@ -66,8 +66,8 @@ pub enum LinearError {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolverKind {
     /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above; from
-    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact take multigrid too, and from
-    /// [`AUTO_CONTACT_NODES`] the steps with contact ([`auto`]). The default; docs/performance.md.
+    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact that Newton corrects take multigrid too
+    /// ([`auto`]). The default; docs/performance.md.
     #[default]
     #[cfg_attr(
         feature = "clap",
@@ -86,12 +86,15 @@ pub enum SolverKind {
 }
 
 /// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`] for every step. Below
-/// it, from [`AUTO_CONTACT_NODES`], multigrid already takes the steps with contact and those without that Newton
-/// corrects; from here it also takes the steps one exact solve converges (a free fall: three inexact solves
-/// against one factorisation), which cost about as much on both: the ball drop's first 6 steps (`flexsurf bench
-/// --sizes N --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against 4.94, 7.50 and
-/// 11.09 s on multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s. (Until 2026-12-04 the steps
-/// with contact took Cholesky up to 90,000 nodes, where their solves went to 1e-11.)
+/// it, from [`AUTO_FREE_MOTION_NODES`], multigrid takes the steps without contact that Newton corrects; from
+/// here it also takes the steps one exact solve converges (a free fall: three inexact solves against one
+/// factorisation), which cost about as much on both: the ball drop's first 6 steps (`flexsurf bench --sizes N
+/// --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against 4.94, 7.50 and 11.09 s on
+/// multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s; and the steps with contact: the ball
+/// drop's first 40 steps at 161² (25,921 nodes) took 38.0 and 38.2 s on Cholesky against 51.3 and 51.6 s with
+/// its contact steps on multigrid, its first 30 at 201² 65.5 s against 58.2 s on multigrid (docs/performance.md,
+/// "Cholesky's re-solves at the contact steps' tolerance"; from 2026-12-04 to 2026-12-05 the contact steps took
+/// multigrid from 25,000 nodes, until 2026-12-04 Cholesky up to 90,000).
 pub const AUTO_MULTIGRID_NODES: usize = 32_000;
 
 /// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) take the multigrid solver under
@@ -99,14 +102,6 @@ pub const AUTO_MULTIGRID_NODES: usize = 32_000;
 /// ([`auto::Auto`]). Measured on a sheet tumbling freely (docs/performance.md, "Which solver `auto` takes"): the
 /// two are even at 41² (1,681 nodes), multigrid is 1.4× faster at 51² (2,601) and 2.2× at 81².
 pub const AUTO_FREE_MOTION_NODES: usize = 2_500;
-
-/// From this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) [`SolverKind::Auto`] gives multigrid the steps with
-/// contact, whose solves stop at [`CONTACT_STEP_TOLERANCE`] ([`auto::Auto`]). Measured side by side
-/// (docs/performance.md, "Which solver `auto` takes"): on the sheet touching the ball multigrid takes a step in
-/// 0.64× Cholesky's time at 161² (25,921 nodes) and 0.49× at 201², and 0.78× at 81²; on the ball drop, whose
-/// impact and sliding make multigrid's solves harder, it is 1.18× slower at 81² over its first 60 steps, even
-/// at 161² over 40 (1.99 against 1.97 s a step) and 1.43× faster at 201² over 30, in half the memory.
-pub const AUTO_CONTACT_NODES: usize = 25_000;
 
 impl SolverKind {
     /// Name as in scene files and summaries.
@@ -231,7 +226,8 @@ pub trait BlockSolver: Send {
 
     /// [`BlockSolver::solve`], the iterative solves stopping at the relative residual `tolerance`
     /// (`‖b − A x‖ ≤ tolerance ‖b‖`; `None`: the solver's own) instead: an inexact Newton correction's
-    /// forcing term. A direct solve is exact whatever `tolerance` says.
+    /// forcing term. A direct solve is exact whatever `tolerance` says (Cholesky's re-solves preconditioned by
+    /// its kept factor stop at it).
     fn solve_to(
         &mut self,
         a: &BlockMatrix,
@@ -303,8 +299,8 @@ pub const ITERATIVE_TOLERANCE: f64 = 1e-11;
 /// scale (it is not iterated to [`crate::integrate::StepParams::newton_tolerance`]); a solve to 1e-6 leaves
 /// errors orders of magnitude below both. Measured on the 161² sheet touching the ball (10 steps): half the multigrid
 /// iterations of [`ITERATIVE_TOLERANCE`], the same solves, and final positions within 2.1e-6 m (1.5e-6 of
-/// the sheet's size) of those solves' (docs/performance.md). Sparse Cholesky solves exactly whatever it is
-/// asked, and its preconditioned re-solves keep [`ITERATIVE_TOLERANCE`].
+/// the sheet's size) of those solves' (docs/performance.md). Sparse Cholesky's factorised solves are exact; its
+/// re-solves preconditioned by the kept factor stop here too, but for steps with pairs between faces engaged.
 pub const CONTACT_STEP_TOLERANCE: f64 = 1e-6;
 
 /// A solver bound to one block pattern.
