@@ -452,8 +452,9 @@ impl Stepper {
         self.solver.set_positions(&self.y);
         let reuse = |round: usize| if round == 0 { Reuse::Fresh } else { Reuse::Nearby };
         for round in 0..=self.params.active_set_rounds {
-            let tolerance = if round == 0 { tolerance } else { self.resolve_tolerance(model) };
-            tf += self.linear_solve(state, model.pinned(), reuse(round), tolerance)?;
+            // The first solve's tolerance is the caller's; a re-solve's, the active sets' rule.
+            let round_tolerance = if round == 0 { tolerance } else { self.resolve_tolerance(model) };
+            tf += self.linear_solve(state, model.pinned(), reuse(round), round_tolerance)?;
             if newton == 0 && round == 0 {
                 self.guess.copy_from_slice(&self.delta);
             }
