@@ -24,9 +24,9 @@ impl Stepper {
     }
 
     /// What the linear solver carries between steps (the iterative solvers' starting guess, the automatic
-    /// choice's pick), so a resumed run makes the same solves.
+    /// choice's picks), so a resumed run makes the same solves.
     pub fn solver_warm(&self) -> SolverWarm {
-        SolverWarm { guess: self.guess.clone(), iterative_next: self.solver.iterative_next() }
+        SolverWarm { guess: self.guess.clone(), picks: self.solver.picks() }
     }
 
     /// Restores a [`Stepper::solver_warm`].
@@ -39,7 +39,7 @@ impl Stepper {
             ));
         }
         self.guess.copy_from_slice(&warm.guess);
-        self.solver.set_iterative_next(warm.iterative_next);
+        self.solver.set_picks(warm.picks);
         Ok(())
     }
 }

@@ -341,7 +341,7 @@ fn auto_resumes_with_its_pick() {
     steps(&mut whole, &mut x_whole, 4);
     steps(&mut first, &mut x_resumed, 2);
     let (warm, solver) = (first.warm_state(model).unwrap(), first.solver_warm());
-    assert!(solver.iterative_next, "the tumbling sheet's steps are corrected: multigrid next");
+    assert!(solver.picks.free_iterative, "the tumbling sheet's steps are corrected: multigrid next");
     let mut resumed = Stepper::new(model, &params).unwrap();
     resumed.restore(model, &warm, first.counters).unwrap();
     resumed.restore_solver(&solver).unwrap();
@@ -351,15 +351,20 @@ fn auto_resumes_with_its_pick() {
     assert_eq!(counts(&whole.counters), counts(&resumed.counters));
 }
 
-/// Which solver `auto` gives a grid's steps: on a mid-size grid the first step without contact (it has no
-/// history yet) and the steps with contact take Cholesky, and from [`AUTO_MULTIGRID_NODES`] every step takes
-/// multigrid.
+/// Which solver `auto` gives a grid's first steps: on a mid-size grid the first step without contact (it has no
+/// history yet) takes Cholesky, from [`AUTO_FREE_ITERATIVE_NODES`] multigrid; the first step with contact takes
+/// Cholesky below [`AUTO_CONTACT_ITERATIVE_NODES`], multigrid from there; above [`AUTO_MULTIGRID_NODES`] every
+/// step takes multigrid.
 #[test]
 fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
-    use flexsurf::integrate::linsolve::AUTO_MULTIGRID_NODES;
+    use flexsurf::integrate::linsolve::{
+        AUTO_CONTACT_ITERATIVE_NODES, AUTO_FREE_ITERATIVE_NODES, AUTO_MULTIGRID_NODES,
+    };
     let (chol, mg) = (SolverKind::Cholesky, SolverKind::Multigrid);
-    for (n, free, contact) in [(51, chol, chol), (161, chol, chol), (181, mg, mg)] {
-        assert_eq!(n * n > AUTO_MULTIGRID_NODES, n == 181);
+    for (n, free, contact) in [(51, chol, chol), (101, chol, mg), (181, mg, mg), (301, mg, mg)] {
+        assert_eq!(n * n >= AUTO_CONTACT_ITERATIVE_NODES, n > 51);
+        assert_eq!(n * n > AUTO_FREE_ITERATIVE_NODES, n > 101);
+        assert_eq!(n * n > AUTO_MULTIGRID_NODES, n == 301);
         let (model, _) = sheet(n);
         let mut solver = SolverKind::Auto.solver(model.potential.pattern(), &model.panels).unwrap();
         solver.set_free_motion(true);
@@ -370,6 +375,51 @@ fn auto_gives_the_first_step_without_contact_to_multigrid_on_large_grids() {
     // What `summary.json` and the bench call the solver of an `auto` run below the threshold.
     let named = |iterative| SolverKind::Auto.resolve(161 * 161).used(iterative, 10);
     assert_eq!((named(0), named(4), named(10)), ("cholesky", "cholesky+multigrid", "multigrid"));
+}
+
+/// `auto`'s steps with contact from [`AUTO_CONTACT_ITERATIVE_NODES`]: the ball drop's sheet lands flat and its
+/// first contact steps take multigrid, whose solves take few iterations there; once the sheet wrinkles where it
+/// hangs off the ball, a multigrid step's iterations a solve pass [`contact_iterations_limit`] and Cholesky
+/// takes every later contact step (the run ends before a probe). A run resumed from a checkpoint after the
+/// switch makes the same steps, bit for bit: the picks travel in the solver's part of the checkpoint.
+#[test]
+fn auto_gives_contact_steps_to_multigrid_while_its_iterations_stay_low() {
+    use flexsurf::integrate::linsolve::auto::{contact_iterations_limit, PROBE_STEPS};
+    use flexsurf::integrate::linsolve::AUTO_CONTACT_ITERATIVE_NODES;
+    let n = 101;
+    assert!(n * n >= AUTO_CONTACT_ITERATIVE_NODES);
+    let (limit, steps) = (contact_iterations_limit(n * n), 36);
+    assert!(steps < PROBE_STEPS as usize);
+    let scene = flexsurf::bench::scene(n, flexsurf::bench::Workload::Drop).unwrap();
+    let params = StepParams { solver: SolverKind::Auto, ..scene.step_params() };
+    let mut stepper = Stepper::new(&scene.model, &params).unwrap();
+    let mut state = scene.state.clone();
+    // For each contact step: on multigrid, and its iterations a solve.
+    let mut contact = Vec::new();
+    let mut saved = None;
+    for step in 0..steps {
+        let c = stepper.step(&scene.model, &mut state).unwrap().timings;
+        if c.contact_steps == 1 {
+            contact.push((c.iterative_steps == 1, c.iterations as f64 / c.solves as f64));
+        }
+        if step == 28 {
+            let warm = stepper.warm_state(&scene.model).unwrap();
+            saved = Some((state.clone(), warm, stepper.counters, stepper.solver_warm()));
+        }
+    }
+    eprintln!("{n}² drop under auto, contact steps (multigrid, iterations a solve): {contact:?}");
+    let over = contact.iter().position(|&(mg, per_solve)| mg && per_solve > limit).expect("multigrid's count rises");
+    assert!(over > 0 && contact[..over].iter().all(|&(mg, per_solve)| mg && per_solve <= limit), "{contact:?}");
+    assert!(over + 2 < contact.len() && contact[over + 1..].iter().all(|&(mg, _)| !mg), "{contact:?}");
+    let (mut resumed_state, warm, counters, solver) = saved.unwrap();
+    assert!(!solver.picks.contact_iterative, "{:?}", solver.picks);
+    let mut resumed = Stepper::new(&scene.model, &params).unwrap();
+    resumed.restore(&scene.model, &warm, counters).unwrap();
+    resumed.restore_solver(&solver).unwrap();
+    for _ in 29..steps {
+        resumed.step(&scene.model, &mut resumed_state).unwrap();
+    }
+    assert!(resumed_state.x == state.x, "the resumed run should be the whole run's, bit for bit");
 }
 
 /// A contact step's solves on multigrid stop at `CONTACT_STEP_TOLERANCE` (1e-6), not at the forcing terms of a

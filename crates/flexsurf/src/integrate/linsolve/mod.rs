@@ -66,7 +66,8 @@ pub enum LinearError {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolverKind {
     /// [`SolverKind::Cholesky`] up to [`AUTO_MULTIGRID_NODES`] nodes, [`SolverKind::Multigrid`] above; from
-    /// [`AUTO_FREE_MOTION_NODES`] nodes the steps without contact that Newton corrects take multigrid too
+    /// [`AUTO_FREE_MOTION_NODES`] nodes some steps take multigrid too: those without contact that Newton
+    /// corrects, and from [`AUTO_CONTACT_ITERATIVE_NODES`] those with contact while its iterations stay low
     /// ([`auto`]). The default; docs/performance.md.
     #[default]
     #[cfg_attr(
@@ -85,17 +86,25 @@ pub enum SolverKind {
     Pcg,
 }
 
-/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`] for every step. Below
-/// it, from [`AUTO_FREE_MOTION_NODES`], multigrid takes the steps without contact that Newton corrects; from
-/// here it also takes the steps one exact solve converges (a free fall: three inexact solves against one
-/// factorisation), which cost about as much on both: the ball drop's first 6 steps (`flexsurf bench --sizes N
-/// --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against 4.94, 7.50 and 11.09 s on
-/// multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s; and the steps with contact: the ball
-/// drop's first 40 steps at 161² (25,921 nodes) took 38.0 and 38.2 s on Cholesky against 51.3 and 51.6 s with
-/// its contact steps on multigrid, its first 30 at 201² 65.5 s against 58.2 s on multigrid (docs/performance.md,
-/// "Cholesky's re-solves at the contact steps' tolerance"; from 2026-12-04 to 2026-12-05 the contact steps took
-/// multigrid from 25,000 nodes, until 2026-12-04 Cholesky up to 90,000).
-pub const AUTO_MULTIGRID_NODES: usize = 32_000;
+/// Grids with more nodes than this take the multigrid solver under [`SolverKind::Auto`] for every step; below
+/// it, from [`AUTO_FREE_MOTION_NODES`], `auto` holds Cholesky and multigrid and gives each step to one of them
+/// ([`auto::Auto`]). Cholesky's factor needs 1.9 GB at 321² (103,041 nodes) against multigrid's 0.9 GB, and a
+/// sheet touching the ball there took 7.5 s a step on Cholesky against 6.1–6.8 s on multigrid
+/// (docs/performance.md, "Which solver `auto` takes").
+pub const AUTO_MULTIGRID_NODES: usize = 90_000;
+
+/// Grids with more nodes than this (and up to [`AUTO_MULTIGRID_NODES`]) give every step without contact to
+/// multigrid under [`SolverKind::Auto`], the first and those one exact solve converges (a free fall) included:
+/// three inexact solves cost about as much as one factorisation there. The ball drop's first 6 steps
+/// (`flexsurf bench --sizes N --steps 6`, docs/performance.md) took 6.32, 7.00 and 11.62 s on Cholesky against
+/// 4.94, 7.50 and 11.09 s on multigrid at 201², 241² and 281²; 8 steps at 161² 3.36 against 4.09 s.
+pub const AUTO_FREE_ITERATIVE_NODES: usize = 32_000;
+
+/// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) give their steps with contact to
+/// multigrid under [`SolverKind::Auto`] while its iterations a solve stay low ([`auto::contact_iterations_limit`]),
+/// to Cholesky otherwise. Below, Cholesky takes every step with contact: at 81² multigrid was faster only on the
+/// five steps after the ball drop's sheet landed (0.43 against 0.67 s), slower on the others.
+pub const AUTO_CONTACT_ITERATIVE_NODES: usize = 10_000;
 
 /// Grids with at least this many nodes (and up to [`AUTO_MULTIGRID_NODES`]) take the multigrid solver under
 /// [`SolverKind::Auto`] for their steps without contact that Newton's method corrects, Cholesky for the others
@@ -248,14 +257,14 @@ pub trait BlockSolver: Send {
     /// calls it before each step's first solve; the default ignores it.
     fn set_free_motion(&mut self, _free: bool) {}
 
-    /// Whether the next step without contact would take the iterative solver: what the automatic choice
-    /// ([`auto`]) carries from one step to the next, saved in checkpoints (false, the default, for the others).
-    fn iterative_next(&self) -> bool {
-        false
+    /// Which solver the next steps would take: what the automatic choice ([`auto`]) carries from one step to
+    /// the next, saved in checkpoints (the default for the others).
+    fn picks(&self) -> AutoPicks {
+        AutoPicks::default()
     }
 
-    /// Restores an [`BlockSolver::iterative_next`] (a resumed run); the default ignores it.
-    fn set_iterative_next(&mut self, _iterative: bool) {}
+    /// Restores [`BlockSolver::picks`] (a resumed run); the default ignores them.
+    fn set_picks(&mut self, _picks: AutoPicks) {}
 
     /// Bytes one preconditioned iteration of an iterative solver reads and writes, by the model of
     /// docs/performance.md ("Bytes an iteration"); 0, the default, for a direct solver (and before the first
@@ -275,14 +284,26 @@ pub trait BlockSolver: Send {
 }
 
 /// The solver's part of a checkpoint: the iterative solvers' starting guess for the next step and the
-/// automatic choice's pick for it. (Nothing else carries over between steps: each step's first solve
+/// automatic choice's picks for it. (Nothing else carries over between steps: each step's first solve
 /// factorises or refills afresh.)
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct SolverWarm {
     /// The next step's starting guess.
     pub guess: Vec<Vec3>,
-    /// The next step without contact takes the iterative solver ([`BlockSolver::iterative_next`]).
-    pub iterative_next: bool,
+    /// The automatic choice's picks for the next steps ([`BlockSolver::picks`]).
+    pub picks: AutoPicks,
+}
+
+/// What the automatic choice ([`auto::Auto`]) carries from one step to the next.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AutoPicks {
+    /// The next step without contact takes the iterative solver.
+    pub free_iterative: bool,
+    /// The next step with contact takes the iterative solver.
+    pub contact_iterative: bool,
+    /// Steps with contact the direct solver took since the iterative solver last took one (after
+    /// [`auto::PROBE_STEPS`] the iterative solver is tried again).
+    pub contact_direct: u32,
 }
 
 /// Relative residual `‖b − A x‖ / ‖b‖` an iterative solve reaches ([`cholesky`]'s preconditioned re-solves and
