@@ -12,7 +12,7 @@
 //!   multigrid iterations a solve, and multigrid is 1.6–2× faster than Cholesky there; once it wrinkles where it
 //!   hangs off the ball (about ten steps later) its solves take 20–30 iterations (the wrinkles' low-energy modes
 //!   are not in the grid's coarse space) and Cholesky, whose re-solves reuse its factor, is 1.1–2.2× faster
-//!   (measured from 81² to 241²).
+//!   (measured from 81² to 281²).
 //!
 //! The stepper says which kind of step comes ([`BlockSolver::set_free_motion`]) before the step's first solve;
 //! the choice holds for the whole step (its re-solves and corrections). Both solvers are deterministic and the
@@ -35,7 +35,7 @@ pub const PROBE_STEPS: u32 = 50;
 /// a grid of `nodes` nodes: `15 (nodes / 161²)^¼`. A factorisation's work grows faster with the grid than an
 /// iteration's, so the break-even count grows with it; measured on the ball drop (`examples/solve_trace N 40
 /// cholesky|multigrid`, docs/performance.md, "Which solver takes a contact step"): about 12 at 81², 14 at 121²,
-/// 15 at 161², 22 at 201² and 19 at 241², where this gives 10.6, 12.3, 15, 16.7 and 18.4.
+/// 15 at 161², 22 at 201², 19 at 241² and 23 at 281², where this gives 10.6, 12.3, 15, 16.7, 18.4 and 19.8.
 pub fn contact_iterations_limit(nodes: usize) -> f64 {
     15.0 * (nodes as f64 / 25_921.0).powf(0.25)
 }

@@ -72,10 +72,8 @@ pub enum SolverKind {
     #[default]
     #[cfg_attr(
         feature = "clap",
-        value(
-            help = "Cholesky on small grids, multigrid on large ones and for the steps without contact on mid-size \
-                      ones"
-        )
+        value(help = "Cholesky on small grids, multigrid on large ones; on mid-size ones each step on the one its \
+                      kind and the steps before it favour")
     )]
     Auto,
     /// Sparse Cholesky, its factor reused across steps as a preconditioner.
