@@ -42,7 +42,11 @@ pub fn contact_iterations_limit(nodes: usize) -> f64 {
 
 /// Cholesky and multigrid, each step given to one of them.
 pub struct Auto {
-    direct: Cholesky,
+    /// Analysed at its first solve: a run whose steps all take multigrid (a sheet turning freely on a large grid)
+    /// never pays for the symbolic analysis (0.5 s and 165 MB at 281²).
+    direct: Option<Cholesky>,
+    /// The pattern it is analysed for.
+    pattern: BlockPattern,
     /// `None` where the model's unknowns are not all grid nodes of its panels (multigrid cannot coarsen them):
     /// then every step takes Cholesky.
     iterative: Option<Multigrid>,
@@ -62,12 +66,12 @@ pub struct Auto {
 }
 
 impl Auto {
-    /// Both solvers for `pattern` on the model's `panels` (Cholesky's symbolic analysis done here, the
-    /// multigrid hierarchy built at its first solve).
+    /// Both solvers for `pattern` on the model's `panels` (each analysed at its first solve).
     pub fn new(pattern: &BlockPattern, panels: &[Panel]) -> Result<Self, LinearError> {
         let nodes = pattern.nodes();
         Ok(Self {
-            direct: Cholesky::new(pattern)?,
+            direct: None,
+            pattern: pattern.clone(),
             iterative: Multigrid::new(pattern, panels).ok(),
             nodes,
             free: false,
@@ -83,20 +87,18 @@ impl Auto {
         })
     }
 
-    /// The solver of the coming solves.
-    fn active(&self) -> &dyn BlockSolver {
-        match (&self.iterative, self.on_iterative) {
-            (Some(iterative), true) => iterative,
-            _ => &self.direct,
-        }
+    /// The coming solves are multigrid's.
+    fn iterating(&self) -> bool {
+        self.on_iterative && self.iterative.is_some()
     }
 
-    /// [`Auto::active`], to solve with.
-    fn active_mut(&mut self) -> &mut dyn BlockSolver {
-        match (&mut self.iterative, self.on_iterative) {
-            (Some(iterative), true) => iterative,
-            _ => &mut self.direct,
-        }
+    /// Cholesky, analysed now if it was not yet.
+    fn direct(&mut self) -> Result<&mut Cholesky, LinearError> {
+        let direct = match self.direct.take() {
+            Some(direct) => direct,
+            None => Cholesky::new(&self.pattern)?,
+        };
+        Ok(self.direct.insert(direct))
     }
 
     /// The picks for the next step, from the one that ended. Without contact: a step that one exact solve
@@ -139,7 +141,10 @@ impl BlockSolver for Auto {
         tolerance: Option<f64>,
     ) -> Result<SolveStats, LinearError> {
         self.fresh += usize::from(reuse == Reuse::Fresh);
-        let stats = self.active_mut().solve_to(a, fixed, b, x, reuse, tolerance)?;
+        let stats = match (&mut self.iterative, self.on_iterative) {
+            (Some(iterative), true) => iterative.solve_to(a, fixed, b, x, reuse, tolerance)?,
+            _ => self.direct()?.solve_to(a, fixed, b, x, reuse, tolerance)?,
+        };
         self.solves += 1;
         self.iterations += stats.iterations;
         Ok(stats)
@@ -169,15 +174,22 @@ impl BlockSolver for Auto {
     }
 
     fn iteration_bytes(&self) -> usize {
-        self.active().iteration_bytes()
+        match (&self.iterative, self.iterating()) {
+            (Some(iterative), true) => iterative.iteration_bytes(),
+            _ => 0,
+        }
     }
 
     fn factor_nnz(&self) -> usize {
-        self.direct.factor_nnz()
+        self.direct.as_ref().map_or(0, |direct| direct.factor_nnz())
     }
 
     /// The solver of the coming solves.
     fn kind(&self) -> SolverKind {
-        self.active().kind()
+        if self.iterating() {
+            SolverKind::Multigrid
+        } else {
+            SolverKind::Cholesky
+        }
     }
 }
