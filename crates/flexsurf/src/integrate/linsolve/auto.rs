@@ -67,9 +67,9 @@ pub struct Auto {
 
 impl Auto {
     /// Both solvers for `pattern` on the model's `panels` (each analysed at its first solve).
-    pub fn new(pattern: &BlockPattern, panels: &[Panel]) -> Result<Self, LinearError> {
+    pub fn new(pattern: &BlockPattern, panels: &[Panel]) -> Self {
         let nodes = pattern.nodes();
-        Ok(Self {
+        Self {
             direct: None,
             pattern: pattern.clone(),
             iterative: Multigrid::new(pattern, panels).ok(),
@@ -84,7 +84,7 @@ impl Auto {
             fresh: 0,
             solves: 0,
             iterations: 0,
-        })
+        }
     }
 
     /// The coming solves are multigrid's.
@@ -174,7 +174,7 @@ impl BlockSolver for Auto {
     }
 
     fn iteration_bytes(&self) -> usize {
-        match (&self.iterative, self.iterating()) {
+        match (&self.iterative, self.on_iterative) {
             (Some(iterative), true) => iterative.iteration_bytes(),
             _ => 0,
         }

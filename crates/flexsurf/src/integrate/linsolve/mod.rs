@@ -156,7 +156,7 @@ impl SolverKind {
         let nodes = pattern.nodes();
         Ok(match self.resolve(nodes) {
             SolverKind::Cholesky if self == SolverKind::Auto && nodes >= AUTO_FREE_MOTION_NODES => {
-                Box::new(Auto::new(pattern, panels)?)
+                Box::new(Auto::new(pattern, panels))
             }
             SolverKind::Auto | SolverKind::Cholesky => Box::new(Cholesky::new(pattern)?),
             SolverKind::Multigrid => Box::new(Multigrid::new(pattern, panels)?),
