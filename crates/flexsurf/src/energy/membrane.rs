@@ -218,8 +218,8 @@ impl Cell {
     }
 
     /// The operator `op` of this cell (material part `Σ ∇s_a Q_ab ∇s_bᵀ` unless secant, and the geometric
-    /// part, exact or its positive part) into its 10 blocks `h`, from the strain gradients `ds` and stresses
-    /// `sigma`.
+    /// part, exact, its positive part or its absolute value) into its 10 blocks `h`, from the strain gradients
+    /// `ds` and stresses `sigma`.
     fn hessian(&self, h: &mut [Mat3], op: Operator, ds: &[[Vec3; 4]; NS], sigma: &[f64; NS]) {
         // Scalar (⊗ I3) geometric part, 4×4.
         let mut geo = [[0.0; 4]; 4];
@@ -234,6 +234,7 @@ impl Cell {
                     }
                 }
                 Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
+                Operator::Reflected => reflected(&mut geo, al, be, 0.5 * sc * sg),
             }
         }
         // t[a][l] = Σ_b Q_ab ∇_l s_b, so the material block (k, l) is Σ_a ∇_k s_a t[a][l]ᵀ.
@@ -264,6 +265,13 @@ impl Cell {
             }
         }
     }
+}
+
+/// Adds the absolute value of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`: its positive part and its negative
+/// part with the sign turned ([`Operator::Reflected`]).
+pub(crate) fn reflected(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
+    positive_part(geo, al, be, c);
+    positive_part(geo, al, be, -c);
 }
 
 /// Adds the positive part of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`, written as

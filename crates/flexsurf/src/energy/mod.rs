@@ -28,6 +28,14 @@ pub enum Operator {
     /// stiffness; for bending, Gauss–Newton (`Jᵀ D J` of the curvature changes) alone, the moment's second
     /// derivative term dropped; for the Terzopoulos bending, its lagged operator (docs/model.md §7).
     Projected,
+    /// `Projected` with the membrane's negative stress stiffness reflected instead of dropped: each strain's
+    /// geometric part `σ (α βᵀ + β αᵀ)` enters as its absolute value (its positive part plus its negative part
+    /// with the sign turned), so a compressed fibre keeps the lateral stiffness `|σ|` where the projection leaves
+    /// none; equal to `Projected` where every stress is a tension and for every other term. Positive
+    /// semi-definite. The step's operator where contact acts (docs/model.md §8.5): the compressed folds of a
+    /// draped sheet then stay near their linear model within the step, where the projection lets the linearised
+    /// step throw them.
+    Reflected,
     /// The paper's lagged-coefficient secant operator: frozen (tension-clamped) stresses and frozen normals,
     /// material stiffness left out (docs/model.md §A7). Used only by the `lagged` integrator.
     Secant,

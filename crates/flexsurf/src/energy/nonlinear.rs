@@ -14,12 +14,13 @@
 //!
 //! **Operators.** Exact: `Σ c φ''(m) ∇m ∇mᵀ + Σ c φ'(m) ∇²m`. Projected: the first sum (positive
 //! semi-definite, since `φ'' = N' − k ≥ 0`), plus for the membrane the positive part of each strain's excess
-//! stress stiffness; for bending the first sum alone. Secant: the membrane's positive stress part only, the
-//! bending's first sum with frozen normals. So the excess follows the conventions of the linear terms.
+//! stress stiffness (Reflected: its absolute value); for bending the first sum alone. Secant: the membrane's
+//! positive stress part only, the bending's first sum with frozen normals. So the excess follows the
+//! conventions of the linear terms.
 
 use super::bending::{cell_frame, cell_normal_stencils, node_frame, CellFrame, Point, MEASURES};
 use super::frame::{Frame, Warp};
-use super::membrane::positive_part;
+use super::membrane::{positive_part, reflected};
 use super::parallel::{assemble, Item, Local, Pool};
 use super::{Operator, Sink};
 use crate::grid::Grid;
@@ -352,6 +353,7 @@ impl Cell {
                     }
                 }
                 Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sigma[a]),
+                Operator::Reflected => reflected(&mut geo, al, be, 0.5 * sc * sigma[a]),
             }
         }
         // ∇_k m for each use.

@@ -256,6 +256,8 @@ pub struct Stepper {
     merge: bool,
     /// It did: the refinement's records are held for the correction.
     merged: bool,
+    /// This step's solves take the reflected operator ([`Stepper::reflects`]).
+    reflect: bool,
     /// The first solve's proposal, the gradient there of the terms without contact, and the nodes a contact
     /// record or lagged friction acts on ([`Stepper::merges`]).
     proposal: Vec<Vec3>,
@@ -378,17 +380,32 @@ impl Stepper {
             refine_seconds: 0.0,
             merge: false,
             merged: false,
+            reflect: false,
             proposal: Vec::new(),
             field: Vec::new(),
             touched: Vec::new(),
         })
     }
 
+    /// The operator of the step's solves: the lagged scheme's secant one; for the others the positive
+    /// semi-definite `H⁺`, reflected ([`Operator::Reflected`]) in a contact step ([`Stepper::reflect`]).
     fn operator(&self) -> Operator {
         match self.params.scheme {
+            Scheme::Linearized | Scheme::Bdf2 if self.reflect => Operator::Reflected,
             Scheme::Linearized | Scheme::Bdf2 => Operator::Projected,
             Scheme::Lagged => Operator::Secant,
         }
+    }
+
+    /// Whether this step's solves take the reflected operator: where contact with obstacles acts (detected at
+    /// the step's start, or after its first solve) and no pair between faces is engaged. A contact step keeps
+    /// its linearised step and at most a correction or a few, unconverged where the sheet folds
+    /// (docs/performance.md, "The reflected operator in contact steps"), and with the compressed membrane's
+    /// stress stiffness reflected those solves leave fewer re-solves and corrections and a smaller residual;
+    /// a step without contact, which Newton's method iterates to its tolerance, converges faster near the
+    /// solution with the projection, and the pairs between faces of a garment's sewing tunnelled with it.
+    fn reflects(model: &Model, ws: &Workspace) -> bool {
+        model.potential.engaged(ws) && model.potential.convergent(ws)
     }
 
     /// Assembles the step system at `state` without solving: afterwards [`Stepper::matrix`] is `A_t` (before
@@ -403,6 +420,10 @@ impl Stepper {
         for &(k, _, to) in &self.pin_moves {
             self.y[k] = to;
         }
+        // The active sets first: a step that starts in contact is assembled with the reflected operator.
+        let cx = model.potential.context(Some(self.history.motion(model, state, self.h, true)));
+        model.potential.prepare(&self.y, &cx, &mut self.ws);
+        self.reflect = Self::reflects(model, &self.ws);
         let want = Want { grad: true, hess: Some(self.operator()) };
         self.assemble_at(model, state, true, want)
     }
@@ -785,6 +806,7 @@ impl Stepper {
         if self.params.scheme == Scheme::Lagged || !model.potential.conservative() {
             return Ok((tf, t_solve, report));
         }
+        self.reflect = Self::reflects(model, &self.ws);
         if model.potential.engaged(&self.ws) {
             report.contact = true;
             return self.contact_corrections(model, state, report, (tf, t_solve), t_assembly);

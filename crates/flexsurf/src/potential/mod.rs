@@ -423,6 +423,8 @@ pub struct Workspace {
     base_grad: Vec<Vec3>,
     base_extra: Vec<Mat3>,
     journal: Vec<(u32, Mat3)>,
+    /// The active sets were detected for the next assembly ([`Potential::prepare`]), which then keeps them.
+    prepared: bool,
 }
 
 impl Workspace {
@@ -439,6 +441,7 @@ impl Workspace {
             base_grad: vec![Vec3::ZERO; n],
             base_extra: Vec::new(),
             journal: Vec::new(),
+            prepared: false,
         }
     }
 
@@ -582,9 +585,24 @@ impl Potential {
         Context { fixed: self.pins.flags(), diag: &self.diag, motion }
     }
 
+    /// Detects every term's active set at `x` for the next [`Potential::assemble`] at the same `x` and `cx`,
+    /// which keeps them: what is engaged ([`Potential::engaged`]) is then known before anything is assembled.
+    pub fn prepare(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) {
+        for (t, a) in self.active_sets() {
+            let t0 = std::time::Instant::now();
+            a.prepare(x, cx, &mut ws.scratch[t]);
+            if self.terms[t].info().stage == Stage::Contact {
+                let seconds = t0.elapsed().as_secs_f64();
+                ws.contact_seconds += seconds;
+                ws.term_seconds[t] += seconds;
+            }
+        }
+        ws.prepared = true;
+    }
+
     /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x`: the value of each
-    /// part, and what `want` asks into `ws.grad` and `ws.matrix`. Terms with an active set detect it here.
-    /// Fixed nodes' gradient rows are zero afterwards.
+    /// part, and what `want` asks into `ws.grad` and `ws.matrix`. Terms with an active set detect it here,
+    /// unless [`Potential::prepare`] did. Fixed nodes' gradient rows are zero afterwards.
     pub fn assemble(
         &self,
         x: &[Vec3],
@@ -615,7 +633,7 @@ impl Potential {
                 ws.base_extra.clone_from(&ws.matrix.extra.blocks);
                 contact_started = true;
             }
-            if let Some(a) = term.active_set() {
+            if let Some(a) = term.active_set().filter(|_| !ws.prepared) {
                 a.prepare(x, cx, &mut ws.scratch[t]);
             }
             energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
@@ -628,6 +646,7 @@ impl Potential {
         if !extra_done {
             energy = ws.apply(extra, Slot::Extra, &pass, energy, &mut values);
         }
+        ws.prepared = false;
         values.total = energy;
         self.zero_fixed(&mut ws.grad);
         values

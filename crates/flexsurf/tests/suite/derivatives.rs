@@ -269,8 +269,9 @@ fn the_step_system_matches_finite_differences() {
     check(&model.potential, &y, Some(motion), Some(&Inertia), Operator::Exact).assert_below("step potential", TOL);
 }
 
-/// The stepper assembles exactly the potential's system: its matrix is the assembly's `Projected` matrix with
-/// the inertia, its right-hand side minus the gradient (zero on pinned nodes).
+/// The stepper assembles exactly the potential's system: its matrix is the assembly's operator with the inertia
+/// (`Reflected`: the plane touches at the start, a contact step), its right-hand side minus the gradient (zero on
+/// pinned nodes).
 #[test]
 fn the_stepper_uses_the_potential_assembly() {
     let fabric = Fabric { damping: 0.4, ..Fabric::paper_cotton() };
@@ -316,7 +317,7 @@ fn the_stepper_uses_the_potential_assembly() {
         predict: true,
         exact: false,
     };
-    let (assembled, _) = hessians(&model.potential, &state.x, Some(motion), Some(&Inertia), Operator::Projected);
+    let (assembled, _) = hessians(&model.potential, &state.x, Some(motion), Some(&Inertia), Operator::Reflected);
     assert_eq!(st.matrix().to_dense(model.potential.pattern()), assembled);
     let (_, grad) = flexsurf::testing::value_gradient(
         &model.potential,
@@ -334,7 +335,10 @@ fn the_stepper_uses_the_potential_assembly() {
 /// `Projected` is positive semi-definite for every elastic term; it equals `Exact` where the stresses vanish (the
 /// rest state); for bending it is Gauss–Newton only, so it differs from `Exact` wherever moments act; for the
 /// membrane under uniform stretch (tension only) it keeps the whole stress stiffness and equals `Exact`, and under
-/// compression it drops it. `Secant` (the lagged operator) is positive semi-definite.
+/// compression it drops it. `Reflected` is positive semi-definite too, equals `Projected` for bending and for the
+/// membrane in tension, and under compression adds the dropped part back with its sign turned: `Reflected −
+/// Projected = Projected − Exact` in the membrane's stress stiffness. `Secant` (the lagged operator) is positive
+/// semi-definite.
 #[test]
 fn hessian_approximations_are_what_they_say() {
     let s = cotton(Calibration::Kes);
@@ -354,7 +358,7 @@ fn hessian_approximations_are_what_they_say() {
         let top = ex_rest.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
         let diff = max_diff(&ex_rest, &pr_rest);
         assert!(diff <= 1e-12 * top, "{name}: Projected ≠ Exact at rest ({diff:.2e})");
-        for op in [Operator::Projected, Operator::Secant] {
+        for op in [Operator::Projected, Operator::Reflected, Operator::Secant] {
             let (h, _) = hessians(&pot, &wrinkled, None, None, op);
             let (lo, hi) = eigen_range(&h);
             assert!(lo > -1e-12 * hi, "{name}: {op:?} has eigenvalue {lo:.3e} (top {hi:.3e})");
@@ -366,6 +370,18 @@ fn hessian_approximations_are_what_they_say() {
         }
         let (pr, _) = hessians(&pot, &wrinkled, None, None, Operator::Projected);
         assert!(max_diff(&ex, &pr) > 1e-6 * hi, "{name}: Projected should drop stress stiffness here");
+        let (re, _) = hessians(&pot, &wrinkled, None, None, Operator::Reflected);
+        if name == "membrane" {
+            // The membrane's material part is in all three: Reflected − Projected = Projected − Exact.
+            let mirror = |a: &[Vec<f64>], b: &[Vec<f64>]| -> Vec<Vec<f64>> {
+                a.iter().zip(b).map(|(r, q)| r.iter().zip(q).map(|(x, y)| x - y).collect()).collect()
+            };
+            let gap = max_diff(&mirror(&re, &pr), &mirror(&pr, &ex));
+            assert!(gap <= 1e-10 * hi, "{name}: Reflected is not Projected's mirror of Exact ({gap:.2e})");
+            assert!(max_diff(&re, &pr) > 1e-6 * hi, "{name}: Reflected should keep the compressed stiffness");
+        } else {
+            assert_eq!(re, pr, "{name}: Reflected is Projected outside the membrane");
+        }
     }
     // Membrane under uniform biaxial stretch (no shear stress): all stretch stresses are tensions, kept whole.
     let pot = alone(n, Box::new(Membrane::new(&g, &rest, &s)));
@@ -374,6 +390,8 @@ fn hessian_approximations_are_what_they_say() {
     let (pr, _) = hessians(&pot, &stretched, None, None, Operator::Projected);
     let top = ex.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
     assert!(max_diff(&ex, &pr) <= 1e-10 * top, "membrane in tension: Projected ≠ Exact ({:.2e})", max_diff(&ex, &pr));
+    let (re, _) = hessians(&pot, &stretched, None, None, Operator::Reflected);
+    assert!(max_diff(&ex, &re) <= 1e-10 * top, "membrane in tension: Reflected ≠ Exact ({:.2e})", max_diff(&ex, &re));
 }
 
 fn max_diff(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {

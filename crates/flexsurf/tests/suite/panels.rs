@@ -80,9 +80,13 @@ fn two_identical_sheets_fall_as_one_does() {
     let first = (0..n).map(|k| (both.x[k] - alone.x[k]).length()).fold(0.0, f64::max);
     let second = (0..n).map(|k| (both.x[n + k] - away - alone.x[k]).length()).fold(0.0, f64::max);
     // The contact steps' re-solves stop at a relative residual of 1e-6 (`CONTACT_STEP_TOLERANCE`), measured over
-    // the whole model: two panels stop their conjugate gradients at other iterations than one, so each re-solve
-    // may leave 1e-6 of its increment (a centimetre or less) between them.
-    assert!(first < 1e-8 && second < 1e-8, "panels differ from the sheet alone by {first:e} and {second:e} m");
+    // the whole model: two panels stop their conjugate gradients at other iterations than one (one iteration
+    // more in some steps, the same solves and decisions), so each re-solve may leave 1e-6 of its increment
+    // between them, and the sheet sliding compressed on the floor carries that on: measured 2e-13 m
+    // at the landing (step 31), 2.8e-6 m at step 73 at one node, 7.5e-6 and 1.05e-5 m at the end (with `H⁺` in
+    // the contact steps, before the reflected operator, 1.0e-9 and 1.9e-9 m): about what a change of that
+    // tolerance moves the drop (docs/performance.md, "Continuity in the solver's tolerance").
+    assert!(first < 3e-5 && second < 3e-5, "panels differ from the sheet alone by {first:e} and {second:e} m");
 }
 
 /// A square sheet clamped along its edge u2 = 0, sagging under its weight.

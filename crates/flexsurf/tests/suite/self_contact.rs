@@ -389,9 +389,10 @@ fn a_ball_thinner_than_the_grid_cannot_pass_through_a_face() {
 }
 
 /// Self-contact switched on where the sheet never comes near itself changes nothing: the 21² sheet dropped onto
-/// a ball (the demo's drop, 0.8 s: the fall, the impact and the start of the drape, with friction) makes no
+/// a ball (the demo's drop, 0.55 s: the fall, the impact and the start of the drape, with friction) makes no
 /// self-contact record on any step, and its path stays within round-off of the same drop without the term
-/// (issue 19: "within solver tolerance when on but no self-contact occurs").
+/// (issue 19: "within solver tolerance when on but no self-contact occurs"). (Later in the drape its folds come
+/// within the thickness of each other: at 0.59 s since contact steps take the reflected operator.)
 #[test]
 fn self_contact_that_never_engages_leaves_the_ball_drop_as_it_was() {
     let (fabric, stiffness) = cotton();
@@ -408,7 +409,7 @@ fn self_contact_that_never_engages_leaves_the_ball_drop_as_it_was() {
         let mut state = flexsurf::integrate::start(&model, rest.clone(), vec![Vec3::ZERO; rest.len()], 0.01).unwrap();
         let mut stepper = Stepper::new(&model, &StepParams::with_dt(0.01)).unwrap();
         let mut path = Vec::new();
-        for _ in 0..80 {
+        for _ in 0..55 {
             let info = stepper.step(&model, &mut state).unwrap();
             assert_eq!(info.self_contacts, 0, "step {}: the drop should not touch itself", state.step);
             path.push(state.x.clone());
@@ -418,7 +419,7 @@ fn self_contact_that_never_engages_leaves_the_ball_drop_as_it_was() {
     let (off, on) = (drop(false), drop(true));
     let worst =
         off.iter().zip(&on).flat_map(|(a, b)| a.iter().zip(b).map(|(p, q)| (*p - *q).length())).fold(0.0, f64::max);
-    // Round-off of the solves (relative 1e-11) on a 1 m sheet, carried over 80 steps.
+    // Round-off of the solves (relative 1e-11) on a 1 m sheet, carried over 55 steps.
     assert!(worst < 1e-9, "the paths part by {worst:e} m");
     // The drop did reach the ball: its centre lies on it.
     let centre = on.last().unwrap()[grid.index(10, 10)];

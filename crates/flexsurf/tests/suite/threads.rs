@@ -48,7 +48,8 @@ fn evaluate(
 
 /// Every combination of gradient and operator under 1, 2 and 5 threads gives the same bits.
 fn check_kernel(name: &str, pattern: &BlockPattern, n: usize, eval: &(dyn Fn(&mut Sink) -> f64 + Sync)) {
-    let ops = [None, Some(Operator::Exact), Some(Operator::Projected), Some(Operator::Secant)];
+    let ops =
+        [None, Some(Operator::Exact), Some(Operator::Projected), Some(Operator::Reflected), Some(Operator::Secant)];
     for grad in [false, true] {
         for op in ops {
             let runs: Vec<Bits> =
