@@ -388,7 +388,7 @@ impl Stepper {
     }
 
     /// The operator of the step's solves: the lagged scheme's secant one; for the others the positive
-    /// semi-definite `H⁺`, reflected ([`Operator::Reflected`]) in a contact step ([`Stepper::reflect`]).
+    /// semi-definite `H⁺`, reflected ([`Operator::Reflected`]) in a contact step ([`Stepper::reflects`]).
     fn operator(&self) -> Operator {
         match self.params.scheme {
             Scheme::Linearized | Scheme::Bdf2 if self.reflect => Operator::Reflected,
