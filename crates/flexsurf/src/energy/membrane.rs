@@ -233,8 +233,7 @@ impl Cell {
                         }
                     }
                 }
-                Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sg),
-                Operator::Reflected => reflected(&mut geo, al, be, 0.5 * sc * sg),
+                _ => stress_part(&mut geo, al, be, 0.5 * sc * sg, op == Operator::Reflected),
             }
         }
         // t[a][l] = Σ_b Q_ab ∇_l s_b, so the material block (k, l) is Σ_a ∇_k s_a t[a][l]ᵀ.
@@ -267,27 +266,24 @@ impl Cell {
     }
 }
 
-/// Adds the absolute value of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`: its positive part and its negative
-/// part with the sign turned ([`Operator::Reflected`]).
-pub(crate) fn reflected(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
-    positive_part(geo, al, be, c);
-    positive_part(geo, al, be, -c);
-}
-
 /// Adds the positive part of the rank-≤2 matrix `c (α βᵀ + β αᵀ)` to `geo`, written as
-/// `c|α||β|/2 [(â+b̂)(â+b̂)ᵀ − (â−b̂)(â−b̂)ᵀ]` and keeping the term whose sign is positive.
-pub(crate) fn positive_part(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64) {
+/// `c|α||β|/2 [(â+b̂)(â+b̂)ᵀ − (â−b̂)(â−b̂)ᵀ]` and keeping the term whose sign is positive; with `reflect`, its
+/// absolute value: the other term too, its sign turned ([`Operator::Reflected`]).
+pub(crate) fn stress_part(geo: &mut [[f64; 4]; 4], al: &[f64; 4], be: &[f64; 4], c: f64, reflect: bool) {
     let na = al.iter().map(|v| v * v).sum::<f64>().sqrt();
     let nb = be.iter().map(|v| v * v).sum::<f64>().sqrt();
     if na == 0.0 || nb == 0.0 || c == 0.0 {
         return;
     }
     let sign = if c > 0.0 { 1.0 } else { -1.0 };
-    let u: [f64; 4] = std::array::from_fn(|k| al[k] / na + sign * be[k] / nb);
     let coef = c.abs() * na * nb * 0.5;
-    for k in 0..4 {
-        for l in 0..4 {
-            geo[k][l] += coef * u[k] * u[l];
+    let halves: &[f64] = if reflect { &[sign, -sign] } else { &[sign] };
+    for &half in halves {
+        let u: [f64; 4] = std::array::from_fn(|k| al[k] / na + half * be[k] / nb);
+        for k in 0..4 {
+            for l in 0..4 {
+                geo[k][l] += coef * u[k] * u[l];
+            }
         }
     }
 }

@@ -20,7 +20,7 @@
 
 use super::bending::{cell_frame, cell_normal_stencils, node_frame, CellFrame, Point, MEASURES};
 use super::frame::{Frame, Warp};
-use super::membrane::{positive_part, reflected};
+use super::membrane::stress_part;
 use super::parallel::{assemble, Item, Local, Pool};
 use super::{Operator, Sink};
 use crate::grid::Grid;
@@ -352,8 +352,7 @@ impl Cell {
                         }
                     }
                 }
-                Operator::Projected | Operator::Secant => positive_part(&mut geo, al, be, 0.5 * sc * sigma[a]),
-                Operator::Reflected => reflected(&mut geo, al, be, 0.5 * sc * sigma[a]),
+                _ => stress_part(&mut geo, al, be, 0.5 * sc * sigma[a], op == Operator::Reflected),
             }
         }
         // ∇_k m for each use.

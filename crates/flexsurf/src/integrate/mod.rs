@@ -425,7 +425,9 @@ impl Stepper {
         model.potential.prepare(&self.y, &cx, &mut self.ws);
         self.reflect = Self::reflects(model, &self.ws);
         let want = Want { grad: true, hess: Some(self.operator()) };
-        self.assemble_at(model, state, true, want)
+        let values = model.potential.assemble_prepared(&self.y, &cx, Some(&Inertia), want, &mut self.ws);
+        self.residual_from_gradient(model);
+        values
     }
 
     /// Assembles the Newton system of the step's implicit equation

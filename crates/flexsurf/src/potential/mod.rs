@@ -423,8 +423,6 @@ pub struct Workspace {
     base_grad: Vec<Vec3>,
     base_extra: Vec<Mat3>,
     journal: Vec<(u32, Mat3)>,
-    /// The active sets were detected for the next assembly ([`Potential::prepare`]), which then keeps them.
-    prepared: bool,
 }
 
 impl Workspace {
@@ -441,8 +439,14 @@ impl Workspace {
             base_grad: vec![Vec3::ZERO; n],
             base_extra: Vec::new(),
             journal: Vec::new(),
-            prepared: false,
         }
+    }
+
+    /// Counts the seconds since `t0` as contact time of term `t`.
+    fn contact_time(&mut self, t: usize, t0: std::time::Instant) {
+        let seconds = t0.elapsed().as_secs_f64();
+        self.contact_seconds += seconds;
+        self.term_seconds[t] += seconds;
     }
 
     /// Term `t`'s scratch (its support and warm start), for inspection.
@@ -585,25 +589,37 @@ impl Potential {
         Context { fixed: self.pins.flags(), diag: &self.diag, motion }
     }
 
-    /// Detects every term's active set at `x` for the next [`Potential::assemble`] at the same `x` and `cx`,
-    /// which keeps them: what is engaged ([`Potential::engaged`]) is then known before anything is assembled.
+    /// Every term's active set detected at `x` ([`Potential::prepare`]), then every term evaluated there
+    /// ([`Potential::assemble_prepared`]).
+    pub fn assemble(
+        &self,
+        x: &[Vec3],
+        cx: &Context,
+        extra: Option<&dyn Term>,
+        want: Want,
+        ws: &mut Workspace,
+    ) -> Values {
+        self.prepare(x, cx, ws);
+        self.assemble_prepared(x, cx, extra, want, ws)
+    }
+
+    /// Detects every term's active set at `x`, for [`Potential::assemble_prepared`] at the same `x` and `cx`: what is
+    /// engaged ([`Potential::engaged`]) is then known before anything is assembled (the stepper chooses its
+    /// operator by it).
     pub fn prepare(&self, x: &[Vec3], cx: &Context, ws: &mut Workspace) {
         for (t, a) in self.active_sets() {
             let t0 = std::time::Instant::now();
             a.prepare(x, cx, &mut ws.scratch[t]);
             if self.terms[t].info().stage == Stage::Contact {
-                let seconds = t0.elapsed().as_secs_f64();
-                ws.contact_seconds += seconds;
-                ws.term_seconds[t] += seconds;
+                ws.contact_time(t, t0);
             }
         }
-        ws.prepared = true;
     }
 
-    /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x`: the value of each
-    /// part, and what `want` asks into `ws.grad` and `ws.matrix`. Terms with an active set detect it here,
-    /// unless [`Potential::prepare`] did. Fixed nodes' gradient rows are zero afterwards.
-    pub fn assemble(
+    /// Evaluates every term (and `extra`, the integrator's own term, at its stage) at `x` with the active sets
+    /// [`Potential::prepare`] detected: the value of each part, and what `want` asks into `ws.grad` and
+    /// `ws.matrix`. Fixed nodes' gradient rows are zero afterwards.
+    pub fn assemble_prepared(
         &self,
         x: &[Vec3],
         cx: &Context,
@@ -633,20 +649,14 @@ impl Potential {
                 ws.base_extra.clone_from(&ws.matrix.extra.blocks);
                 contact_started = true;
             }
-            if let Some(a) = term.active_set().filter(|_| !ws.prepared) {
-                a.prepare(x, cx, &mut ws.scratch[t]);
-            }
             energy = ws.apply(Some(&**term), Slot::Term(t), &pass, energy, &mut values);
             if let Some(t0) = t0 {
-                let seconds = t0.elapsed().as_secs_f64();
-                ws.contact_seconds += seconds;
-                ws.term_seconds[t] += seconds;
+                ws.contact_time(t, t0);
             }
         }
         if !extra_done {
             energy = ws.apply(extra, Slot::Extra, &pass, energy, &mut values);
         }
-        ws.prepared = false;
         values.total = energy;
         self.zero_fixed(&mut ws.grad);
         values
