@@ -262,14 +262,41 @@ pub fn repo() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// A fresh empty directory for one test: `flexsurf-{suite}-{tag}-{pid}` in the system's temporary folder.
-pub fn scratch(suite: &str, tag: &str) -> std::path::PathBuf {
+/// A fresh empty directory for one test: `flexsurf-{suite}-{tag}-{pid}` in the system's temporary folder, removed
+/// when the returned guard goes out of scope (kept where the test fails, to be inspected).
+pub fn scratch(suite: &str, tag: &str) -> ScratchDir {
     let d = std::env::temp_dir().join(format!("flexsurf-{suite}-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     if let Err(e) = std::fs::create_dir_all(&d) {
         panic!("cannot create the scratch folder {}: {e}", d.display());
     }
-    d
+    ScratchDir(d)
+}
+
+/// A test's scratch folder ([`scratch`]): the path, and the folder removed with its contents when dropped, unless
+/// the thread is panicking (a failing test's files stay for its diagnosis).
+#[derive(Debug)]
+pub struct ScratchDir(std::path::PathBuf);
+
+impl std::ops::Deref for ScratchDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for ScratchDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// A small curved test mesh with normals (a 4 × 3 sheet bent in z, tessellated twice), for the writer tests.

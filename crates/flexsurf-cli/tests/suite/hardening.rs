@@ -14,7 +14,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_flexsurf");
 use flexsurf::testing::repo;
 
 /// A fresh empty directory for one test.
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("cli-hardening", tag)
 }
 

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_flexsurf");
 
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("cli-trust", tag)
 }
 
@@ -31,14 +31,14 @@ fn flexsurf(args: &[&str]) -> (i32, String) {
     (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
-/// A run folder with a finished run in it.
-fn run_folder(tag: &str) -> PathBuf {
+/// A run folder with a finished run in it, and its scratch folder (removed when dropped).
+fn run_folder(tag: &str) -> (flexsurf::testing::ScratchDir, PathBuf) {
     let d = scratch(tag);
     let scene = drop_scene(&d, 20);
     let out = d.join("out");
     let (code, err) = flexsurf(&["run", scene.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
-    out
+    (d, out)
 }
 
 /// `flexsurf view DIR --serve --port 0`, killed when dropped; `port` is the one it printed.
@@ -96,7 +96,7 @@ impl Drop for Server {
 
 #[test]
 fn regression_idle_connections_stalled_view_serve() {
-    let out = run_folder("idle");
+    let (_dir, out) = run_folder("idle");
     let server = Server::start(&out);
     let host = format!("127.0.0.1:{}", server.port);
     let idle: Vec<TcpStream> = (0..10).map(|_| server.connect()).collect();
@@ -114,7 +114,7 @@ fn regression_idle_connections_stalled_view_serve() {
 
 #[test]
 fn regression_view_serve_accepted_an_oversized_request_line() {
-    let out = run_folder("oversized");
+    let (_dir, out) = run_folder("oversized");
     let server = Server::start(&out);
     let mut request = b"GET /".to_vec();
     request.extend(std::iter::repeat_n(b'a', 1 << 20));
@@ -126,7 +126,7 @@ fn regression_view_serve_accepted_an_oversized_request_line() {
 
 #[test]
 fn regression_view_serve_did_not_check_the_host_header() {
-    let out = run_folder("host");
+    let (_dir, out) = run_folder("host");
     let server = Server::start(&out);
     let port = server.port;
     for bad in [format!("attacker.example:{port}"), "127.0.0.1".into(), format!("127.0.0.1:{}", port.wrapping_add(1))] {
@@ -147,7 +147,7 @@ fn regression_view_serve_did_not_check_the_host_header() {
 #[cfg(unix)]
 #[test]
 fn regression_view_blocked_forever_on_a_fifo() {
-    let out = run_folder("fifo");
+    let (_dir, out) = run_folder("fifo");
     std::fs::remove_file(out.join("summary.json")).unwrap();
     assert!(Command::new("mkfifo").arg(out.join("summary.json")).status().unwrap().success());
     let t = Instant::now();

@@ -46,6 +46,6 @@ mod unit_scene;
 mod unit_surface;
 
 /// A fresh empty directory for one unit test (`unit_*` modules), named after `tag`.
-fn scratch_dir(tag: &str) -> std::path::PathBuf {
+fn scratch_dir(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("unit", tag)
 }

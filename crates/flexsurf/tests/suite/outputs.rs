@@ -14,7 +14,7 @@ use std::sync::Arc;
 use flexsurf::testing::repo;
 
 /// A fresh empty directory for one test.
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("outputs", tag)
 }
 

@@ -9,14 +9,14 @@ use flexsurf::runner::{run_scene_with, RunOptions};
 use flexsurf::scene::{Scene, SceneSpec};
 use flexsurf::testing::assert_same_outputs;
 use rand::{Rng, SeedableRng};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use flexsurf::testing::repo;
 
 /// A fresh empty directory for one test.
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("resume", tag)
 }
 

@@ -11,12 +11,12 @@ use flexsurf::runner::run_scene;
 use flexsurf::scene::material::load_material_file;
 use flexsurf::scene::IntegratorKind;
 use flexsurf::scene::{self, SceneError, SceneSpec};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use flexsurf::testing::repo;
 
 /// A fresh empty directory for one test.
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("scenes", tag)
 }
 

@@ -15,7 +15,7 @@ fn skirt_path() -> PathBuf {
 }
 
 /// A fresh empty directory for one test.
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("skirt", tag)
 }
 

@@ -9,11 +9,11 @@ use flexsurf::runner::FrameRecord;
 use flexsurf::runner::{run_scene_with, RunOptions};
 use flexsurf::scene;
 use sha2::Digest;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-fn scratch(tag: &str) -> PathBuf {
+fn scratch(tag: &str) -> flexsurf::testing::ScratchDir {
     flexsurf::testing::scratch("trust", tag)
 }
 
