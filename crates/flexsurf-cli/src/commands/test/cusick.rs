@@ -43,7 +43,7 @@ pub struct CusickArgs {
     /// deviation are reported, as a drape-meter operator would).
     #[arg(long, default_value_t = 1)]
     specimens: usize,
-    /// The relaxation stops when no node moves faster than this (m/s; default 1e-3, or 1e-4 with --no-static);
+    /// The relaxation stops when no node moves faster than this (m/s; default 1e-2, or 1e-4 with --no-static);
     /// a static solve then finds the equilibrium.
     #[arg(long)]
     rest_speed: Option<f64>,
