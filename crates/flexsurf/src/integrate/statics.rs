@@ -720,32 +720,68 @@ impl StaticSolver {
     }
 
     /// Factorises `H + μ s I` into the step `(H + μ s I) p = −g`, growing `μ` until positive definite: the exact
-    /// Hessian up to a shift of [`EXACT_SHIFT`], then the PSD operator from the shift it started with. False
-    /// when none could be.
+    /// Hessian up to a shift of [`EXACT_SHIFT`] ([`Self::exact_shift`]), then the PSD operator from the shift it
+    /// started with. False when none could be.
     fn factorise(&mut self, model: &Model, x: &[Vec3], nw: &mut Newton, scale: f64) -> bool {
-        let mu0 = nw.mu;
-        for _ in 0..24 {
-            let s = (nw.mu * scale).max(EPS_SHIFT * scale);
-            for (p, g) in nw.step.iter_mut().zip(&nw.grad) {
-                *p = -*g;
-            }
-            if self.factor_with(model, s, &mut nw.step) {
-                nw.certified = nw.op == Operator::Exact && nw.mu * scale <= EPS_SHIFT * scale;
+        if nw.op == Operator::Exact {
+            if let Some(mu) = self.exact_shift(model, nw, scale) {
+                nw.mu = mu;
+                nw.certified = mu * scale <= EPS_SHIFT * scale;
                 return true;
             }
-            if nw.op == Operator::Exact && nw.mu < EXACT_SHIFT {
-                nw.mu = (nw.mu * 10.0).max(1e-10);
-                continue;
-            }
-            if nw.op == Operator::Exact {
-                nw.mu = mu0;
-                nw.op = Operator::Projected;
-                self.eval(model, x, nw.lam, Want { grad: false, hess: Some(nw.op) });
-                continue;
+            nw.op = Operator::Projected;
+            self.eval(model, x, nw.lam, Want { grad: false, hess: Some(nw.op) });
+        }
+        nw.certified = false;
+        for _ in 0..24 {
+            if self.factor_step(model, nw, scale) {
+                return true;
             }
             nw.mu = (nw.mu * 10.0).max(1e-10);
         }
         false
+    }
+
+    /// The smallest shift of the ladder `μ₀, max(10 μ₀, 1e-10), …` (up to the first at or above
+    /// [`EXACT_SHIFT`]) at which the exact Hessian factorises, factorised into the step; `None` when none does
+    /// (`nw.mu` is then back at `μ₀`). The ladder's top is tried right after `μ₀`: near a drape's equilibrium
+    /// the exact Hessian is either positive definite or indefinite beyond the whole ladder (the Cusick
+    /// specimens: 101 of 127 failing ladders failed at every shift), so a failing ladder costs two
+    /// factorisations instead of seven; where the top succeeds the ladder is climbed from below as before, and
+    /// the shift taken is the same.
+    fn exact_shift(&mut self, model: &Model, nw: &mut Newton, scale: f64) -> Option<f64> {
+        let mu0 = nw.mu;
+        let mut ladder = vec![mu0];
+        while let Some(&mu) = ladder.last().filter(|&&mu| mu < EXACT_SHIFT) {
+            ladder.push((mu * 10.0).max(1e-10));
+        }
+        let mut found = None;
+        for (i, &mu) in ladder.iter().enumerate() {
+            nw.mu = mu;
+            if self.factor_step(model, nw, scale) {
+                found = Some(mu);
+                break;
+            }
+            if i == 0 && ladder.len() > 2 {
+                // The top first: when even it fails, so does every shift between.
+                nw.mu = ladder[ladder.len() - 1];
+                if !self.factor_step(model, nw, scale) {
+                    break;
+                }
+            }
+        }
+        nw.mu = mu0;
+        found
+    }
+
+    /// Factorises the assembled matrix shifted by `μ s` (`s` the Hessian's scale, at least [`EPS_SHIFT`]) into
+    /// the step `−(H + μ s I)⁻¹ g`; true on success.
+    fn factor_step(&mut self, model: &Model, nw: &mut Newton, scale: f64) -> bool {
+        let s = (nw.mu * scale).max(EPS_SHIFT * scale);
+        for (p, g) in nw.step.iter_mut().zip(&nw.grad) {
+            *p = -*g;
+        }
+        self.factor_with(model, s, &mut nw.step)
     }
 
     /// A step whose decrease `Π` cannot resolve: judged on the residual instead (taken when it halves it),
