@@ -745,10 +745,10 @@ impl StaticSolver {
     /// The smallest shift of the ladder `μ₀, max(10 μ₀, 1e-10), …` (up to the first at or above
     /// [`EXACT_SHIFT`]) at which the exact Hessian factorises, factorised into the step; `None` when none does
     /// (`nw.mu` is then back at `μ₀`). The ladder's top is tried right after `μ₀`: near a drape's equilibrium
-    /// the exact Hessian is either positive definite or indefinite beyond the whole ladder (the Cusick
-    /// specimens: 101 of 127 failing ladders failed at every shift), so a failing ladder costs two
-    /// factorisations instead of seven; where the top succeeds the ladder is climbed from below as before, and
-    /// the shift taken is the same.
+    /// the exact Hessian is mostly either positive definite or indefinite beyond the whole ladder (the Cusick
+    /// specimens: 36 of the 43 ladders that failed at their first shift failed at every one), so a failing
+    /// ladder costs two factorisations instead of seven; where the top succeeds the ladder is climbed from
+    /// below as before, and the shift taken is the same.
     fn exact_shift(&mut self, model: &Model, nw: &mut Newton, scale: f64) -> Option<f64> {
         let mu0 = nw.mu;
         let mut ladder = vec![mu0];
