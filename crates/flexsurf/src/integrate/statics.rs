@@ -751,27 +751,25 @@ impl StaticSolver {
     /// below as before, and the shift taken is the same.
     fn exact_shift(&mut self, model: &Model, nw: &mut Newton, scale: f64) -> Option<f64> {
         let mu0 = nw.mu;
-        let mut ladder = vec![mu0];
-        while let Some(&mu) = ladder.last().filter(|&&mu| mu < EXACT_SHIFT) {
-            ladder.push((mu * 10.0).max(1e-10));
-        }
-        let mut found = None;
-        for (i, &mu) in ladder.iter().enumerate() {
-            nw.mu = mu;
-            if self.factor_step(model, nw, scale) {
-                found = Some(mu);
-                break;
-            }
-            if i == 0 && ladder.len() > 2 {
-                // The top first: when even it fails, so does every shift between.
-                nw.mu = ladder[ladder.len() - 1];
-                if !self.factor_step(model, nw, scale) {
-                    break;
-                }
-            }
-        }
+        let ladder: Vec<f64> =
+            std::iter::successors(Some(mu0), |&mu| (mu < EXACT_SHIFT).then(|| (mu * 10.0).max(1e-10))).collect();
+        let top = ladder[ladder.len() - 1];
+        let found = if self.factor_at(model, nw, scale, mu0) {
+            Some(mu0)
+        } else if ladder.len() > 2 && !self.factor_at(model, nw, scale, top) {
+            // When even the top fails, so does every shift between.
+            None
+        } else {
+            ladder[1..].iter().copied().find(|&mu| self.factor_at(model, nw, scale, mu))
+        };
         nw.mu = mu0;
         found
+    }
+
+    /// [`Self::factor_step`] at the shift `mu` (left in `nw.mu`).
+    fn factor_at(&mut self, model: &Model, nw: &mut Newton, scale: f64, mu: f64) -> bool {
+        nw.mu = mu;
+        self.factor_step(model, nw, scale)
     }
 
     /// Factorises the assembled matrix shifted by `μ s` (`s` the Hessian's scale, at least [`EPS_SHIFT`]) into
