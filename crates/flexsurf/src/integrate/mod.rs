@@ -501,14 +501,14 @@ impl Stepper {
     }
 
     /// The tolerance of a re-solve (the active set changed: contact engages or leaves): the contact steps'
-    /// [`linsolve::CONTACT_STEP_TOLERANCE`], but the direct solver's re-solves (conjugate gradients
+    /// [`StepParams::contact_solve_tolerance`], but the direct solver's re-solves (conjugate gradients
     /// preconditioned by its kept factor) while pairs between faces are engaged stay at the solver's own
     /// [`linsolve::ITERATIVE_TOLERANCE`]: those pairs are decided on every re-solve's proposal and keep what the
     /// step's start fixed ([`crate::potential::ActiveSet::convergent`]), so their re-solves stay those of exact
     /// solves (docs/performance.md, "Cholesky's re-solves at the contact steps' tolerance").
     fn resolve_tolerance(&self, model: &Model) -> Option<f64> {
         let exact = !self.solver.kind().iterative() && !model.potential.convergent(&self.ws);
-        (!exact).then_some(linsolve::CONTACT_STEP_TOLERANCE)
+        (!exact).then_some(self.params.contact_solve_tolerance)
     }
 
     /// Whether the change of contact set that the first solve of a contact step found (after the refinement)
@@ -789,12 +789,12 @@ impl Stepper {
         let free = newton && !model.potential.engaged(&self.ws);
         self.solver.set_free_motion(free);
         let loose = (self.solver.kind().iterative() && free).then_some(descent::FIRST_FORCING);
-        let first = if free { loose } else { Some(linsolve::CONTACT_STEP_TOLERANCE) };
+        let first = if free { loose } else { Some(self.params.contact_solve_tolerance) };
         self.merge = newton && !free;
         let mut tf = self.solve_with_active_sets(model, state, (0, first), self.operator())?;
         if loose.is_some() && model.potential.engaged(&self.ws) {
             // Contact engaged the loose solve after all: solved on from its solution.
-            let tolerance = Some(linsolve::CONTACT_STEP_TOLERANCE);
+            let tolerance = Some(self.params.contact_solve_tolerance);
             tf += self.linear_solve(state, model.pinned(), Reuse::Nearby, tolerance)?;
         }
         self.check_increment(state)?;
@@ -934,7 +934,7 @@ impl Stepper {
         t_assembly: &mut f64,
         t_solve: &mut f64,
     ) -> Result<f64, StepError> {
-        let newton = (report.iterations, Some(linsolve::CONTACT_STEP_TOLERANCE));
+        let newton = (report.iterations, Some(self.params.contact_solve_tolerance));
         let tf = self.correction(model, state, newton, t_assembly, t_solve)?;
         report.iterations += 1;
         self.counters.corrections += 1;

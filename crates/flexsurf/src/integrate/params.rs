@@ -101,6 +101,14 @@ pub struct StepParams {
     /// obstacle's curvature under a sliding node), not to [`StepParams::newton_tolerance`]: the draped sheet's
     /// residual converges only linearly (docs/model.md §8.5).
     pub contact_correction: f64,
+    /// Relative residual `‖b − A x‖ / ‖b‖` at which every linear solve of a contact step stops where it is
+    /// iterative: the iterative solvers' solves and the direct solver's re-solves preconditioned by its kept
+    /// factor (its factorised solves are exact). Default [`super::linsolve::CONTACT_STEP_TOLERANCE`] (1e-6). A
+    /// contact step is not iterated to [`StepParams::newton_tolerance`], so its result depends on this
+    /// tolerance as far as the step's friction decisions do: continuously where the friction law's stick zone
+    /// `slip_speed · Δt` is resolved (docs/performance.md, "What the discontinuity is"). Tighter makes a run a
+    /// smoother function of its inputs (a fit, a finite-difference sweep) at more iterations; looser is cheaper.
+    pub contact_solve_tolerance: f64,
     /// Most re-solves per Newton iteration while an active set (contact) changes.
     pub active_set_rounds: usize,
     /// Divergence bounds; `None`: [`Bounds::for_model`].
@@ -121,6 +129,7 @@ impl Default for StepParams {
             newton_iterations: 4,
             newton_tolerance: 1e-6,
             contact_correction: 100.0,
+            contact_solve_tolerance: super::linsolve::CONTACT_STEP_TOLERANCE,
             active_set_rounds: 4,
             bounds: None,
         }

@@ -276,21 +276,28 @@ pub struct IntegratorSpec {
     /// 1e-12 to 0.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub newton_tolerance: Option<f64>,
+    /// Relative residual at which the linear solves of a contact step stop where they are iterative (default
+    /// 1e-6, from 1e-12 to 1e-2): tighter makes a run with friction a smoother function of its inputs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_solve_tolerance: Option<f64>,
 }
 
 /// The allowed `integrator.newton_iterations`.
 pub const NEWTON_ITERATIONS: std::ops::RangeInclusive<usize> = 1..=100;
 /// The allowed `integrator.newton_tolerance`.
 pub const NEWTON_TOLERANCE: std::ops::RangeInclusive<f64> = 1e-12..=0.1;
+/// The allowed `integrator.contact_solve_tolerance`.
+pub const CONTACT_SOLVE_TOLERANCE: std::ops::RangeInclusive<f64> = 1e-12..=1e-2;
 
 impl IntegratorSpec {
-    /// The run this table asks for, with time step `dt`: [`IntegratorKind::method`] with the Newton settings
-    /// given.
+    /// The run this table asks for, with time step `dt`: [`IntegratorKind::method`] with the Newton and
+    /// contact solve settings given.
     pub fn method(&self, dt: f64) -> Method {
         match self.kind.method(dt, self.solver) {
             Method::Dynamic(p) => Method::Dynamic(StepParams {
                 newton_iterations: self.newton_iterations.unwrap_or(p.newton_iterations),
                 newton_tolerance: self.newton_tolerance.unwrap_or(p.newton_tolerance),
+                contact_solve_tolerance: self.contact_solve_tolerance.unwrap_or(p.contact_solve_tolerance),
                 ..p
             }),
             m => m,

@@ -316,26 +316,37 @@ impl SceneSpec {
         Ok((pins, motions, springs))
     }
 
-    /// `integrator.newton_iterations` and `integrator.newton_tolerance`: within their ranges, and given only
-    /// for a time-stepping scheme (the static solve has its own Newton iterations).
+    /// `integrator.newton_iterations`, `integrator.newton_tolerance` and `integrator.contact_solve_tolerance`:
+    /// within their ranges, and given only for a time-stepping scheme (the static solve has its own Newton
+    /// iterations).
     fn check_newton(&self, v: &Validator<'_>) -> Result<(), SceneError> {
-        use super::spec::{IntegratorKind, NEWTON_ITERATIONS, NEWTON_TOLERANCE};
+        use super::spec::{IntegratorKind, CONTACT_SOLVE_TOLERANCE, NEWTON_ITERATIONS, NEWTON_TOLERANCE};
         let i = &self.integrator;
-        let given =
-            [("newton_iterations", i.newton_iterations.is_some()), ("newton_tolerance", i.newton_tolerance.is_some())];
+        let given = [
+            ("newton_iterations", i.newton_iterations.is_some()),
+            ("newton_tolerance", i.newton_tolerance.is_some()),
+            ("contact_solve_tolerance", i.contact_solve_tolerance.is_some()),
+        ];
         if let Some((key, _)) = given.iter().find(|(_, given)| *given && i.kind == IntegratorKind::Static) {
             return Err(v.bad(&format!("integrator.{key}"), "applies to time steps, not to `kind = \"static\"`".into()));
         }
         if let Some(n) = i.newton_iterations {
             v.in_range("integrator.newton_iterations", n, NEWTON_ITERATIONS)?;
         }
-        match i.newton_tolerance {
-            Some(t) if !NEWTON_TOLERANCE.contains(&t) => {
-                let range = format!("must be between {:e} and {}", NEWTON_TOLERANCE.start(), NEWTON_TOLERANCE.end());
-                Err(v.bad_value("integrator.newton_tolerance", t, &range))
+        let tolerances = [
+            ("integrator.newton_tolerance", i.newton_tolerance, NEWTON_TOLERANCE),
+            ("integrator.contact_solve_tolerance", i.contact_solve_tolerance, CONTACT_SOLVE_TOLERANCE),
+        ];
+        for (key, value, allowed) in tolerances {
+            match value {
+                Some(t) if !allowed.contains(&t) => {
+                    let range = format!("must be between {:e} and {}", allowed.start(), allowed.end());
+                    return Err(v.bad_value(key, t, &range));
+                }
+                _ => {}
             }
-            _ => Ok(()),
         }
+        Ok(())
     }
 
     /// Checks `[output]`.

@@ -6,6 +6,7 @@
 mod body_contact;
 mod common;
 mod contact_records;
+mod continuity;
 mod converged_step;
 mod curved_multigrid;
 mod cusick_convergence;

@@ -201,6 +201,21 @@ fn every_error_names_the_file_and_the_key() {
         ("no_newton.toml", with("\n[integrator]\nnewton_iterations = 0\n", "", ""), "integrator.newton_iterations"),
         ("loose_newton.toml", with("\n[integrator]\nnewton_tolerance = 0.5\n", "", ""), "integrator.newton_tolerance"),
         (
+            "loose_contact_solves.toml",
+            with("\n[integrator]\ncontact_solve_tolerance = 0.1\n", "", ""),
+            "integrator.contact_solve_tolerance",
+        ),
+        (
+            "nan_contact_solves.toml",
+            with("\n[integrator]\ncontact_solve_tolerance = nan\n", "", ""),
+            "integrator.contact_solve_tolerance",
+        ),
+        (
+            "static_contact_solves.toml",
+            with("\n[integrator]\nkind = \"static\"\ncontact_solve_tolerance = 1e-8\n", "", ""),
+            "integrator.contact_solve_tolerance",
+        ),
+        (
             "static_newton.toml",
             with("\n[integrator]\nkind = \"static\"\nnewton_iterations = 8\n", "", ""),
             "integrator.newton_iterations",
@@ -483,18 +498,20 @@ fn every_range_table_key_is_documented() {
     }
 }
 
-/// `[integrator] newton_iterations` and `newton_tolerance` reach the time step's parameters; without them the
-/// defaults hold.
+/// `[integrator] newton_iterations`, `newton_tolerance` and `contact_solve_tolerance` reach the time step's
+/// parameters; without them the defaults hold.
 #[test]
 fn newton_settings_reach_the_time_step() {
     let d = scratch("newton");
-    let text = format!("{MINIMAL}\n[integrator]\nkind = \"bdf2\"\nnewton_iterations = 16\nnewton_tolerance = 1e-8\n");
+    let settings = "newton_iterations = 16\nnewton_tolerance = 1e-8\ncontact_solve_tolerance = 1e-9";
+    let text = format!("{MINIMAL}\n[integrator]\nkind = \"bdf2\"\n{settings}\n");
     std::fs::write(d.join("newton.toml"), text).unwrap();
     let p = scene::load(&d.join("newton.toml")).unwrap().step_params();
-    assert_eq!((p.newton_iterations, p.newton_tolerance), (16, 1e-8));
+    assert_eq!((p.newton_iterations, p.newton_tolerance, p.contact_solve_tolerance), (16, 1e-8, 1e-9));
     std::fs::write(d.join("plain.toml"), MINIMAL).unwrap();
     let p = scene::load(&d.join("plain.toml")).unwrap().step_params();
     let defaults = flexsurf::integrate::StepParams::default();
     assert_eq!((p.newton_iterations, p.newton_tolerance), (defaults.newton_iterations, defaults.newton_tolerance));
+    assert_eq!(p.contact_solve_tolerance, flexsurf::integrate::linsolve::CONTACT_STEP_TOLERANCE);
     std::fs::remove_dir_all(&d).unwrap();
 }

@@ -1,0 +1,52 @@
+//! Two runs of a scene side by side at two contact solve tolerances (`[integrator] contact_solve_tolerance`,
+//! issue 23, item 2): per step the largest distance between their nodes and, for each run, its contacts, solves,
+//! re-solves, corrections, iterations, relative Newton residual and Newton iterations. `SCENE=path.toml cargo run
+//! --release -p flexsurf --example tolerance_trace -- N STEPS auto|cholesky|multigrid TOL_A TOL_B` (the scene's
+//! sheet at N × N).
+use flexsurf::integrate::{linsolve::SolverKind, Stepper};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n: usize = args[1].parse().unwrap();
+    let steps: usize = args[2].parse().unwrap();
+    let solver = match args[3].as_str() {
+        "cholesky" => SolverKind::Cholesky,
+        "multigrid" => SolverKind::Multigrid,
+        _ => SolverKind::Auto,
+    };
+    let tols: Vec<f64> = vec![args[4].parse().unwrap(), args[5].parse().unwrap()];
+    let path = std::env::var("SCENE").unwrap();
+    let file = std::path::Path::new(&path);
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut spec = flexsurf::scene::SceneSpec::from_toml(&text, file).unwrap();
+    if let Some(sheet) = spec.sheet.as_mut().map(flexsurf::scene::Sheets::first_mut) {
+        sheet.nodes = [n, n];
+    }
+    let scene = spec.build(file).unwrap();
+    let mut runs: Vec<_> = tols
+        .iter()
+        .map(|&t| {
+            let p = flexsurf::integrate::StepParams { solver, contact_solve_tolerance: t, ..scene.step_params() };
+            (scene.state.clone(), Stepper::new(&scene.model, &p).unwrap())
+        })
+        .collect();
+    for s in 0..steps {
+        let mut line = String::new();
+        for (state, stepper) in runs.iter_mut() {
+            let info = stepper.step(&scene.model, state).unwrap();
+            let c = info.timings;
+            line += &format!(
+                " | c{:4} s{} rs{} co{} it{:3} res {:.2e} v{}",
+                info.contacts,
+                c.solves,
+                c.resolves,
+                c.corrections,
+                c.iterations,
+                info.newton.residual,
+                info.newton.iterations
+            );
+        }
+        let d = runs[0].0.x.iter().zip(&runs[1].0.x).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        println!("step {:3} d {:.3e}{}", s + 1, d, line);
+    }
+}
