@@ -141,8 +141,9 @@ struct Segment {
     /// Where each node's residual is in its colour's [`Family::sorted`] order.
     gather: Vec<u32>,
     /// Lower band of the scalar Cholesky factor, `(3 len) × (w + 1)`: entry `(i, i − d)` at `i (w + 1) + d`, each
-    /// diagonal entry as its reciprocal.
-    band: Vec<f64>,
+    /// diagonal entry as its reciprocal; factorised in `f64`, stored in `f32` (read twice a cycle: half the
+    /// bytes), as the rows the smoother reads are.
+    band: Vec<f32>,
 }
 
 /// The lines of one direction, ordered by colour: segments of one colour share no coupling, so they are
@@ -347,7 +348,7 @@ impl LineSmoother {
             .families
             .iter()
             .flat_map(|f| &f.segments)
-            .map(|s| s.band.len() * 8 + (s.gather.len() + s.nodes.len()) * 4)
+            .map(|s| s.band.len() * 4 + (s.gather.len() + s.nodes.len()) * 4)
             .sum();
         5 * self.rows.bytes() + 2 * lines + 12 * self.masked.len() * std::mem::size_of::<Vec3>()
     }
@@ -437,7 +438,7 @@ impl LineSmoother {
 fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize) {
     let len = seg.nodes.len();
     let stride = w + 1;
-    seg.band.iter_mut().for_each(|v| *v = 0.0);
+    let mut band = vec![0.0; seg.band.len()];
     let reach = (w - 2) / 3;
     for a in 0..len {
         let p = seg.nodes[a] as usize;
@@ -458,13 +459,16 @@ fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize
                 for c in 0..3 {
                     let (i, j) = (3 * a + r, 3 * bnode + c);
                     if j <= i {
-                        seg.band[i * stride + (i - j)] = block.col(c)[r];
+                        band[i * stride + (i - j)] = block.col(c)[r];
                     }
                 }
             }
         }
     }
-    band_factor(&mut seg.band, w, 3 * len);
+    band_factor(&mut band, w, 3 * len);
+    for (stored, v) in seg.band.iter_mut().zip(&band) {
+        *stored = *v as f32;
+    }
 }
 
 /// In-place banded Cholesky `A = L Lᵀ` (lower band, `(i, i − d)` at `i (w + 1) + d`), each diagonal entry
@@ -506,23 +510,24 @@ fn paired_sum(ks: std::ops::Range<usize>, coef: impl Fn(usize) -> f64, x: &[f64]
 
 /// `x = (L Lᵀ)⁻¹ x` with a [`band_factor`] factor. The term of the unknown found just before is added last,
 /// after the others' sums, so each unknown waits on one product of the one before it (the solve is a chain).
-fn band_solve(band: &[f64], w: usize, x: &mut [f64]) {
+fn band_solve<T: Copy + Into<f64>>(band: &[T], w: usize, x: &mut [f64]) {
     let n = x.len();
     let stride = w + 1;
+    let at = |k: usize| -> f64 { band[k].into() };
     for i in 0..n {
         let row = i * stride;
-        let mut s = x[i] - paired_sum(i.saturating_sub(w)..i.saturating_sub(1), |k| band[row + (i - k)], x);
+        let mut s = x[i] - paired_sum(i.saturating_sub(w)..i.saturating_sub(1), |k| at(row + (i - k)), x);
         if i > 0 {
-            s -= band[row + 1] * x[i - 1];
+            s -= at(row + 1) * x[i - 1];
         }
-        x[i] = s * band[row];
+        x[i] = s * at(row);
     }
     for i in (0..n).rev() {
-        let mut s = x[i] - paired_sum((i + 2).min(n)..n.min(i + w + 1), |k| band[k * stride + (k - i)], x);
+        let mut s = x[i] - paired_sum((i + 2).min(n)..n.min(i + w + 1), |k| at(k * stride + (k - i)), x);
         if i + 1 < n {
-            s -= band[(i + 1) * stride + 1] * x[i + 1];
+            s -= at((i + 1) * stride + 1) * x[i + 1];
         }
-        x[i] = s * band[i * stride];
+        x[i] = s * at(i * stride);
     }
 }
 
