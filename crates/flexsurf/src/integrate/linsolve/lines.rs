@@ -321,6 +321,12 @@ impl LineSmoother {
         Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec() }
     }
 
+    /// Row `p` of the level's matrix as the last refill stored it (`f32` blocks): its column nodes and blocks.
+    pub(crate) fn row(&self, p: usize) -> (&[u32], &[glam::Mat3]) {
+        let r = self.rows.row(p);
+        (&self.rows.col[r.clone()], &self.rows.blocks[r])
+    }
+
     /// Copies `a` and factorises every line.
     pub(crate) fn refill(&mut self, a: &BlockMatrix) {
         self.rows.refill(a);

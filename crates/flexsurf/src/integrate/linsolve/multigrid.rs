@@ -14,6 +14,12 @@
 //!   centroid, which carries every rigid motion exactly (the twist about the line of two parents excepted) with
 //!   the same sparsity (`Level::rotations`). The positions are the panels' rest shapes, or those given by
 //!   [`BlockSolver::set_positions`].
+//! - **Smoothed prolongation.** Each `P` is then smoothed by one damped Jacobi step on the finer level's matrix,
+//!   kept on its own sparsity (`P ← P − ω D⁻¹ A P` at `P`'s entries, each row re-summed to the identity so that
+//!   translations stay exact; `Level::smooth`, [`Multigrid::SMOOTHING`]): the columns' energy falls where linear
+//!   interpolation leaves it high (a wrinkled or curved sheet's bending), without widening `P` or the coarse
+//!   stencils, so an iteration costs what it did. Smoothed aggregation's wider smoothed `P` cut the iterations
+//!   as far but its coarse operators cost more than they saved (docs/performance.md).
 //! - **Coarse operators** are Galerkin's `A_c = Pᵀ A P` of the 3×3-block matrix, computed from a recipe built
 //!   once (for each coarse block, the fine blocks and the blocks of `P` that multiply them, in a fixed order)
 //!   and refilled in place for each solve but a re-solve ([`Reuse::Nearby`]: the matrix changed in a few
@@ -40,6 +46,7 @@ use crate::grid::{Grid, Topology};
 use crate::math::{skew, Mat3, Vec3};
 use crate::model::Panel;
 use crate::sparse::{BlockMatrix, BlockPattern};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// One direction's coarsening: for each fine index, up to two coarse indices and weights.
@@ -234,6 +241,8 @@ struct Coarse {
     line_rhs: Vec<f64>,
     /// The cycle of this hierarchy.
     cycle: Cycle,
+    /// The prolongations' smoothing weight ([`Multigrid::with_smoothing`]).
+    smoothing: f64,
 }
 
 impl Multigrid {
@@ -246,6 +255,13 @@ impl Multigrid {
     /// they save, at 321² (five) as much, at 481² and 641² (six) it is 5–14 % faster from zero to 1e-11 and
     /// 11 % on the bench's steps (their solves to 1e-6) at 641².
     pub const W_CYCLE_LEVELS: usize = 6;
+
+    /// The weight `ω` of the damped Jacobi step that smooths each prolongation on its own sparsity
+    /// ([`Multigrid::with_smoothing`]). Below `2 / ρ(D⁻¹A)` (ρ measured 1.8–2.6 on the step matrices of the
+    /// touching sheet and the skirt) the step damps every mode of `P`'s columns; measured on 2026-12-06
+    /// (docs/performance.md, "A prolongation smoothed on its own sparsity"): the wrinkled 81² drop's solve 50 → 29
+    /// iterations, `skirt_fine`'s 18.8 → 13.6 a solve, the touching sheet 17 → 17 at 161² and 25 → 26 at 321².
+    pub const SMOOTHING: f64 = 0.75;
 
     /// Buffers for `pattern` on a model's `panels` (the hierarchy is built at the first solve, for its fixed
     /// set): each panel is coarsened on its own grid, a node joined by a seam with the first panel that has it;
@@ -292,6 +308,7 @@ impl Multigrid {
                 fine_r: vec![Vec3::ZERO; n],
                 line_rhs: Vec::new(),
                 cycle: Cycle::V,
+                smoothing: Self::SMOOTHING,
             },
             built_fixed: Vec::new(),
             cycle: None,
@@ -301,6 +318,13 @@ impl Multigrid {
     /// The same solver with every hierarchy it builds taking `cycle`, whatever its depth.
     pub fn with_cycle(mut self, cycle: Cycle) -> Self {
         self.cycle = Some(cycle);
+        self
+    }
+
+    /// The same solver with its prolongations smoothed by a damped Jacobi step of weight `omega` (0: the plain
+    /// interpolation with its fitted rotations; default [`Multigrid::SMOOTHING`]).
+    pub fn with_smoothing(mut self, omega: f64) -> Self {
+        self.coarse.smoothing = omega;
         self
     }
 
@@ -366,12 +390,16 @@ impl Multigrid {
 impl Coarse {
     /// Refills the coarse operators from `a` (the finest's) with the prolongations at the finest level's
     /// positions `x`, their smoothers, and factorises the coarsest.
-    fn refill(&mut self, a: &BlockMatrix, x: &[Vec3]) -> Result<(), LinearError> {
+    fn refill(&mut self, a: &BlockMatrix, x: &[Vec3], finest: &LineSmoother) -> Result<(), LinearError> {
         for l in 0..self.levels.len() {
             let (above, below) = self.levels.split_at_mut(l);
             let (fine, fine_x) = above.last().map_or((a, x), |lv| (&lv.a, &lv.pos[..]));
+            let rows = above.last().map_or(finest, |lv| &lv.smoother);
             let level = &mut below[0];
             level.rotations(fine_x);
+            if self.smoothing != 0.0 {
+                level.smooth(rows, self.smoothing);
+            }
             level.galerkin(fine);
             level.smoother.refill(&level.a);
         }
@@ -502,6 +530,46 @@ impl Level {
                 let identity = Mat3::from_diagonal(Vec3::splat(w));
                 *out = if usable { identity + lever * arm(c).transpose() } else { identity };
             }
+        }
+    }
+
+    /// One damped Jacobi step on the prolongation, kept on its own sparsity: `P ← P − ω D⁻¹ (A P)` at `P`'s
+    /// entries (`A` the finer level's matrix as its smoother `rows` holds it, `D` its diagonal blocks), then each
+    /// row's blocks re-summed to the identity along its interpolation weights, so that translations stay exact.
+    /// The smoothing lowers the energy of `P`'s columns where linear interpolation leaves it high (a wrinkled or
+    /// curved sheet's bending, which the coarse space then carries) without widening `P` or the coarse stencils
+    /// (docs/performance.md, "A prolongation smoothed on its own sparsity").
+    fn smooth(&mut self, rows: &LineSmoother, omega: f64) {
+        let (p_start, p_node, p_block, p_weight) = (&self.p_start, &self.p_node, &self.p_block, &self.p_weight);
+        let entry_of = |j: usize, c: u32| {
+            (p_start[j] as usize..p_start[j + 1] as usize).find(|&f| p_node[f] == c).map(|f| p_block[f])
+        };
+        let smoothed_row = |k: usize| -> Vec<Mat3> {
+            let range = p_start[k] as usize..p_start[k + 1] as usize;
+            let (cols, blocks) = rows.row(k);
+            let diagonal = cols.iter().position(|&c| c as usize == k).map(|i| blocks[i].as_dmat3().inverse());
+            let Some(dinv) = diagonal.filter(|d| d.is_finite()) else { return p_block[range].to_vec() };
+            let mut out: Vec<Mat3> = range
+                .clone()
+                .map(|e| {
+                    let c = p_node[e];
+                    let ap = cols.iter().zip(blocks).fold(Mat3::ZERO, |acc, (&j, m)| match entry_of(j as usize, c) {
+                        Some(pj) => acc + m.as_dmat3() * pj,
+                        None => acc,
+                    });
+                    p_block[e] - dinv * ap * omega
+                })
+                .collect();
+            let deficit = Mat3::IDENTITY - out.iter().fold(Mat3::ZERO, |s, m| s + *m);
+            for (o, &w) in out.iter_mut().zip(&p_weight[range]) {
+                *o += deficit * w;
+            }
+            out
+        };
+        let n = p_start.len() - 1;
+        let smoothed: Vec<Vec<Mat3>> = (0..n).into_par_iter().with_min_len(256).map(smoothed_row).collect();
+        for (dst, src) in self.p_block.iter_mut().zip(smoothed.into_iter().flatten()) {
+            *dst = src;
         }
     }
 
@@ -687,7 +755,7 @@ impl BlockSolver for Multigrid {
         let Some(fine) = fine.as_mut() else { unreachable!("built above") };
         fine.refill(a);
         if !keep {
-            coarse.refill(a, positions)?;
+            coarse.refill(a, positions, fine)?;
         }
         system.eliminate(a, fixed, b, x);
         let t1 = Instant::now();
@@ -770,9 +838,11 @@ pub mod internals {
         mg.fine.as_mut().expect("the hierarchy is built").refill(a);
     }
 
-    /// Refills the coarse operators from `a` with the prolongations at the finest positions `x`.
+    /// Refills the coarse operators from `a` with the prolongations at the finest positions `x` (after
+    /// [`refill_fine`]).
     pub fn refill_coarse(mg: &mut Multigrid, a: &BlockMatrix, x: &[Vec3]) -> Result<(), LinearError> {
-        mg.coarse.refill(a, x)
+        let fine = mg.fine.as_ref().expect("the hierarchy is built");
+        mg.coarse.refill(a, x, fine)
     }
 
     /// `out ≈ A⁻¹ r`: one cycle from zero with the finest level's smoother.
