@@ -535,7 +535,8 @@ impl Level {
 
     /// One damped Jacobi step on the prolongation, kept on its own sparsity: `P ← P − ω D⁻¹ (A P)` at `P`'s
     /// entries (`A` the finer level's matrix as its smoother `rows` holds it, `D` its diagonal blocks), then each
-    /// row's blocks re-summed to the identity along its interpolation weights, so that translations stay exact.
+    /// row's blocks re-summed to the identity along its interpolation weights, so that translations stay exact (a
+    /// fine node at a coarse node keeps its identity row: only the interpolated nodes' rows change).
     /// The smoothing lowers the energy of `P`'s columns where linear interpolation leaves it high (a wrinkled or
     /// curved sheet's bending, which the coarse space then carries) without widening `P` or the coarse stencils
     /// (docs/performance.md, "A prolongation smoothed on its own sparsity").
