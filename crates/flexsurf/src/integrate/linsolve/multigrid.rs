@@ -549,13 +549,16 @@ impl Level {
             let range = p_start[k] as usize..p_start[k + 1] as usize;
             let (cols, blocks) = rows.row(k);
             let diagonal = cols.iter().position(|&c| c as usize == k).map(|i| blocks[i].as_dmat3().inverse());
-            let Some(dinv) = diagonal.filter(|d| d.is_finite()) else { return p_block[range].to_vec() };
+            let Some(dinv) = diagonal.filter(|d| d.is_finite() && !range.is_empty()) else {
+                return p_block[range].to_vec();
+            };
+            let a: Vec<Mat3> = blocks.iter().map(glam::Mat3::as_dmat3).collect();
             let mut out: Vec<Mat3> = range
                 .clone()
                 .map(|e| {
                     let c = p_node[e];
-                    let ap = cols.iter().zip(blocks).fold(Mat3::ZERO, |acc, (&j, m)| match entry_of(j as usize, c) {
-                        Some(pj) => acc + m.as_dmat3() * pj,
+                    let ap = cols.iter().zip(&a).fold(Mat3::ZERO, |acc, (&j, m)| match entry_of(j as usize, c) {
+                        Some(pj) => acc + *m * pj,
                         None => acc,
                     });
                     p_block[e] - dinv * ap * omega
@@ -568,10 +571,8 @@ impl Level {
             out
         };
         let n = p_start.len() - 1;
-        let smoothed: Vec<Vec<Mat3>> = (0..n).into_par_iter().with_min_len(256).map(smoothed_row).collect();
-        for (dst, src) in self.p_block.iter_mut().zip(smoothed.into_iter().flatten()) {
-            *dst = src;
-        }
+        let smoothed: Vec<Mat3> = (0..n).into_par_iter().with_min_len(256).flat_map_iter(smoothed_row).collect();
+        self.p_block = smoothed;
     }
 
     /// `A = Pᵀ A_fine P` in place.
