@@ -16,15 +16,7 @@ fn main() {
         _ => SolverKind::Auto,
     };
     let scene = match std::env::var("SCENE") {
-        Ok(path) => {
-            let file = std::path::Path::new(&path);
-            let text = std::fs::read_to_string(file).expect("scene file");
-            let mut spec = flexsurf::scene::SceneSpec::from_toml(&text, file).expect("scene");
-            if let Some(sheet) = spec.sheet.as_mut().map(flexsurf::scene::Sheets::first_mut) {
-                sheet.nodes = [n, n];
-            }
-            spec.build(file).expect("scene")
-        }
+        Ok(path) => flexsurf::bench::scene_file(std::path::Path::new(&path), n).expect("scene"),
         Err(_) if std::env::var("TOUCHING").is_ok() => {
             flexsurf::bench::scene(n, flexsurf::bench::Workload::Touching).expect("scene")
         }

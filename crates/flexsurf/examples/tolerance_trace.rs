@@ -16,13 +16,7 @@ fn main() {
     };
     let tols: Vec<f64> = vec![args[4].parse().unwrap(), args[5].parse().unwrap()];
     let path = std::env::var("SCENE").unwrap();
-    let file = std::path::Path::new(&path);
-    let text = std::fs::read_to_string(file).unwrap();
-    let mut spec = flexsurf::scene::SceneSpec::from_toml(&text, file).unwrap();
-    if let Some(sheet) = spec.sheet.as_mut().map(flexsurf::scene::Sheets::first_mut) {
-        sheet.nodes = [n, n];
-    }
-    let scene = spec.build(file).unwrap();
+    let scene = flexsurf::bench::scene_file(std::path::Path::new(&path), n).unwrap();
     let mut runs: Vec<_> = tols
         .iter()
         .map(|&t| {

@@ -73,6 +73,16 @@ nodes = [[{last}, {last}]]
 motion = { shift = [-0.45, 0.0, 0.0], seconds = 1.5 }
 "#;
 
+/// The scene file at `path` with its first sheet at `n × n` nodes (the examples' `SCENE=`: a shipped scene at
+/// another resolution; a scene without a `[sheet]` as it is).
+pub fn scene_file(path: &Path, n: usize) -> Result<Scene, SceneError> {
+    let mut spec = SceneSpec::load(path)?;
+    if let Some(sheet) = spec.sheet.as_mut().map(crate::scene::Sheets::first_mut) {
+        sheet.nodes = [n, n];
+    }
+    spec.build(path)
+}
+
 /// The canonical ball drop with `n × n` nodes (same sheet, ball, fabric and time step).
 pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
     scene(n, Workload::Drop)

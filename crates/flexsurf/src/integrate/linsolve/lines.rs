@@ -333,7 +333,11 @@ impl LineSmoother {
         let (rows, masked) = (&self.rows, &self.masked);
         for family in &mut self.families {
             let w = family.w;
-            family.segments.par_iter_mut().with_min_len(16).for_each(|seg| factor_segment(rows, masked, seg, w));
+            family
+                .segments
+                .par_iter_mut()
+                .with_min_len(16)
+                .for_each_init(Vec::new, |band, seg| factor_segment(rows, masked, seg, w, band));
         }
     }
 
@@ -440,11 +444,13 @@ impl LineSmoother {
     }
 }
 
-/// Fills and factorises one segment's banded matrix (masked nodes, and nodes without stiffness, as identity).
-fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize) {
+/// Fills and factorises one segment's banded matrix (masked nodes, and nodes without stiffness, as identity), in
+/// `f64` in the thread's scratch `band`, and stores the factor in `f32`.
+fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize, band: &mut Vec<f64>) {
     let len = seg.nodes.len();
     let stride = w + 1;
-    let mut band = vec![0.0; seg.band.len()];
+    band.clear();
+    band.resize(seg.band.len(), 0.0);
     let reach = (w - 2) / 3;
     for a in 0..len {
         let p = seg.nodes[a] as usize;
@@ -471,8 +477,8 @@ fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize
             }
         }
     }
-    band_factor(&mut band, w, 3 * len);
-    for (stored, v) in seg.band.iter_mut().zip(&band) {
+    band_factor(band, w, 3 * len);
+    for (stored, v) in seg.band.iter_mut().zip(band.iter()) {
         *stored = *v as f32;
     }
 }

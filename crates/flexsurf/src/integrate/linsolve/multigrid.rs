@@ -547,11 +547,13 @@ impl Level {
         };
         let smoothed_row = |k: usize| -> Vec<Mat3> {
             let range = p_start[k] as usize..p_start[k + 1] as usize;
+            // A row of one parent (a fine node at a coarse node, weight 1) would be re-summed back to the identity.
+            if range.len() < 2 {
+                return p_block[range].to_vec();
+            }
             let (cols, blocks) = rows.row(k);
             let diagonal = cols.iter().position(|&c| c as usize == k).map(|i| blocks[i].as_dmat3().inverse());
-            let Some(dinv) = diagonal.filter(|d| d.is_finite() && !range.is_empty()) else {
-                return p_block[range].to_vec();
-            };
+            let Some(dinv) = diagonal.filter(|d| d.is_finite()) else { return p_block[range].to_vec() };
             let a: Vec<Mat3> = blocks.iter().map(glam::Mat3::as_dmat3).collect();
             let mut out: Vec<Mat3> = range
                 .clone()
