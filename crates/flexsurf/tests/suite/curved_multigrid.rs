@@ -1,7 +1,7 @@
 //! Multigrid on curved sheets (issue 23, item 4): its prolongation carries the rigid rotations of the coarse
 //! nodes at the positions the solver is given (`BlockSolver::set_positions`), and on the step matrix of a tube
-//! (a skirt's topology, periodic around with its top ring pinned) it solves as Cholesky does within an
-//! iteration bound, at the rest shape and at a deformed one.
+//! (a skirt's topology, periodic around with its top ring pinned) it solves as Cholesky does within item 4's
+//! bound of 12 iterations, at the rest shape and at a deformed one.
 
 use flexsurf::integrate::linsolve::{LinearSolver, Reuse, SolverKind};
 use flexsurf::integrate::{StepParams, Stepper};
@@ -72,6 +72,8 @@ fn multigrid_on_a_tube_solves_as_cholesky_within_an_iteration_bound() {
     eprintln!("tube 96x24: {at_rest:?} (iterations, difference) at the rest shape's rotations, {deformed:?} at the deformed shape's");
     for (iterations, diff) in [at_rest, deformed] {
         assert!(diff <= 1e-7, "multigrid differs from Cholesky by {diff:e}");
-        assert!(iterations <= 45, "{iterations} iterations");
+        // Issue 23, item 4: at most 12 (measured 10 at both; 43 and 42 while the periodic rings were smoothed in
+        // halves, whose cuts left the ring's stiff hoop coupling to the Gauss–Seidel sweep).
+        assert!(iterations <= 12, "{iterations} iterations");
     }
 }

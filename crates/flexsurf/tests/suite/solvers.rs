@@ -132,9 +132,13 @@ fn cholesky_solves_its_system_with_either_factorisation() {
     assert!(kinds.contains(&false) && kinds.contains(&true), "both factorisations exercised: {kinds:?}");
 }
 
+/// Multigrid solves as Cholesky does on the three grids, from zero to 1e-11 within an iteration bound each
+/// (measured: 11, 13 and 15; the tube took 38 while its periodic lines were smoothed in halves, docs/performance.md,
+/// "Periodic lines solved whole").
 #[test]
 fn multigrid_matches_cholesky_on_free_periodic_and_polar_grids() {
-    for (name, (model, x)) in [("sheet 61x61", sheet(61)), ("tube 96x24", tube(96, 24)), ("polar 14x72", polar(12, 72))]
+    for (name, (model, x), bound) in
+        [("sheet 61x61", sheet(61), 12), ("tube 96x24", tube(96, 24), 14), ("polar 14x72", polar(12, 72), 16)]
     {
         let (a, b) = system(&model, &x);
         let (direct, _) = solve(SolverKind::Cholesky, &model, &a, &b);
@@ -142,7 +146,7 @@ fn multigrid_matches_cholesky_on_free_periodic_and_polar_grids() {
         let (scale, diff) = (largest_length(&direct), largest_difference(&direct, &mg));
         eprintln!("{name}: {iterations} multigrid iterations, max difference {diff:.2e} of {scale:.2e}");
         assert!(diff <= 1e-6 * scale, "{name}: multigrid differs from Cholesky by {diff:e} of {scale:e}");
-        assert!(iterations <= 60, "{name}: {iterations} iterations");
+        assert!(iterations <= bound, "{name}: {iterations} iterations");
         for (k, &f) in model.pinned().iter().enumerate() {
             if f {
                 assert_eq!(mg[k], b[k], "{name}: pinned node {k} moved");
@@ -153,7 +157,7 @@ fn multigrid_matches_cholesky_on_free_periodic_and_polar_grids() {
 
 /// The prolongation smoothed on its own sparsity ([`Multigrid::SMOOTHING`]) against the plain one (linear
 /// interpolation with the fitted rotations), on the free sheet, the periodic tube and the polar grid: both solve
-/// to Cholesky's solution, the smoothed one in fewer iterations on each (measured: 11 against 16, 38 against 41,
+/// to Cholesky's solution, the smoothed one in fewer iterations on each (measured: 11 against 16, 13 against 15,
 /// 15 against 17), at the same cost an iteration (the same sparsity of `P` and of the coarse operators).
 #[test]
 fn a_smoothed_prolongation_solves_in_fewer_iterations() {

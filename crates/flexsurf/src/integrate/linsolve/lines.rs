@@ -7,16 +7,17 @@
 //! anywhere in space (a draped sheet).
 //!
 //! A level's nodes are `m × n` (flat index `i + m j`). The `u1` lines (fixed `j`) are swept, then the `u2`
-//! lines; the post-smoothing sweeps the same lines in the reverse order, so the cycle stays symmetric. A
-//! periodic line is split into two halves, each a principal submatrix (SPD) with a banded structure. The line
-//! matrices are factorised by a banded Cholesky at each refill. Masked nodes (pinned) are never changed.
+//! lines; the post-smoothing sweeps the same lines in the reverse order, so the cycle stays symmetric. Each
+//! line's matrix is a principal submatrix (SPD) with a banded structure, factorised by a banded Cholesky at each
+//! refill; a periodic line (or one closed on itself by a seam) is taken whole in zig-zag order, at twice the
+//! bandwidth, rather than in halves, whose cuts left the stiff coupling along the ring to the Gauss–Seidel
+//! sweep ([`split_far`]). Masked nodes (pinned) are never changed.
 //!
 //! The matrix is kept here by rows (both triangles), so the residuals of a line and the products run row by
 //! row, split over rayon's threads with each row summed in a fixed order. A colour's residuals are computed
 //! through the rows in node order and then gathered line by line: a `u2` line visited node by node would jump a
 //! grid row between its rows, which memory prefetching does not follow (docs/performance.md).
 
-use crate::grid::Topology;
 use crate::math::{Mat3, Vec3};
 use crate::sparse::{BlockMatrix, BlockPattern};
 use rayon::prelude::*;
@@ -134,10 +135,12 @@ impl RowMatrix {
     }
 }
 
-/// One line (or half of a periodic one): its nodes in order, and its banded factor.
+/// One line (or a piece of one): its nodes in the order of its band, and its banded factor.
 #[derive(Debug, Clone)]
 struct Segment {
     nodes: Vec<u32>,
+    /// Half-bandwidth in scalars, `3 R + 2` for couplings `R` positions apart in `nodes`.
+    w: usize,
     /// Where each node's residual is in its colour's [`Family::sorted`] order.
     gather: Vec<u32>,
     /// Lower band of the scalar Cholesky factor, `(3 len) × (w + 1)`: entry `(i, i − d)` at `i (w + 1) + d`, each
@@ -157,8 +160,6 @@ struct Family {
     /// matrix's rows as they lie in memory (a line across the rows' order, node by node, would jump a grid row
     /// at every node).
     sorted: Vec<Vec<u32>>,
-    /// Half-bandwidth in scalars, `3 R + 2` for couplings `R` nodes apart along a line.
-    w: usize,
     /// Scalars of scratch per segment (three per node of the longest).
     stride: usize,
 }
@@ -211,24 +212,37 @@ fn couplings(pattern: &BlockPattern, lines: &[Vec<u32>]) -> (Vec<usize>, Vec<(u3
     (reach, edges)
 }
 
-/// The lines with every one whose couplings reach farther than [`FAR`] along it split in halves (a grid's
-/// stencils reach two nodes; a line that closes on itself through a seam couples its two ends), until none
-/// does.
-fn split_far(pattern: &BlockPattern, mut lines: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
+/// A line's nodes in zig-zag order, `(0, n − 1, 1, n − 2, …)`: on a line closed on itself (a periodic grid's
+/// ring, a panel joined to itself by a seam) neighbours `R` apart along the ring, across the closure
+/// included, are at most `2 R` positions apart, so the whole ring is one banded solve of twice the bandwidth.
+fn zigzag(line: &[u32]) -> Vec<u32> {
+    let n = line.len();
+    (0..n).map(|k| if k % 2 == 0 { line[k / 2] } else { line[n - 1 - k / 2] }).collect()
+}
+
+/// The lines with every one whose couplings reach farther than [`FAR`] along it first put in zig-zag order
+/// ([`zigzag`]: a line closed on itself, whose two ends couple, stays whole), then, if it still reaches farther,
+/// split in halves, until none does. Split in halves, a closed line left the coupling across its cuts to the
+/// Gauss–Seidel sweep between colours, which the stiff membrane along the ring made the multigrid's bottleneck
+/// (a 96 × 24 tube: 43 iterations with halves, 10 whole; docs/performance.md, "Periodic lines solved whole").
+fn split_far(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
+    // Each line with whether its zig-zag order was tried (a line is reordered at most once, then only halved).
+    let mut lines: Vec<(Vec<u32>, bool)> = lines.into_iter().map(|l| (l, false)).collect();
     loop {
-        let (reach, _) = couplings(pattern, &lines);
-        if reach.iter().zip(&lines).all(|(&r, l)| r <= FAR || l.len() < 4) {
-            return lines;
+        let plain: Vec<Vec<u32>> = lines.iter().map(|(l, _)| l.clone()).collect();
+        let (reach, _) = couplings(pattern, &plain);
+        if reach.iter().zip(&plain).all(|(&r, l)| r <= FAR || l.len() < 4) {
+            return plain;
         }
         lines = lines
             .into_iter()
             .zip(reach)
-            .flat_map(|(l, r)| {
-                if r <= FAR || l.len() < 4 {
-                    vec![l]
-                } else {
+            .flat_map(|((l, tried), r)| match (r <= FAR || l.len() < 4, tried) {
+                (true, _) => vec![(l, tried)],
+                (false, false) => vec![(zigzag(&l), true)],
+                (false, true) => {
                     let half = l.len() / 2;
-                    vec![l[..half].to_vec(), l[half..].to_vec()]
+                    vec![(l[..half].to_vec(), true), (l[half..].to_vec(), true)]
                 }
             })
             .collect();
@@ -240,7 +254,6 @@ impl Family {
         let lines = split_far(pattern, lines);
         // The widest coupling along a segment, and which segments couple, from the pattern.
         let (reaches, mut edges) = couplings(pattern, &lines);
-        let reach = reaches.into_iter().max().unwrap_or(0);
         edges.sort_unstable();
         edges.dedup();
         let count = lines.len();
@@ -257,9 +270,9 @@ impl Family {
             color[s] = (0..).find(|c| !used.contains(c)).unwrap_or(0);
         }
         let colors_n = color.iter().copied().max().map_or(0, |c| c + 1);
-        let w = 3 * reach + 2;
         let stride = 3 * lines.iter().map(Vec::len).max().unwrap_or(0);
-        let mut tagged: Vec<(usize, Vec<u32>)> = lines.into_iter().enumerate().map(|(s, l)| (color[s], l)).collect();
+        let mut tagged: Vec<(usize, Vec<u32>, usize)> =
+            lines.into_iter().zip(reaches).enumerate().map(|(s, (l, r))| (color[s], l, r)).collect();
         tagged.sort_by_key(|t| t.0);
         let mut colors = Vec::with_capacity(colors_n);
         let mut begin = 0;
@@ -270,7 +283,10 @@ impl Family {
         }
         let mut segments: Vec<Segment> = tagged
             .into_iter()
-            .map(|(_, nodes)| Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], gather: Vec::new(), nodes })
+            .map(|(_, nodes, reach)| {
+                let w = 3 * reach + 2;
+                Segment { band: vec![0.0; 3 * nodes.len() * (w + 1)], gather: Vec::new(), nodes, w }
+            })
             .collect();
         let sorted = colors
             .iter()
@@ -283,7 +299,7 @@ impl Family {
                 nodes
             })
             .collect();
-        Self { segments, colors, sorted, w, stride }
+        Self { segments, colors, sorted, stride }
     }
 
     /// Scratch scalars for relaxing the largest colour: its segments' right-hand sides, then its residuals in
@@ -293,23 +309,12 @@ impl Family {
     }
 }
 
-/// The lines along direction `d` (0: `u1`, fixed `j`; 1: `u2`, fixed `i`) of an `m × n` grid, periodic ones
-/// split in two.
-pub(crate) fn grid_lines(m: usize, n: usize, d: usize, topology: Topology) -> Vec<Vec<u32>> {
+/// The lines along direction `d` (0: `u1`, fixed `j`; 1: `u2`, fixed `i`) of an `m × n` grid, in grid order; a
+/// periodic one, whose ends couple, is put in zig-zag order by [`LineSmoother::new`] ([`split_far`]).
+pub(crate) fn grid_lines(m: usize, n: usize, d: usize) -> Vec<Vec<u32>> {
     let (count, len) = if d == 0 { (n, m) } else { (m, n) };
     let node = |line: usize, k: usize| if d == 0 { (k + m * line) as u32 } else { (line + m * k) as u32 };
-    let mut out = Vec::new();
-    for line in 0..count {
-        let all: Vec<u32> = (0..len).map(|k| node(line, k)).collect();
-        if topology == Topology::Periodic && len >= 4 {
-            let half = len / 2;
-            out.push(all[..half].to_vec());
-            out.push(all[half..].to_vec());
-        } else {
-            out.push(all);
-        }
-    }
-    out
+    (0..count).map(|line| (0..len).map(|k| node(line, k)).collect()).collect()
 }
 
 impl LineSmoother {
@@ -332,12 +337,11 @@ impl LineSmoother {
         self.rows.refill(a);
         let (rows, masked) = (&self.rows, &self.masked);
         for family in &mut self.families {
-            let w = family.w;
             family
                 .segments
                 .par_iter_mut()
                 .with_min_len(16)
-                .for_each_init(Vec::new, |band, seg| factor_segment(rows, masked, seg, w, band));
+                .for_each_init(Vec::new, |band, seg| factor_segment(rows, masked, seg, band));
         }
     }
 
@@ -402,7 +406,7 @@ impl LineSmoother {
         let order = &family.sorted[color];
         let (buf, rest) = scratch.split_at_mut(segs.len() * family.stride);
         let residuals = &mut rest[..3 * order.len()];
-        let (w, rows, masked) = (family.w, &self.rows, &self.masked);
+        let (rows, masked) = (&self.rows, &self.masked);
         let xr: &[Vec3] = x;
         let fill = |(out, nodes): (&mut [f64], &[u32])| {
             for (o, &p) in out.chunks_exact_mut(3).zip(nodes) {
@@ -427,7 +431,7 @@ impl LineSmoother {
             for (r, &g) in rhs.chunks_exact_mut(3).zip(&seg.gather) {
                 r.copy_from_slice(&residuals[3 * g as usize..3 * g as usize + 3]);
             }
-            band_solve(&seg.band, w, rhs);
+            band_solve(&seg.band, seg.w, rhs);
         };
         if parallel {
             segs.par_iter().zip(buf.par_chunks_mut(family.stride)).for_each(solve);
@@ -446,8 +450,8 @@ impl LineSmoother {
 
 /// Fills and factorises one segment's banded matrix (masked nodes, and nodes without stiffness, as identity), in
 /// `f64` in the thread's scratch `band`, and stores the factor in `f32`.
-fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, w: usize, band: &mut Vec<f64>) {
-    let len = seg.nodes.len();
+fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, band: &mut Vec<f64>) {
+    let (len, w) = (seg.nodes.len(), seg.w);
     let stride = w + 1;
     band.clear();
     band.resize(seg.band.len(), 0.0);

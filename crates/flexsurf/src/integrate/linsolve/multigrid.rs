@@ -162,7 +162,7 @@ impl Shape {
             shapes
                 .iter()
                 .flat_map(|s| {
-                    grid_lines(s.m, s.n, d, s.topology[d])
+                    grid_lines(s.m, s.n, d)
                         .into_iter()
                         .map(|l| l.iter().filter_map(|&k| s.nodes[k as usize]).collect::<Vec<u32>>())
                 })
