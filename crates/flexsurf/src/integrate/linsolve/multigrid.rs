@@ -126,6 +126,8 @@ struct Shape {
     n: usize,
     topology: [Topology; 2],
     nodes: Vec<Option<u32>>,
+    /// The level's node of each of its nodes, owned or not (a joined node's owner's).
+    ids: Vec<u32>,
 }
 
 impl Shape {
@@ -134,7 +136,8 @@ impl Shape {
         let mut owned = std::collections::BTreeSet::new();
         let shape = |p: &Panel| {
             let nodes = p.nodes().iter().map(|&k| owned.insert(k).then_some(k as u32)).collect();
-            Shape { m: p.grid.m, n: p.grid.n, topology: p.grid.topology, nodes }
+            let ids = p.nodes().iter().map(|&k| k as u32).collect();
+            Shape { m: p.grid.m, n: p.grid.n, topology: p.grid.topology, nodes, ids }
         };
         panels.iter().map(shape).collect()
     }
@@ -144,9 +147,9 @@ impl Shape {
         let mut offset = 0u32;
         grids
             .map(|(m, n, topology)| {
-                let nodes = (offset..offset + (m * n) as u32).map(Some).collect();
+                let ids: Vec<u32> = (offset..offset + (m * n) as u32).collect();
                 offset += (m * n) as u32;
-                Shape { m, n, topology, nodes }
+                Shape { m, n, topology, nodes: ids.iter().copied().map(Some).collect(), ids }
             })
             .collect()
     }
@@ -156,18 +159,19 @@ impl Shape {
         self.nodes.iter().flatten().count()
     }
 
-    /// The `u1` lines and the `u2` lines of every panel, over the nodes it owns.
+    /// The `u1` lines and the `u2` lines of every panel, over the nodes it owns, each continued through a seam
+    /// into the line of the same family that another panel has there ([`join_at_seams`]).
     fn lines(shapes: &[Shape]) -> [Vec<Vec<u32>>; 2] {
         [0, 1].map(|d| {
-            shapes
-                .iter()
-                .flat_map(|s| {
-                    grid_lines(s.m, s.n, d)
-                        .into_iter()
-                        .map(|l| l.iter().filter_map(|&k| s.nodes[k as usize]).collect::<Vec<u32>>())
+            let pieces = shapes.iter().flat_map(|s| {
+                grid_lines(s.m, s.n, d).into_iter().map(|l| {
+                    let beyond =
+                        |k: Option<&u32>| k.filter(|&&k| s.nodes[k as usize].is_none()).map(|&k| s.ids[k as usize]);
+                    let nodes = l.iter().filter_map(|&k| s.nodes[k as usize]).collect::<Vec<u32>>();
+                    PanelLine { nodes, before: beyond(l.first()), after: beyond(l.last()) }
                 })
-                .filter(|l| !l.is_empty())
-                .collect()
+            });
+            join_at_seams(pieces.filter(|l| !l.nodes.is_empty()).collect())
         })
     }
 
@@ -614,6 +618,69 @@ impl Level {
             }
         }
     }
+}
+
+/// A panel's grid line over the nodes it owns, and the nodes another panel owns just beyond its first and its
+/// last place (a seam's joined nodes), through which it continues into that panel's line.
+struct PanelLine {
+    nodes: Vec<u32>,
+    before: Option<u32>,
+    after: Option<u32>,
+}
+
+/// The lines of one family with every line that continues through a seam into another panel's line (one whose
+/// end is the joined node just beyond it) joined to it, end to end, in chains or, where the chain closes (a
+/// skirt's gores around the body), in rings that the smoother takes whole ([`super::lines`]); lines without
+/// such a neighbour come out as they came, in their order. Cut at the seams, a garment's hoop lines left their
+/// stiff coupling across each seam to the Gauss–Seidel sweep, as a periodic ring's halves did (docs/performance.md,
+/// "Periodic lines solved whole").
+fn join_at_seams(lines: Vec<PanelLine>) -> Vec<Vec<u32>> {
+    let mut end_of = std::collections::HashMap::new();
+    for (t, l) in lines.iter().enumerate() {
+        end_of.entry(l.nodes[0]).or_insert((t, 0));
+        end_of.entry(l.nodes[l.nodes.len() - 1]).or_insert((t, 1));
+    }
+    // Each line end's neighbour (line, end), at most one each.
+    let mut partner: Vec<Option<(usize, usize)>> = vec![None; 2 * lines.len()];
+    for (t, l) in lines.iter().enumerate() {
+        for (side, link) in [(0, l.before), (1, l.after)] {
+            let Some(&(u, end)) = link.and_then(|k| end_of.get(&k)) else { continue };
+            if u != t && partner[2 * t + side].is_none() && partner[2 * u + end].is_none() {
+                partner[2 * t + side] = Some((u, end));
+                partner[2 * u + end] = Some((t, side));
+            }
+        }
+    }
+    let mut visited = vec![false; lines.len()];
+    // The chain entered at line `t` through its end `enter`, each line oriented so that it is entered first.
+    let walk = |visited: &mut [bool], mut t: usize, mut enter: usize| {
+        let mut chain = Vec::new();
+        loop {
+            visited[t] = true;
+            match enter {
+                0 => chain.extend_from_slice(&lines[t].nodes),
+                _ => chain.extend(lines[t].nodes.iter().rev()),
+            }
+            match partner[2 * t + 1 - enter] {
+                Some((u, end)) if !visited[u] => (t, enter) = (u, end),
+                _ => return chain,
+            }
+        }
+    };
+    let mut out = Vec::with_capacity(lines.len());
+    for t in 0..lines.len() {
+        if !visited[t] && (partner[2 * t].is_none() || partner[2 * t + 1].is_none()) {
+            let enter = usize::from(partner[2 * t].is_some());
+            out.push(walk(&mut visited, t, enter));
+        }
+    }
+    // What is left closes on itself.
+    for t in 0..lines.len() {
+        if !visited[t] {
+            out.push(walk(&mut visited, t, 0));
+        }
+    }
+    out
 }
 
 /// For each node of the panels `coarse`, the node of the finer panels `shapes` at the same place (the one whose
