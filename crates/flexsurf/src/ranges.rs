@@ -250,6 +250,10 @@ pub const STEPS: usize = 1_000_000_000;
 pub const NODES: usize = 100_000_000;
 /// Most frames a run writes (`time.steps / time.output_every`).
 pub const FRAMES: usize = 1_000_000;
+/// Most steps of a garment's sewing phase (`pattern.sewing_steps`). The phase runs while the scene is built, so
+/// `flexsurf check` and every front end's load take it: 100,000 steps is 1,000 s of sewing at Δt = 0.01 s, over
+/// three hundred times the shipped garments' 300, and minutes of work on a fine pattern.
+pub const SEWING_STEPS: usize = 100_000;
 
 /// `value` with its unit (`0.01 s`, `0.3`).
 fn with_unit(value: impl std::fmt::Display, unit: &str) -> String {

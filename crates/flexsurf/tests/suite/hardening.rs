@@ -106,6 +106,26 @@ nodes = [12, 5]\n[time]\nsteps = 2\n[[obstacle]]\nsphere = { center = [0.0, 0.0,
     assert!(t.elapsed().as_secs_f64() < 5.0);
 }
 
+/// Fuzz seed 40, input 206621: a pattern scene asking for `sewing_steps = 0x7fffffff` with seams closing by
+/// 1e-9 m a step ran its sewing phase, which the scene's build runs, for over two minutes (a hang to every front
+/// end's load and to `flexsurf check`). The count is now refused, naming the key, before any sewing.
+#[test]
+fn regression_a_huge_sewing_step_count_hung_the_scene_build() {
+    let d = scratch("sewing-steps");
+    let pattern = repo().join("garments/four_gore_skirt.toml");
+    let text = std::fs::read_to_string(repo().join("scenes/four_gore_skirt.toml"))
+        .unwrap()
+        .replace("../garments/four_gore_skirt.toml", &pattern.display().to_string().replace('\\', "/"));
+    let t = std::time::Instant::now();
+    for steps in ["0x7fffffff", "100001", "18446744073709551615"] {
+        let huge = text.replace("sewing_steps = 300", &format!("sewing_steps = {steps}"));
+        let huge = huge.replace("sewing_gap = 0.0008", "sewing_gap = 0.0008\nsewing_closing = 1e-9");
+        let e = err_text(&d, &huge);
+        assert!(e.contains("`pattern.sewing_steps`") && e.contains("scene.toml"), "{steps}: {e}");
+    }
+    assert!(t.elapsed().as_secs_f64() < 5.0, "refused in {:?}", t.elapsed());
+}
+
 /// Makes a FIFO at `path` (with the system's `mkfifo`; no `unsafe` here).
 #[cfg(unix)]
 fn mkfifo(path: &Path) {
