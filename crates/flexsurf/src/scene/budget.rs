@@ -68,7 +68,7 @@ pub(crate) struct Budget {
     pub(crate) estimate: Estimate,
 }
 
-/// Checks the size of the run: the steps, the frames and the nodes (in checked arithmetic), and the estimate
+/// Checks the size of the run: the steps (a garment's sewing steps too), the frames and the nodes (in checked arithmetic), and the estimate
 /// of its memory against `limits`. Called by [`SceneSpec::build_with`] before anything is read or built, from
 /// the sizes alone. Returns the frame and animation cadences and the estimate.
 pub(crate) fn check(spec: &SceneSpec, v: &Validator<'_>, limits: &Limits) -> Result<Budget, SceneError> {
@@ -88,6 +88,12 @@ pub(crate) fn check_sizes(
     v.require("time.steps", steps <= ranges::STEPS, || {
         format!("{steps} steps is more than the {} a run may take", ranges::STEPS)
     })?;
+    if let Some(sewing) = spec.pattern.as_ref().map(|p| p.sewing_steps) {
+        // The sewing phase runs while the scene is built.
+        v.require("pattern.sewing_steps", sewing <= ranges::SEWING_STEPS, || {
+            format!("{sewing} steps is more than the {} a sewing phase may take", ranges::SEWING_STEPS)
+        })?;
+    }
     let every = v.at_least("time.output_every", spec.time.output_every.unwrap_or(steps), 1)?;
     // The run lists its frames (in memory and in its manifest) before it starts.
     let frames = steps / every;

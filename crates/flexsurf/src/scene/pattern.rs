@@ -558,13 +558,6 @@ impl PatternUse {
             self.sewing_stiffness > 0.0 && self.sewing_stiffness.is_finite(),
             || format!("{}: must be a positive stiffness", self.sewing_stiffness),
         )?;
-        v.require("pattern.sewing_steps", self.sewing_steps <= crate::ranges::SEWING_STEPS, || {
-            format!(
-                "{}: at most {} steps (the sewing phase runs while the scene is built)",
-                self.sewing_steps,
-                crate::ranges::SEWING_STEPS
-            )
-        })?;
         v.require("pattern.sewing_gap", self.sewing_gap > 0.0 && self.sewing_gap.is_finite(), || {
             format!("{}: must be a positive length", self.sewing_gap)
         })?;

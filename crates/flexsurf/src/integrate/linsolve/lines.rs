@@ -221,28 +221,30 @@ fn zigzag(line: &[u32]) -> Vec<u32> {
 }
 
 /// The lines with every one whose couplings reach farther than [`FAR`] along it first put in zig-zag order
-/// ([`zigzag`]: a line closed on itself, whose two ends couple, stays whole), then, if it still reaches farther,
-/// split in halves, until none does. Split in halves, a closed line left the coupling across its cuts to the
-/// Gauss–Seidel sweep between colours, which the stiff membrane along the ring made the multigrid's bottleneck
-/// (a 96 × 24 tube: 43 iterations with halves, 10 whole; docs/performance.md, "Periodic lines solved whole").
+/// ([`zigzag`]: a line closed on itself, whose two ends couple, stays whole), then every one that still reaches
+/// farther split in halves, until none does. Split in halves, a closed line left the coupling across its cuts to
+/// the Gauss–Seidel sweep between colours, which the stiff membrane along the ring made the multigrid's
+/// bottleneck (a 96 × 24 tube: 43 iterations with halves, 10 whole; docs/performance.md, "Periodic lines solved
+/// whole").
 fn split_far(pattern: &BlockPattern, lines: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
-    // Each line with whether its zig-zag order was tried (a line is reordered at most once, then only halved).
-    let mut lines: Vec<(Vec<u32>, bool)> = lines.into_iter().map(|l| (l, false)).collect();
+    let far = |r: usize, l: &[u32]| r > FAR && l.len() >= 4;
+    let (reach, _) = couplings(pattern, &lines);
+    let mut lines: Vec<Vec<u32>> =
+        lines.into_iter().zip(reach).map(|(l, r)| if far(r, &l) { zigzag(&l) } else { l }).collect();
     loop {
-        let plain: Vec<Vec<u32>> = lines.iter().map(|(l, _)| l.clone()).collect();
-        let (reach, _) = couplings(pattern, &plain);
-        if reach.iter().zip(&plain).all(|(&r, l)| r <= FAR || l.len() < 4) {
-            return plain;
+        let (reach, _) = couplings(pattern, &lines);
+        if !reach.iter().zip(&lines).any(|(&r, l)| far(r, l)) {
+            return lines;
         }
         lines = lines
             .into_iter()
             .zip(reach)
-            .flat_map(|((l, tried), r)| match (r <= FAR || l.len() < 4, tried) {
-                (true, _) => vec![(l, tried)],
-                (false, false) => vec![(zigzag(&l), true)],
-                (false, true) => {
+            .flat_map(|(l, r)| {
+                if far(r, &l) {
                     let half = l.len() / 2;
-                    vec![(l[..half].to_vec(), true), (l[half..].to_vec(), true)]
+                    vec![l[..half].to_vec(), l[half..].to_vec()]
+                } else {
+                    vec![l]
                 }
             })
             .collect();
