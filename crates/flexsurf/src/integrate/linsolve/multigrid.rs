@@ -7,7 +7,10 @@
 //!   node takes half of each neighbour (linear interpolation on the parametric grid, wrapping around a
 //!   periodic direction). The prolongation `P` is the tensor product of the two directions', with the rows
 //!   of fixed nodes zero, so the coarse corrections never move a pinned node. Levels are added until
-//!   [`Multigrid::COARSEST_NODES`] nodes or no direction can be halved.
+//!   [`Multigrid::COARSEST_NODES`] nodes or no direction can be halved. Each panel of a garment is halved on its
+//!   own grid, and sewn panels share their coarse nodes where a seam's joined node is a coarse node of both, as
+//!   they share the fine ones: each coarse level is sewn as the fine one is (a tube of two gores then solves in
+//!   the iterations of a periodic tube at every refinement; docs/performance.md, "Coarse nodes shared at seams").
 //! - **Rotations.** On a curved sheet a fine node is not at its parents' centroid, so linear interpolation of
 //!   Cartesian increments moves it off a rigid rotation of its parents (by `θ × (x − x̄)`): each block of `P` adds
 //!   the rotation fitted to the parents' increments (least squares) times the node's offset from their
@@ -55,12 +58,15 @@ struct Transfer1d {
     coarse: usize,
     parents: Vec<[(usize, f64); 2]>,
     count: Vec<u8>,
+    /// For each coarse index, the fine index at its place (whose only parent it is).
+    at: Vec<usize>,
 }
 
 impl Transfer1d {
     /// The identity (a direction too short to halve).
     fn identity(count: usize) -> Self {
-        Self { coarse: count, parents: (0..count).map(|i| [(i, 1.0), (0, 0.0)]).collect(), count: vec![1; count] }
+        let parents = (0..count).map(|i| [(i, 1.0), (0, 0.0)]).collect();
+        Self { coarse: count, parents, count: vec![1; count], at: (0..count).collect() }
     }
 
     /// Halving `count` nodes of a free or periodic direction, or `None` when it has too few.
@@ -71,13 +77,14 @@ impl Transfer1d {
         }
         // Coarse nodes: the even indices, plus the last index of a free direction of even count.
         let mut index = vec![usize::MAX; count];
-        let mut coarse = 0;
+        let mut at = Vec::with_capacity(count / 2 + 2);
         for (i, slot) in index.iter_mut().enumerate() {
             if i % 2 == 0 || (!periodic && i == count - 1) {
-                *slot = coarse;
-                coarse += 1;
+                *slot = at.len();
+                at.push(i);
             }
         }
+        let coarse = at.len();
         let mut parents = vec![[(0, 0.0); 2]; count];
         let mut counts = vec![0u8; count];
         for i in 0..count {
@@ -91,7 +98,7 @@ impl Transfer1d {
                 counts[i] = 2;
             }
         }
-        Some(Self { coarse, parents, count: counts })
+        Some(Self { coarse, parents, count: counts, at })
     }
 
     fn parents(&self, i: usize) -> &[(usize, f64)] {
@@ -118,8 +125,7 @@ struct Recipe {
 }
 
 /// One panel's grid on one level, and the level's node of each of its nodes that it owns (a node joined by a
-/// seam belongs to the first panel that has it; the coarse levels' panels own all their nodes, panel after
-/// panel).
+/// seam belongs to the first panel that has it, on every level: [`Shape::coarsen`]).
 #[derive(Debug, Clone)]
 struct Shape {
     m: usize,
@@ -152,6 +158,34 @@ impl Shape {
                 Shape { m, n, topology, nodes: ids.iter().copied().map(Some).collect(), ids }
             })
             .collect()
+    }
+
+    /// The coarse panels of the panels `shapes` halved by their `transfers`. A coarse node at a fine node that
+    /// another panel owns (a seam's joined node) is the owner's coarse node there where the owner keeps one, so
+    /// that sewn panels share their coarse seam nodes as they share the fine ones and the coarse levels stay sewn;
+    /// every other coarse node is its panel's own, numbered panel after panel (a one-panel model's coarse grid in
+    /// its own order). A joined node's owner comes first (ownership goes to the first panel, and within a panel to
+    /// the first place), so its coarse node is numbered before it is looked up.
+    fn coarsen(shapes: &[Shape], transfers: &[(Transfer1d, Transfer1d)]) -> Vec<Shape> {
+        let mut coarse_of = std::collections::HashMap::new();
+        let mut next = 0u32;
+        let panel = |(s, (t1, t2)): (&Shape, &(Transfer1d, Transfer1d))| {
+            let (mut nodes, mut ids) = (Vec::with_capacity(t1.coarse * t2.coarse), Vec::new());
+            for &fj in &t2.at {
+                for &fi in &t1.at {
+                    let f = fi + s.m * fj;
+                    let shared = s.nodes[f].is_none().then(|| coarse_of.get(&s.ids[f]).copied()).flatten();
+                    nodes.push(shared.is_none().then_some(next));
+                    ids.push(shared.unwrap_or(next));
+                    if shared.is_none() {
+                        coarse_of.entry(s.ids[f]).or_insert(next);
+                        next += 1;
+                    }
+                }
+            }
+            Shape { m: t1.coarse, n: t2.coarse, topology: s.topology, nodes, ids }
+        };
+        shapes.iter().zip(transfers).map(panel).collect()
     }
 
     /// Owned nodes.
@@ -360,8 +394,7 @@ impl Multigrid {
                     .map(|s| s.halve().unwrap_or_else(|| (Transfer1d::identity(s.m), Transfer1d::identity(s.n))))
                     .collect(),
             };
-            let coarse =
-                Shape::contiguous(shapes.iter().zip(&transfers).map(|(s, t)| (t.0.coarse, t.1.coarse, s.topology)));
+            let coarse = Shape::coarsen(&shapes, &transfers);
             let coarse_nodes: usize = coarse.iter().map(Shape::owned).sum();
             if coarse_nodes == nodes {
                 break;
@@ -688,12 +721,10 @@ fn join_at_seams(lines: Vec<PanelLine>) -> Vec<Vec<u32>> {
 fn sources(shapes: &[Shape], transfers: &[(Transfer1d, Transfer1d)], coarse: &[Shape], nodes: usize) -> Vec<u32> {
     let mut source = vec![0u32; nodes];
     for ((s, (t1, t2)), c) in shapes.iter().zip(transfers).zip(coarse) {
-        for (local, node) in s.nodes.iter().enumerate() {
-            let Some(k) = node else { continue };
-            let (i, j) = (local % s.m, local / s.m);
-            if let ([(ci, _)], [(cj, _)]) = (t1.parents(i), t2.parents(j)) {
-                if let Some(Some(target)) = c.nodes.get(ci + t1.coarse * cj) {
-                    source[*target as usize] = *k;
+        for (cj, &fj) in t2.at.iter().enumerate() {
+            for (ci, &fi) in t1.at.iter().enumerate() {
+                if let Some(target) = c.nodes[ci + t1.coarse * cj] {
+                    source[target as usize] = s.ids[fi + s.m * fj];
                 }
             }
         }
@@ -718,7 +749,12 @@ fn prolongation(
             let (i, j) = (local % s.m, local / s.m);
             for &(ci, wi) in t1.parents(i) {
                 for &(cj, wj) in t2.parents(j) {
-                    rows[k].push((c.nodes[ci + mc * cj].expect("coarse panels own their nodes"), wi * wj));
+                    // A parent shared through a seam may be reached twice (a ring of two coarse nodes).
+                    let parent = c.ids[ci + mc * cj];
+                    match rows[k].iter_mut().find(|(c, _)| *c == parent) {
+                        Some((_, w)) => *w += wi * wj,
+                        None => rows[k].push((parent, wi * wj)),
+                    }
                 }
             }
         }
