@@ -54,9 +54,14 @@ impl BlockPattern {
 
     /// Block id of `(i, j)` with `i ≤ j`. Panics if the pair is not in the pattern (a programming error).
     pub fn find(&self, i: usize, j: usize) -> usize {
+        self.get(i, j).expect("node pair outside the sparsity pattern")
+    }
+
+    /// Block id of node pair `(i, j)` (either order), `None` when the pattern does not couple them.
+    pub fn get(&self, i: usize, j: usize) -> Option<usize> {
         let (i, j) = if i <= j { (i, j) } else { (j, i) };
         let r = &self.rows[self.col_start[j]..self.col_start[j + 1]];
-        self.col_start[j] + r.binary_search(&i).expect("node pair outside the sparsity pattern")
+        r.binary_search(&i).ok().map(|k| self.col_start[j] + k)
     }
 
     /// Scalar CSC structure of the upper triangle of the `3n × 3n` matrix, plus, for each scalar entry, the

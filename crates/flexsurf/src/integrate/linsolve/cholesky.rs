@@ -173,6 +173,7 @@ impl Cholesky {
     /// Factorises `a`, the coarsest level of [`super::multigrid`]: its nodes without any stiffness (every
     /// finer node under them pinned) are fixed, so they keep a zero correction.
     pub(crate) fn factorize(&mut self, a: &BlockMatrix) -> Result<(), LinearError> {
+        self.follow_extra(a)?;
         let mut none = std::mem::take(&mut self.no_fixed);
         none.clear();
         none.extend((0..self.system.pattern().nodes()).map(|k| {

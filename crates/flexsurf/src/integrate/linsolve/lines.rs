@@ -35,6 +35,65 @@ pub(crate) struct RowMatrix {
     /// For each entry: the upper block it copies, and whether transposed (a lower entry).
     src: Vec<(u32, bool)>,
     blocks: Vec<glam::Mat3>,
+    /// The matrix's blocks outside the pattern ([`crate::sparse::ExtraBlocks`]: pairs between faces), by rows.
+    extra: ExtraRows,
+}
+
+/// The extra blocks of a matrix by rows (both triangles), rebuilt when its set of pairs changes and refilled
+/// with the rows. Without them the smoother and the coarse levels saw a self-contact pair's stiffness on its
+/// nodes' diagonal blocks but not the coupling between them, a preconditioner of another matrix
+/// (docs/performance.md, "Pairs between faces in the multigrid").
+#[derive(Debug, Clone, Default)]
+struct ExtraRows {
+    /// The pairs the rows were built for, in the matrix's slot order.
+    pairs: Vec<(usize, usize)>,
+    start: Vec<u32>,
+    col: Vec<u32>,
+    /// For each entry: the extra block's slot, and whether transposed (the pair's second node's row).
+    src: Vec<(u32, bool)>,
+    blocks: Vec<glam::Mat3>,
+}
+
+impl ExtraRows {
+    /// Rebuilds the rows when `a`'s pairs are not those they were built for, and refills their blocks.
+    fn refill(&mut self, a: &BlockMatrix, n: usize) {
+        if a.extra.pairs() != self.pairs.as_slice() {
+            self.pairs = a.extra.pairs().to_vec();
+            let mut per_row: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); n];
+            for (slot, &(i, j)) in self.pairs.iter().enumerate() {
+                per_row[i].push((j as u32, slot as u32, false));
+                per_row[j].push((i as u32, slot as u32, true));
+            }
+            (self.start, self.col, self.src) = (Vec::with_capacity(n + 1), Vec::new(), Vec::new());
+            self.start.push(0);
+            for mut r in per_row {
+                r.sort_unstable_by_key(|e| (e.0, e.1));
+                self.col.extend(r.iter().map(|e| e.0));
+                self.src.extend(r.iter().map(|e| (e.1, e.2)));
+                self.start.push(self.col.len() as u32);
+            }
+            if self.pairs.is_empty() {
+                self.start.clear();
+            }
+        }
+        self.blocks.clear();
+        self.blocks.extend(self.src.iter().map(|&(slot, t)| {
+            let m = a.extra.blocks[slot as usize];
+            if t { m.transpose() } else { m }.as_mat3()
+        }));
+    }
+
+    /// `Σ_c E_pc x_c` over the extra blocks of row `p` (the rows built: some pairs).
+    #[inline]
+    fn row_dot(&self, p: usize, x: &[Vec3]) -> Vec3 {
+        let r = self.start[p] as usize..self.start[p + 1] as usize;
+        self.blocks[r.clone()].iter().zip(&self.col[r]).fold(Vec3::ZERO, |s, (m, &c)| s + m.as_dmat3() * x[c as usize])
+    }
+
+    /// Bytes one pass over the rows reads.
+    fn bytes(&self) -> usize {
+        self.blocks.len() * (std::mem::size_of::<glam::Mat3>() + 4) + self.start.len() * 4
+    }
 }
 
 impl RowMatrix {
@@ -63,15 +122,16 @@ impl RowMatrix {
             start.push(col.len() as u32);
         }
         let blocks = vec![glam::Mat3::ZERO; col.len()];
-        Self { start, col, src, blocks }
+        Self { start, col, src, blocks, extra: ExtraRows::default() }
     }
 
     /// Bytes one pass over the rows reads: the `f32` blocks, their column indices and the row starts.
     fn bytes(&self) -> usize {
-        self.blocks.len() * (std::mem::size_of::<glam::Mat3>() + 4) + self.start.len() * 4
+        self.blocks.len() * (std::mem::size_of::<glam::Mat3>() + 4) + self.start.len() * 4 + self.extra.bytes()
     }
 
     fn refill(&mut self, a: &BlockMatrix) {
+        self.extra.refill(a, self.start.len() - 1);
         let src = &self.src;
         let fill = |(out, &(blk, t)): (&mut glam::Mat3, &(u32, bool))| {
             let m = a.blocks[blk as usize];
@@ -106,7 +166,10 @@ impl RowMatrix {
         {
             even += term(m, c);
         }
-        even + odd
+        match self.extra.start.is_empty() {
+            true => even + odd,
+            false => even + odd + self.extra.row_dot(p, x),
+        }
     }
 
     /// The block `(p, c)`, zero when not stored.
@@ -162,6 +225,8 @@ struct Family {
     sorted: Vec<Vec<u32>>,
     /// Scalars of scratch per segment (three per node of the longest).
     stride: usize,
+    /// Each node's colour (`u32::MAX`: on no segment).
+    color_of: Vec<u32>,
 }
 
 /// Symmetric line Gauss–Seidel of one level.
@@ -301,7 +366,38 @@ impl Family {
                 nodes
             })
             .collect();
-        Self { segments, colors, sorted, stride }
+        let mut color_of = vec![u32::MAX; pattern.nodes()];
+        for (c, range) in colors.iter().enumerate() {
+            for p in segments[range.clone()].iter().flat_map(|s| &s.nodes) {
+                color_of[*p as usize] = c as u32;
+            }
+        }
+        Self { segments, colors, sorted, stride, color_of }
+    }
+
+    /// For each node, the summed norms (Frobenius) of its extra blocks to nodes of its own colour, which a colour's
+    /// relaxation takes from the values before it rather than solving them with its lines (the colouring is the
+    /// pattern's; pairs between faces come and go with the steps, and a Galerkin level smears them onto nearby
+    /// nodes of one line). Added to the lines' diagonal blocks `M` it keeps every relaxation a contraction in the
+    /// energy norm however stiff the pairs are: with `E` the colour's extra blocks and `L` these sums,
+    /// `L − E` is positive semidefinite (each block's `[[‖E‖ I, −E], [−Eᵀ, ‖E‖ I]]` is), so the lines' matrices
+    /// `A_cc − E + L ≥ A_cc` stay positive definite (without it a line of a coarse level whose own couplings
+    /// are only part of a pair's rank-one stiffness was indefinite) and `2 M − A_cc = A_cc + 2 (L − E)` is too: the
+    /// cycle stays a positive definite preconditioner. Empty without extra blocks.
+    fn lumps(&self, extra: &ExtraRows) -> Vec<f64> {
+        if extra.start.is_empty() {
+            return Vec::new();
+        }
+        (0..self.color_of.len())
+            .map(|p| {
+                let r = extra.start[p] as usize..extra.start[p + 1] as usize;
+                let own = |&(_, &q): &(&glam::Mat3, &u32)| self.color_of[q as usize] == self.color_of[p];
+                let norm = |(m, _): (&glam::Mat3, &u32)| {
+                    f64::from(m.to_cols_array().iter().map(|v| v * v).sum::<f32>()).sqrt()
+                };
+                extra.blocks[r.clone()].iter().zip(&extra.col[r]).filter(own).map(norm).sum::<f64>()
+            })
+            .collect()
     }
 
     /// Scratch scalars for relaxing the largest colour: its segments' right-hand sides, then its residuals in
@@ -339,11 +435,12 @@ impl LineSmoother {
         self.rows.refill(a);
         let (rows, masked) = (&self.rows, &self.masked);
         for family in &mut self.families {
+            let lumps = family.lumps(&rows.extra);
             family
                 .segments
                 .par_iter_mut()
                 .with_min_len(16)
-                .for_each_init(Vec::new, |band, seg| factor_segment(rows, masked, seg, band));
+                .for_each_init(Vec::new, |band, seg| factor_segment(rows, masked, &lumps, seg, band));
         }
     }
 
@@ -452,7 +549,7 @@ impl LineSmoother {
 
 /// Fills and factorises one segment's banded matrix (masked nodes, and nodes without stiffness, as identity), in
 /// `f64` in the thread's scratch `band`, and stores the factor in `f32`.
-fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, band: &mut Vec<f64>) {
+fn factor_segment(rows: &RowMatrix, masked: &[bool], lumps: &[f64], seg: &mut Segment, band: &mut Vec<f64>) {
     let (len, w) = (seg.nodes.len(), seg.w);
     let stride = w + 1;
     band.clear();
@@ -469,6 +566,8 @@ fn factor_segment(rows: &RowMatrix, masked: &[bool], seg: &mut Segment, band: &m
                 } else {
                     Mat3::ZERO
                 }
+            } else if back == 0 && !lumps.is_empty() {
+                rows.get(p, q) + Mat3::from_diagonal(Vec3::splat(lumps[p]))
             } else {
                 rows.get(p, q)
             };

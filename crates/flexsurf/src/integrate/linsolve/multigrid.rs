@@ -614,8 +614,33 @@ impl Level {
         self.p_block = smoothed;
     }
 
-    /// `A = Pᵀ A_fine P` in place.
+    /// `A = Pᵀ A_fine P` in place: the pattern's blocks by the recipe, then the fine extra blocks (pairs between
+    /// faces), each into the coarse block of its parents' pair, an extra block of this level where the coarse
+    /// pattern does not couple them (the level's extra pairs kept from refill to refill as the step matrix keeps
+    /// its own, so the coarsest factorisation is analysed again only when they change).
     fn galerkin(&mut self, fine: &BlockMatrix) {
+        self.galerkin_pattern(fine);
+        self.a.extra.prune();
+        self.a.extra.blocks.fill(Mat3::ZERO);
+        let p = |k: usize| self.p_start[k] as usize..self.p_start[k + 1] as usize;
+        for (&(i, j), m) in fine.extra.pairs().iter().zip(&fine.extra.blocks) {
+            for ei in p(i) {
+                for ej in p(j) {
+                    let (ci, cj) = (self.p_node[ei] as usize, self.p_node[ej] as usize);
+                    // `∂²/∂x_ci ∂x_cj` of the pair's coupling.
+                    let b = self.p_block[ei].transpose() * *m * self.p_block[ej];
+                    match self.pattern.get(ci, cj) {
+                        Some(id) if ci == cj => self.a.blocks[id] += b + b.transpose(),
+                        Some(id) => self.a.blocks[id] += if ci < cj { b } else { b.transpose() },
+                        None => self.a.extra.add(ci, cj, b),
+                    }
+                }
+            }
+        }
+    }
+
+    /// The pattern's part of [`Level::galerkin`].
+    fn galerkin_pattern(&mut self, fine: &BlockMatrix) {
         let (r, p) = (&self.recipe, &self.p_block);
         for (c, out) in self.a.blocks.iter_mut().enumerate() {
             let mut acc = Mat3::ZERO;
