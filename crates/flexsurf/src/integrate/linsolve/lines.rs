@@ -11,7 +11,9 @@
 //! line's matrix is a principal submatrix (SPD) with a banded structure, factorised by a banded Cholesky at each
 //! refill; a periodic line (or one closed on itself by a seam) is taken whole in zig-zag order, at twice the
 //! bandwidth, rather than in halves, whose cuts left the stiff coupling along the ring to the Gauss–Seidel
-//! sweep ([`split_far`]). Masked nodes (pinned) are never changed.
+//! sweep ([`split_far`]). Masked nodes (pinned) are never changed. The matrix's blocks outside its pattern (pairs
+//! between faces) enter every residual, and a line's diagonal the norms of those it takes from the sweep before
+//! ([`Family::lumps`]), so the smoother stays a contraction however stiff they are.
 //!
 //! The matrix is kept here by rows (both triangles), so the residuals of a line and the products run row by
 //! row, split over rayon's threads with each row summed in a fixed order. A colour's residuals are computed

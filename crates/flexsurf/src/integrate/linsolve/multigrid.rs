@@ -28,7 +28,8 @@
 //!   and refilled in place for each solve but a re-solve ([`Reuse::Nearby`]: the matrix changed in a few
 //!   diagonal blocks, which the refilled finest smoother sees; the coarse levels are kept, the same iterations
 //!   at a fifth less set-up on the 321² sheet touching the ball); whatever couples nodes (the grid's stencils,
-//!   seams, springs) is carried.
+//!   seams, springs) is carried, the step's pairs between faces (blocks outside the pattern) included: each level
+//!   keeps those of its parents that its pattern does not couple as extra blocks of its own.
 //! - **Smoothing** is block Gauss–Seidel by grid lines ([`super::lines`]): the `u1` lines then the `u2` lines
 //!   before the coarse correction, the same in reverse after it, so the cycle is a symmetric positive definite
 //!   preconditioner; the coarsest level is solved by sparse Cholesky. Point smoothers measured 5–10× more
