@@ -237,6 +237,73 @@ pub(crate) struct LineSmoother {
     rows: RowMatrix,
     families: [Family; 2],
     masked: Vec<bool>,
+    /// Nodes held together by pairs between faces, relaxed two by two after the lines.
+    glued: Glued,
+}
+
+/// Pairs of nodes matched along their stiffest extra blocks (two layers held together), each relaxed as one
+/// 6 × 6 system after the line sweeps (before them in the post-smoothing, in reverse order): the layers' glued
+/// motion, which a line's relaxation takes from the sweep before, moves as one there.
+#[derive(Debug, Clone, Default)]
+struct Glued {
+    pairs: Vec<(u32, u32)>,
+    /// Per pair: `A_pp⁻¹`, `A_pq`, `A_pp⁻¹ A_pq`, the Schur complement's inverse `(A_qq − A_qp A_pp⁻¹ A_pq)⁻¹`.
+    blocks: Vec<[Mat3; 4]>,
+}
+
+impl Glued {
+    /// Matches each node (in order) with its unmatched partner of the stiffest extra block, and inverts each
+    /// pair's system.
+    fn refill(&mut self, rows: &RowMatrix, masked: &[bool]) {
+        self.pairs.clear();
+        self.blocks.clear();
+        let extra = &rows.extra;
+        if extra.start.is_empty() {
+            return;
+        }
+        let n = masked.len();
+        let mut matched = masked.to_vec();
+        let norm = |m: &glam::Mat3| m.to_cols_array().iter().map(|v| f64::from(*v) * f64::from(*v)).sum::<f64>();
+        for p in 0..n {
+            if matched[p] {
+                continue;
+            }
+            let r = extra.start[p] as usize..extra.start[p + 1] as usize;
+            let best = extra.col[r.clone()]
+                .iter()
+                .zip(&extra.blocks[r])
+                .filter(|(&q, _)| !matched[q as usize])
+                .max_by(|a, b| norm(a.1).total_cmp(&norm(b.1)).then(b.0.cmp(a.0)));
+            let Some((&q, e)) = best else { continue };
+            let (a, c, b) = (rows.get(p, p), rows.get(q as usize, q as usize), e.as_dmat3());
+            let ainv = a.inverse();
+            let k = ainv * b;
+            let sinv = (c - b.transpose() * k).inverse();
+            if !(ainv.is_finite() && sinv.is_finite()) {
+                continue;
+            }
+            matched[p] = true;
+            matched[q as usize] = true;
+            self.pairs.push((p as u32, q));
+            self.blocks.push([ainv, b, k, sinv]);
+        }
+    }
+
+    /// Relaxes every pair in turn (`forward`: in order, else in reverse): `x_S += A_SS⁻¹ (b − A x)_S`.
+    fn relax(&self, rows: &RowMatrix, b: &[Vec3], x: &mut [Vec3], forward: bool) {
+        let mut one = |(&(p, q), m): (&(u32, u32), &[Mat3; 4])| {
+            let (p, q) = (p as usize, q as usize);
+            let (r1, r2) = (b[p] - rows.row_dot(p, x), b[q] - rows.row_dot(q, x));
+            let y1 = m[0] * r1;
+            let d2 = m[3] * (r2 - m[1].transpose() * y1);
+            x[p] += y1 - m[2] * d2;
+            x[q] += d2;
+        };
+        match forward {
+            true => self.pairs.iter().zip(&self.blocks).for_each(&mut one),
+            false => self.pairs.iter().zip(&self.blocks).rev().for_each(&mut one),
+        }
+    }
 }
 
 /// Couplings farther apart than this along a line split it (a line closed on itself through a seam).
@@ -423,7 +490,7 @@ impl LineSmoother {
     pub(crate) fn new(pattern: &BlockPattern, lines: [Vec<Vec<u32>>; 2], masked: &[bool]) -> Self {
         let [first, second] = lines;
         let families = [Family::new(pattern, first), Family::new(pattern, second)];
-        Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec() }
+        Self { rows: RowMatrix::new(pattern), families, masked: masked.to_vec(), glued: Glued::default() }
     }
 
     /// Row `p` of the level's matrix as the last refill stored it (`f32` blocks): its column nodes and blocks.
@@ -435,6 +502,7 @@ impl LineSmoother {
     /// Copies `a` and factorises every line.
     pub(crate) fn refill(&mut self, a: &BlockMatrix) {
         self.rows.refill(a);
+        self.glued.refill(&self.rows, &self.masked);
         let (rows, masked) = (&self.rows, &self.masked);
         for family in &mut self.families {
             let lumps = family.lumps(&rows.extra);
@@ -488,11 +556,13 @@ impl LineSmoother {
                 self.relax(family, k, b, x, scratch, f == 0 && k == 0);
             }
         }
+        self.glued.relax(&self.rows, b, x, true);
     }
 
     /// Post-smoothing: the adjoint of [`LineSmoother::pre`] (the `u2` lines, then the `u1` lines, the colours
     /// in reverse order).
     pub(crate) fn post(&self, b: &[Vec3], x: &mut [Vec3], scratch: &mut [f64]) {
+        self.glued.relax(&self.rows, b, x, false);
         for family in self.families.iter().rev() {
             for k in (0..family.colors.len()).rev() {
                 self.relax(family, k, b, x, scratch, false);
