@@ -13,7 +13,8 @@
 //! bandwidth, rather than in halves, whose cuts left the stiff coupling along the ring to the Gauss–Seidel
 //! sweep ([`split_far`]). Masked nodes (pinned) are never changed. The matrix's blocks outside its pattern (pairs
 //! between faces) enter every residual, and a line's diagonal the norms of those it takes from the sweep before
-//! ([`Family::lumps`]), so the smoother stays a contraction however stiff they are.
+//! ([`Family::lumps`]), so the smoother stays a contraction however stiff they are; nodes held together by them
+//! are then relaxed two by two ([`Glued`]), so two layers pressed together move as one.
 //!
 //! The matrix is kept here by rows (both triangles), so the residuals of a line and the products run row by
 //! row, split over rayon's threads with each row summed in a fixed order. A colour's residuals are computed
