@@ -264,7 +264,6 @@ impl Glued {
         }
         let n = masked.len();
         let mut matched = masked.to_vec();
-        let norm = |m: &glam::Mat3| m.to_cols_array().iter().map(|v| f64::from(*v) * f64::from(*v)).sum::<f64>();
         for p in 0..n {
             if matched[p] {
                 continue;
@@ -274,7 +273,7 @@ impl Glued {
                 .iter()
                 .zip(&extra.blocks[r])
                 .filter(|(&q, _)| !matched[q as usize])
-                .max_by(|a, b| norm(a.1).total_cmp(&norm(b.1)).then(b.0.cmp(a.0)));
+                .max_by(|a, b| frobenius(a.1).total_cmp(&frobenius(b.1)).then(b.0.cmp(a.0)));
             let Some((&q, e)) = best else { continue };
             let (a, c, b) = (rows.get(p, p), rows.get(q as usize, q as usize), e.as_dmat3());
             let ainv = a.inverse();
@@ -305,6 +304,11 @@ impl Glued {
             false => self.pairs.iter().zip(&self.blocks).rev().for_each(&mut one),
         }
     }
+}
+
+/// The Frobenius norm of a stored block (a bound of its spectral norm), in `f64`.
+fn frobenius(m: &glam::Mat3) -> f64 {
+    m.to_cols_array().iter().map(|&v| f64::from(v) * f64::from(v)).sum::<f64>().sqrt()
 }
 
 /// Couplings farther apart than this along a line split it (a line closed on itself through a seam).
@@ -462,10 +466,7 @@ impl Family {
             .map(|p| {
                 let r = extra.start[p] as usize..extra.start[p + 1] as usize;
                 let own = |&(_, &q): &(&glam::Mat3, &u32)| self.color_of[q as usize] == self.color_of[p];
-                let norm = |(m, _): (&glam::Mat3, &u32)| {
-                    f64::from(m.to_cols_array().iter().map(|v| v * v).sum::<f32>()).sqrt()
-                };
-                extra.blocks[r.clone()].iter().zip(&extra.col[r]).filter(own).map(norm).sum::<f64>()
+                extra.blocks[r.clone()].iter().zip(&extra.col[r]).filter(own).map(|(m, _)| frobenius(m)).sum::<f64>()
             })
             .collect()
     }
