@@ -62,28 +62,13 @@ impl ExtraRows {
     fn refill(&mut self, a: &BlockMatrix, n: usize) {
         if a.extra.pairs() != self.pairs.as_slice() {
             self.pairs = a.extra.pairs().to_vec();
-            let mut per_row: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); n];
-            for (slot, &(i, j)) in self.pairs.iter().enumerate() {
-                per_row[i].push((j as u32, slot as u32, false));
-                per_row[j].push((i as u32, slot as u32, true));
-            }
-            (self.start, self.col, self.src) = (Vec::with_capacity(n + 1), Vec::new(), Vec::new());
-            self.start.push(0);
-            for mut r in per_row {
-                r.sort_unstable_by_key(|e| (e.0, e.1));
-                self.col.extend(r.iter().map(|e| e.0));
-                self.src.extend(r.iter().map(|e| (e.1, e.2)));
-                self.start.push(self.col.len() as u32);
-            }
+            (self.start, self.col, self.src) = by_rows(n, self.pairs.iter().copied());
             if self.pairs.is_empty() {
                 self.start.clear();
             }
+            self.blocks = vec![glam::Mat3::ZERO; self.col.len()];
         }
-        self.blocks.clear();
-        self.blocks.extend(self.src.iter().map(|&(slot, t)| {
-            let m = a.extra.blocks[slot as usize];
-            if t { m.transpose() } else { m }.as_mat3()
-        }));
+        gather(&a.extra.blocks, &self.src, &mut self.blocks);
     }
 
     /// `Σ_c E_pc x_c` over the extra blocks of row `p` (the rows built: some pairs).
@@ -99,31 +84,52 @@ impl ExtraRows {
     }
 }
 
+/// The rows (both triangles) of symmetric blocks on node pairs `(i, j)`, `i ≤ j`, the `k`-th pair's block being
+/// block `k`: the row starts, each entry's column node, and its block and whether that is read transposed (a lower
+/// entry), each row by column. The pattern's rows and the extra blocks' rows are built alike.
+fn by_rows(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> (Vec<u32>, Vec<u32>, Vec<(u32, bool)>) {
+    let mut per_row: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); n];
+    for (k, (i, j)) in pairs.enumerate() {
+        per_row[i].push((j as u32, k as u32, false));
+        if i != j {
+            per_row[j].push((i as u32, k as u32, true));
+        }
+    }
+    let mut start = Vec::with_capacity(n + 1);
+    let (mut col, mut src) = (Vec::new(), Vec::new());
+    start.push(0);
+    for mut r in per_row {
+        r.sort_unstable_by_key(|e| e.0);
+        for (c, k, t) in r {
+            col.push(c);
+            src.push((k, t));
+        }
+        start.push(col.len() as u32);
+    }
+    (start, col, src)
+}
+
+/// `out[e]`: the block `src[e]` of `blocks` (transposed where marked), rounded to `f32`; over the threads for many.
+fn gather(blocks: &[Mat3], src: &[(u32, bool)], out: &mut [glam::Mat3]) {
+    let fill = |(out, &(k, t)): (&mut glam::Mat3, &(u32, bool))| {
+        let m = blocks[k as usize];
+        *out = if t { m.transpose() } else { m }.as_mat3();
+    };
+    if out.len() > ROW_CHUNK * 16 {
+        out.par_iter_mut().zip(src.par_iter()).with_min_len(ROW_CHUNK * 16).for_each(fill);
+    } else {
+        out.iter_mut().zip(src.iter()).for_each(fill);
+    }
+}
+
 impl RowMatrix {
     fn new(pattern: &BlockPattern) -> Self {
-        let n = pattern.nodes();
         let rows = pattern.block_rows();
-        let mut per_row: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); n];
-        for j in 0..n {
+        let pairs = (0..pattern.nodes()).flat_map(|j| {
             let (s, e) = pattern.column(j);
-            for (blk, &i) in rows.iter().enumerate().take(e).skip(s) {
-                per_row[i].push((j as u32, blk as u32, false));
-                if i != j {
-                    per_row[j].push((i as u32, blk as u32, true));
-                }
-            }
-        }
-        let mut start = Vec::with_capacity(n + 1);
-        let (mut col, mut src) = (Vec::new(), Vec::new());
-        start.push(0);
-        for mut r in per_row {
-            r.sort_unstable_by_key(|e| e.0);
-            for (c, blk, t) in r {
-                col.push(c);
-                src.push((blk, t));
-            }
-            start.push(col.len() as u32);
-        }
+            rows[s..e].iter().map(move |&i| (i, j))
+        });
+        let (start, col, src) = by_rows(pattern.nodes(), pairs);
         let blocks = vec![glam::Mat3::ZERO; col.len()];
         Self { start, col, src, blocks, extra: ExtraRows::default() }
     }
@@ -135,16 +141,7 @@ impl RowMatrix {
 
     fn refill(&mut self, a: &BlockMatrix) {
         self.extra.refill(a, self.start.len() - 1);
-        let src = &self.src;
-        let fill = |(out, &(blk, t)): (&mut glam::Mat3, &(u32, bool))| {
-            let m = a.blocks[blk as usize];
-            *out = if t { m.transpose() } else { m }.as_mat3();
-        };
-        if self.blocks.len() > ROW_CHUNK * 16 {
-            self.blocks.par_iter_mut().zip(src.par_iter()).with_min_len(ROW_CHUNK * 16).for_each(fill);
-        } else {
-            self.blocks.iter_mut().zip(src.iter()).for_each(fill);
-        }
+        gather(&a.blocks, &self.src, &mut self.blocks);
     }
 
     #[inline]
@@ -273,8 +270,9 @@ impl Glued {
                 .iter()
                 .zip(&extra.blocks[r])
                 .filter(|(&q, _)| !matched[q as usize])
-                .max_by(|a, b| frobenius(a.1).total_cmp(&frobenius(b.1)).then(b.0.cmp(a.0)));
-            let Some((&q, e)) = best else { continue };
+                .map(|(&q, e)| (frobenius(e), q, e))
+                .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+            let Some((_, q, e)) = best else { continue };
             let (a, c, b) = (rows.get(p, p), rows.get(q as usize, q as usize), e.as_dmat3());
             let ainv = a.inverse();
             let k = ainv * b;

@@ -166,27 +166,30 @@ impl Shape {
     /// that sewn panels share their coarse seam nodes as they share the fine ones and the coarse levels stay sewn;
     /// every other coarse node is its panel's own, numbered panel after panel (a one-panel model's coarse grid in
     /// its own order). A joined node's owner comes first (ownership goes to the first panel, and within a panel to
-    /// the first place), so its coarse node is numbered before it is looked up.
-    fn coarsen(shapes: &[Shape], transfers: &[(Transfer1d, Transfer1d)]) -> Vec<Shape> {
+    /// the first place), so its coarse node is numbered before it is looked up. Also each coarse node's source: the
+    /// finer level's node at its place (whose position it takes).
+    fn coarsen(shapes: &[Shape], transfers: &[(Transfer1d, Transfer1d)]) -> (Vec<Shape>, Vec<u32>) {
         let mut coarse_of = std::collections::HashMap::new();
-        let mut next = 0u32;
-        let panel = |(s, (t1, t2)): (&Shape, &(Transfer1d, Transfer1d))| {
+        let mut source = Vec::new();
+        let mut panel = |(s, (t1, t2)): (&Shape, &(Transfer1d, Transfer1d))| {
             let (mut nodes, mut ids) = (Vec::with_capacity(t1.coarse * t2.coarse), Vec::new());
             for &fj in &t2.at {
                 for &fi in &t1.at {
                     let f = fi + s.m * fj;
+                    let next = source.len() as u32;
                     let shared = s.nodes[f].is_none().then(|| coarse_of.get(&s.ids[f]).copied()).flatten();
                     nodes.push(shared.is_none().then_some(next));
                     ids.push(shared.unwrap_or(next));
                     if shared.is_none() {
                         coarse_of.entry(s.ids[f]).or_insert(next);
-                        next += 1;
+                        source.push(s.ids[f]);
                     }
                 }
             }
             Shape { m: t1.coarse, n: t2.coarse, topology: s.topology, nodes, ids }
         };
-        shapes.iter().zip(transfers).map(panel).collect()
+        let coarse = shapes.iter().zip(transfers).map(&mut panel).collect();
+        (coarse, source)
     }
 
     /// Owned nodes.
@@ -395,13 +398,13 @@ impl Multigrid {
                     .map(|s| s.halve().unwrap_or_else(|| (Transfer1d::identity(s.m), Transfer1d::identity(s.n))))
                     .collect(),
             };
-            let coarse = Shape::coarsen(&shapes, &transfers);
+            let (coarse, source) = Shape::coarsen(&shapes, &transfers);
             let coarse_nodes: usize = coarse.iter().map(Shape::owned).sum();
             if coarse_nodes == nodes {
                 break;
             }
             let fine = c.levels.last().map_or(self.system.pattern(), |l| &l.pattern);
-            let level = Level::new(fine, &free, &shapes, &transfers, &coarse);
+            let level = Level::new(fine, &free, &shapes, &transfers, &coarse, source);
             free = vec![true; level.pattern.nodes()];
             (shapes, nodes) = (coarse, coarse_nodes);
             c.levels.push(level);
@@ -507,13 +510,15 @@ impl Level {
     }
 
     /// The level below a fine level of panels `shapes` (`free`: nodes with a row in `P`) with the transfers of
-    /// each panel's two directions, onto the panels `coarse`.
+    /// each panel's two directions, onto the panels `coarse` whose nodes are at the fine nodes `source`
+    /// ([`Shape::coarsen`]).
     fn new(
         fine: &BlockPattern,
         free: &[bool],
         shapes: &[Shape],
         transfers: &[(Transfer1d, Transfer1d)],
         coarse: &[Shape],
+        source: Vec<u32>,
     ) -> Self {
         let nodes = coarse.iter().map(Shape::owned).sum();
         let (p_start, p_node, p_weight) = prolongation(free, shapes, transfers, coarse);
@@ -528,7 +533,7 @@ impl Level {
             p_start,
             p_node,
             p_weight,
-            source: sources(shapes, transfers, coarse, nodes),
+            source,
             pos: vec![Vec3::ZERO; nodes],
             smoother,
             b: vec![Vec3::ZERO; nodes],
@@ -740,22 +745,6 @@ fn join_at_seams(lines: Vec<PanelLine>) -> Vec<Vec<u32>> {
         }
     }
     out
-}
-
-/// For each node of the panels `coarse`, the node of the finer panels `shapes` at the same place (the one whose
-/// only parent it is in both directions of its panel's `transfers`).
-fn sources(shapes: &[Shape], transfers: &[(Transfer1d, Transfer1d)], coarse: &[Shape], nodes: usize) -> Vec<u32> {
-    let mut source = vec![0u32; nodes];
-    for ((s, (t1, t2)), c) in shapes.iter().zip(transfers).zip(coarse) {
-        for (cj, &fj) in t2.at.iter().enumerate() {
-            for (ci, &fi) in t1.at.iter().enumerate() {
-                if let Some(target) = c.nodes[ci + t1.coarse * cj] {
-                    source[target as usize] = s.ids[fi + s.m * fj];
-                }
-            }
-        }
-    }
-    source
 }
 
 /// The rows of `P` of a fine level of panels `shapes` (`free`: the nodes that have one) onto the panels
