@@ -7,7 +7,8 @@
 //!   node takes half of each neighbour (linear interpolation on the parametric grid, wrapping around a
 //!   periodic direction). The prolongation `P` is the tensor product of the two directions', with the rows
 //!   of fixed nodes zero, so the coarse corrections never move a pinned node. Levels are added until
-//!   [`Multigrid::COARSEST_NODES`] nodes or no direction can be halved. Each panel of a garment is halved on its
+//!   [`Multigrid::COARSEST_NODES`] nodes (at least one on models of more than [`Multigrid::COARSENED_NODES`]) or no
+//!   direction can be halved. Each panel of a garment is halved on its
 //!   own grid, and sewn panels share their coarse nodes where a seam's joined node is a coarse node of both, as
 //!   they share the fine ones: each coarse level is sewn as the fine one is (a tube of two gores then solves in
 //!   the iterations of a periodic tube at every refinement; docs/performance.md, "Coarse nodes shared at seams").
@@ -290,6 +291,12 @@ struct Coarse {
 impl Multigrid {
     /// Levels are added while the coarsest has more nodes than this.
     pub const COARSEST_NODES: usize = 800;
+    /// A model of fewer than [`Multigrid::COARSEST_NODES`] nodes but more than this still gets one coarse level:
+    /// without it the preconditioner is the line smoother alone, whose iterations grow with the model's curvature
+    /// (measured on 2026-12-06, `flexsurf run scenes/X.toml --solver multigrid --steps 30`: the four-gore skirt
+    /// 38.0 → 13.7 iterations a solve, the straight skirt 43.8 → 11.4, `scenes/skirt.toml`'s 392-node skirt 21.9
+    /// → 7.8, each faster). Larger models keep their hierarchy.
+    pub const COARSENED_NODES: usize = 100;
     /// Most conjugate-gradient iterations of one solve.
     pub const MAX_ITERATIONS: usize = 200;
     /// Levels (the finest included) from which the hierarchy takes W-cycles ([`Cycle`]). Measured on the sheet
@@ -388,7 +395,7 @@ impl Multigrid {
         self.fine = Some(LineSmoother::new(self.system.pattern(), Shape::lines(&shapes), fixed));
         let mut free: Vec<bool> = fixed.iter().map(|&f| !f).collect();
         let mut nodes = self.system.pattern().nodes();
-        while nodes > Self::COARSEST_NODES {
+        while nodes > Self::COARSEST_NODES || (c.levels.is_empty() && nodes > Self::COARSENED_NODES) {
             let transfers: Vec<(Transfer1d, Transfer1d)> = match shapes.iter().map(Shape::halve).collect() {
                 Some(t) => t,
                 None if shapes.len() == 1 => break,
