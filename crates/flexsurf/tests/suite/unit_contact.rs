@@ -24,6 +24,36 @@ mod contact {
         assert!(!graze);
     }
 
+    /// A body's query asked again of a node (the same point, radius and warm start) is answered from the cache
+    /// with what it would compute: the same distance, normal and warm start, to the bit, whatever the order of
+    /// the queries; a changed radius or point is asked anew (2 cm out with a radius of 1 cm: nothing found).
+    #[test]
+    fn a_repeated_body_query_recalls_what_it_would_compute() {
+        let body = std::sync::Arc::new(flexsurf::contact::mannequin::generate());
+        let obstacles = [Obstacle::Nurbs(body.clone())];
+        let mut cache = ContactCache::new(1, 2);
+        let mut hints = [None, None];
+        let bits = |a: Option<(f64, Vec3)>| a.map(|(d, n)| [d.to_bits(), n.x.to_bits(), n.y.to_bits(), n.z.to_bits()]);
+        for (i, z) in [0.85, 0.95, 1.05].into_iter().enumerate() {
+            let surface = body.closest(Vec3::new(0.0, 0.3, z), None);
+            let out = |cm: f64| surface.point + surface.normal * (0.01 * cm);
+            let (a, b) = (i % 2, 1 - i % 2);
+            let queries = [
+                (out(2.0), 0.03, a),
+                (out(2.0), 0.03, a),
+                (out(2.0), 0.03, b),
+                (out(2.0), 0.01, a),
+                (out(1.5), 0.03, a),
+            ];
+            for (q, (p, radius, k)) in queries.into_iter().enumerate() {
+                let expected = obstacles[0].distance_hinted(p, &mut hints[k], radius);
+                let got = closest_cached(&obstacles, &mut cache, k, p, radius);
+                assert_eq!(bits(got), bits(expected), "query {q} at z = {z}");
+                assert_eq!(expected.is_none(), radius < 0.02, "query {q} at z = {z}: {expected:?}");
+            }
+        }
+    }
+
     #[test]
     fn sphere_and_plane_distances() {
         let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };
