@@ -73,6 +73,19 @@ impl Obstacle {
     /// the obstacle is certainly farther than `radius` from `p` ([`Shape::distance_within`] of its shape).
     #[inline]
     pub fn distance_hinted(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
+        self.distance_hinted_above(p, hint, radius, f64::NEG_INFINITY)
+    }
+
+    /// [`Obstacle::distance_hinted`] for a point whose signed distance is known to be at least `floor`
+    /// ([`Shape::distance_within_above`]).
+    #[inline]
+    pub fn distance_hinted_above(
+        &self,
+        p: Vec3,
+        hint: &mut Option<Hint>,
+        radius: f64,
+        floor: f64,
+    ) -> Option<(f64, Vec3)> {
         match self {
             Obstacle::Plane { point, normal } => {
                 Plane { point: *point, normal: *normal }.distance_within(p, hint, radius)
@@ -80,9 +93,9 @@ impl Obstacle {
             Obstacle::Sphere { center, radius: r } => {
                 Sphere { center: *center, radius: *r }.distance_within(p, hint, radius)
             }
-            Obstacle::Nurbs(body) => body.distance_within(p, hint, radius),
+            Obstacle::Nurbs(body) => body.distance_within_above(p, hint, radius, floor),
             Obstacle::Mesh(body) => body.distance_within(p, hint, radius),
-            Obstacle::Custom(shape) => shape.distance_within(p, hint, radius),
+            Obstacle::Custom(shape) => shape.distance_within_above(p, hint, radius, floor),
         }
     }
 
@@ -195,6 +208,8 @@ pub fn closest_cached(
     radius: f64,
 ) -> Option<(f64, Vec3)> {
     let nodes = cache.nodes;
+    // Every obstacle's signed distance is at least the nearest one's lower bound.
+    let floor = cache.lower_bound(k, p);
     if cache.recall.len() != cache.hints.len() {
         cache.recall = vec![None; cache.hints.len()];
     }
@@ -202,7 +217,7 @@ pub fn closest_cached(
     for (o, obstacle) in obstacles.iter().enumerate() {
         let (hint, recall) = (&mut cache.hints[o * nodes + k], &mut cache.recall[o * nodes + k]);
         let found = match obstacle {
-            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => recalled(obstacle, recall, hint, p, radius),
+            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => recalled(obstacle, recall, hint, p, (radius, floor)),
             _ => obstacle.distance_hinted(p, hint, radius),
         };
         if let Some((d, n)) = found {
@@ -214,14 +229,15 @@ pub fn closest_cached(
     best
 }
 
-/// `obstacle`'s query at `p` within `radius` from the warm start `hint` ([`Obstacle::distance_hinted`]), or the
-/// answer `recall` kept when it was asked the same before; the query asked is kept in `recall`.
+/// `obstacle`'s query at `p` within `radius` from the warm start `hint`, for a point at least `floor` from every
+/// obstacle ([`Obstacle::distance_hinted_above`]), or the answer `recall` kept when it was asked the same before
+/// (`floor` does not change the answer); the query asked is kept in `recall`.
 fn recalled(
     obstacle: &Obstacle,
     recall: &mut Option<Recall>,
     hint: &mut Option<Hint>,
     p: Vec3,
-    radius: f64,
+    (radius, floor): (f64, f64),
 ) -> Option<(f64, Vec3)> {
     let (bits, radius_bits) = ([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()], radius.to_bits());
     let asked = hint.map(|h| (h.patch, h.u.to_bits(), h.v.to_bits()));
@@ -229,7 +245,7 @@ fn recalled(
         *hint = r.hint_after;
         return r.answer;
     }
-    let answer = obstacle.distance_hinted(p, hint, radius);
+    let answer = obstacle.distance_hinted_above(p, hint, radius, floor);
     *recall = Some(Recall { p: bits, radius: radius_bits, hint: asked, answer, hint_after: *hint });
     answer
 }

@@ -39,6 +39,14 @@ pub trait Shape: Send + Sync + std::fmt::Debug {
     /// iterative query read and update it, others ignore it.
     fn distance_within(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)>;
 
+    /// [`Shape::distance_within`] for a point whose signed distance is known to be at least `floor` (a bound
+    /// from an earlier query: the distance is 1-Lipschitz), which a shape may use to skip work; the answer is
+    /// the same. The default ignores it.
+    fn distance_within_above(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64, floor: f64) -> Option<(f64, Vec3)> {
+        let _ = floor;
+        self.distance_within(p, hint, radius)
+    }
+
     /// The same obstacle with every length scaled by `lambda`, or `None` (the default) when it cannot be scaled.
     fn scaled(&self, _lambda: f64) -> Option<Obstacle> {
         None

@@ -54,6 +54,23 @@ mod contact {
         }
     }
 
+    /// A NURBS body told a lower bound of the signed distance answers as without it: a point 5 cm inside the
+    /// mannequin is found (its unbounded query still runs) with any bound at or below the radius's depth, and a
+    /// point 3 cm outside is farther than a 1 cm radius with or without the bound that skips that query.
+    #[test]
+    fn a_body_told_a_distance_bound_answers_as_without_it() {
+        let body = flexsurf::contact::mannequin::generate();
+        let surface = body.closest(Vec3::new(0.0, 0.3, 0.95), None);
+        let (inside, outside) = (surface.point - surface.normal * 0.05, surface.point + surface.normal * 0.03);
+        for floor in [f64::NEG_INFINITY, -0.06, -0.01] {
+            let (d, n) = body.distance_within_above(inside, &mut None, 0.01, floor).expect("a point 5 cm inside");
+            assert!((d + 0.05).abs() < 1e-6 && (n - surface.normal).length() < 1e-6, "floor {floor}: {d}, {n:?}");
+        }
+        for floor in [f64::NEG_INFINITY, 0.0, 0.02] {
+            assert_eq!(body.distance_within_above(outside, &mut None, 0.01, floor), None, "floor {floor}");
+        }
+    }
+
     #[test]
     fn sphere_and_plane_distances() {
         let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };

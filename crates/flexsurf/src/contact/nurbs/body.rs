@@ -255,14 +255,20 @@ impl NurbsBody {
 /// The body as an obstacle: the bounded closest-point query, warm-started from and updating the hint.
 impl Shape for NurbsBody {
     fn distance_within(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
+        self.distance_within_above(p, hint, radius, f64::NEG_INFINITY)
+    }
+
+    fn distance_within_above(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64, floor: f64) -> Option<(f64, Vec3)> {
         let pr = match self.closest_within(p, *hint, radius) {
             Some(pr) => pr,
             None => {
                 // Nothing within `radius`: either far outside, or deeper than `radius` inside the body,
-                // which a bounded query cannot tell apart. Inside the body's box, ask without a bound.
+                // which a bounded query cannot tell apart. Inside the body's box, ask without a bound, unless
+                // `floor` rules out the inside (on the skirt of `scenes/skirt.toml` that unbounded query was a
+                // third of the contact's time).
                 let b = self.bbox();
                 let inside_box = (0..3).all(|a| p[a] >= b.min[a] && p[a] <= b.max[a]);
-                if !inside_box {
+                if !inside_box || floor > -radius {
                     return None;
                 }
                 let pr = self.closest(p, *hint);
