@@ -108,47 +108,50 @@ impl Knots {
         let p = self.degree;
         let k = &self.knots;
         let inv = |i: usize, d: usize| self.inv[i][d];
-        // n[d][r] = N_{span − d + r, d}.
-        let mut n = [[0.0; ORDER_MAX]; ORDER_MAX];
-        n[0][0] = 1.0;
+        // rows[d % 3][r] = N_{span − d + r, d}: the triangle's last three rows are all that is read.
+        let mut rows = [[0.0; ORDER_MAX]; 3];
+        rows[0][0] = 1.0;
         for d in 1..=p {
-            for r in 0..=d {
+            let (below, row) = (rows[(d - 1) % 3], &mut rows[d % 3]);
+            for (r, out) in row.iter_mut().enumerate().take(d + 1) {
                 let i = span + r - d;
                 let mut x = 0.0;
                 if r >= 1 {
-                    x += (t - k[i]) * inv(i, d) * n[d - 1][r - 1];
+                    x += (t - k[i]) * inv(i, d) * below[r - 1];
                 }
                 if r < d {
-                    x += (k[i + d + 1] - t) * inv(i + 1, d) * n[d - 1][r];
+                    x += (k[i + d + 1] - t) * inv(i + 1, d) * below[r];
                 }
-                n[d][r] = x;
+                *out = x;
             }
         }
+        let (np, np1) = (rows[p % 3], rows[(p - 1) % 3]);
         let mut ders = [[0.0; ORDER_MAX]; 3];
-        ders[0][..=p].copy_from_slice(&n[p][..=p]);
+        ders[0] = np;
         let pf = p as f64;
         for r in 0..=p {
             let i = span + r - p;
             let mut x = 0.0;
             if r >= 1 {
-                x += inv(i, p) * n[p - 1][r - 1];
+                x += inv(i, p) * np1[r - 1];
             }
             if r < p {
-                x -= inv(i + 1, p) * n[p - 1][r];
+                x -= inv(i + 1, p) * np1[r];
             }
             ders[1][r] = pf * x;
         }
         if p >= 2 {
+            let np2 = rows[(p - 2) % 3];
             // d1[r] = N′_{span − (p − 1) + r, p − 1}.
             let mut d1 = [0.0; ORDER_MAX];
             for (r, out) in d1.iter_mut().enumerate().take(p) {
                 let j = span + r + 1 - p;
                 let mut x = 0.0;
                 if r >= 1 {
-                    x += inv(j, p - 1) * n[p - 2][r - 1];
+                    x += inv(j, p - 1) * np2[r - 1];
                 }
                 if r + 2 <= p {
-                    x -= inv(j + 1, p - 1) * n[p - 2][r];
+                    x -= inv(j + 1, p - 1) * np2[r];
                 }
                 *out = (pf - 1.0) * x;
             }
