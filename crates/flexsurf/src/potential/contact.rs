@@ -302,7 +302,9 @@ pub fn detect_predicted(
             cache.record(k, p, reach);
             continue;
         };
-        cache.record(k, p, d);
+        // An obstacle farther than `reach` declined the query, so the nearest answer bounds the others' distance
+        // only up to `reach` (a far floor plane's answer is not the mannequin's).
+        cache.record(k, p, d.min(reach));
         if d < params.offset {
             out.push(Contact::new(k, p, p, d, n, params, area[k]));
         } else if d - motion < params.offset {

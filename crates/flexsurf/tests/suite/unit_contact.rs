@@ -71,6 +71,30 @@ mod contact {
         }
     }
 
+    /// A node 5 cm outside the mannequin and 0.95 m above a floor plane: the mannequin, farther than the
+    /// detection's reach, declines the query, the plane answers 0.95 m, and that distance was recorded as the
+    /// node's lower bound for every obstacle, so after the node moved 6 cm, 1 cm into the mannequin, its
+    /// detection was skipped (0.89 m of bound left) and the penetration went unseen. The bound kept is now at
+    /// most the reach of the query that found it.
+    #[test]
+    fn regression_a_far_plane_hid_the_mannequin_from_detection() {
+        use flexsurf::potential::contact::{detect_predicted, ContactParams};
+        let body = std::sync::Arc::new(flexsurf::contact::mannequin::generate());
+        let surface = body.closest(Vec3::new(0.0, 0.3, 0.95), None);
+        let floor = Obstacle::Plane { point: Vec3::new(0.0, 0.0, surface.point.z - 0.95), normal: Vec3::Z };
+        let obstacles = [Obstacle::Nurbs(body), floor];
+        let params = ContactParams { stiffness: 1e4, offset: 0.01, ..ContactParams::default() };
+        let mut cache = ContactCache::new(2, 1);
+        let mut found = Vec::new();
+        let outside = [surface.point + surface.normal * 0.05];
+        detect_predicted(&obstacles, &params, &[1e-4], &outside, &outside, &mut cache, &mut found);
+        assert!(found.is_empty(), "5 cm out: {found:?}");
+        let inside = [surface.point - surface.normal * 0.01];
+        detect_predicted(&obstacles, &params, &[1e-4], &inside, &inside, &mut cache, &mut found);
+        assert_eq!(found.len(), 1, "1 cm inside the mannequin: no contact");
+        assert!((found[0].distance + 0.01).abs() < 1e-6, "{:?}", found[0]);
+    }
+
     #[test]
     fn sphere_and_plane_distances() {
         let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };
