@@ -94,7 +94,7 @@ impl Obstacle {
                 Sphere { center: *center, radius: *r }.distance_within(p, hint, radius)
             }
             Obstacle::Nurbs(body) => body.distance_within_above(p, hint, radius, floor),
-            Obstacle::Mesh(body) => body.distance_within(p, hint, radius),
+            Obstacle::Mesh(body) => body.distance_within_above(p, hint, radius, floor),
             Obstacle::Custom(shape) => shape.distance_within_above(p, hint, radius, floor),
         }
     }

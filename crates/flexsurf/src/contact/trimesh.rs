@@ -294,6 +294,18 @@ impl TriMeshBody {
             return (p, f64::NAN, Vec3::Z);
         }
         let (proj, (tri, _)) = self.mesh.project_local_point_and_get_location(to_parry(p), false);
+        self.answer(p, proj, tri)
+    }
+
+    /// [`TriMeshBody::closest`] if the surface is within `radius` of `p` (a finite point), else `None`: the
+    /// same search, its subtrees farther than `radius` not visited.
+    fn closest_within(&self, p: Vec3, radius: f64) -> Option<(Vec3, f64, Vec3)> {
+        let found = self.mesh.project_local_point_and_get_location_with_max_dist(to_parry(p), false, radius);
+        found.map(|(proj, (tri, _))| self.answer(p, proj, tri))
+    }
+
+    /// The closest point, signed distance and normal of `p` from its projection `proj` on triangle `tri`.
+    fn answer(&self, p: Vec3, proj: parry3d_f64::query::PointProjection, tri: u32) -> (Vec3, f64, Vec3) {
         let q = from_parry(proj.point);
         let delta = p - q;
         let dist = delta.length();
@@ -319,9 +331,22 @@ impl TriMeshBody {
     }
 }
 
-/// The body as an obstacle (the hint and the radius are not used: parry's BVH query is already bounded).
+/// The body as an obstacle (the hint is not used). Nothing within the radius leaves a point either far outside
+/// or deeper than the radius inside: the unbounded query tells them apart where the bound `floor` does not.
 impl Shape for TriMeshBody {
-    fn distance_within(&self, p: Vec3, _hint: &mut Option<Hint>, _radius: f64) -> Option<(f64, Vec3)> {
+    fn distance_within(&self, p: Vec3, hint: &mut Option<Hint>, radius: f64) -> Option<(f64, Vec3)> {
+        self.distance_within_above(p, hint, radius, f64::NEG_INFINITY)
+    }
+
+    fn distance_within_above(&self, p: Vec3, _hint: &mut Option<Hint>, radius: f64, floor: f64) -> Option<(f64, Vec3)> {
+        if p.is_finite() && radius.is_finite() {
+            if let Some((_, d, n)) = self.closest_within(p, radius) {
+                return Some((d, n));
+            }
+            if floor > -radius {
+                return None;
+            }
+        }
         Some(self.distance(p))
     }
 

@@ -619,6 +619,7 @@ fn icosphere(radius: f64, levels: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     (v.into_iter().map(|p| p * radius).collect(), f)
 }
 
+/// Also: the bounded query (`Shape::distance_within_above`) answers as the unbounded one.
 #[test]
 fn trimesh_icosphere_matches_analytic_sphere() {
     let (r, centre) = (0.3, Vec3::new(0.1, -0.2, 0.5));
@@ -652,6 +653,13 @@ fn trimesh_icosphere_matches_analytic_sphere() {
         let rho: f64 = rng.random_range(0.05..0.6);
         let p = centre + rho * dir;
         let (d, n) = mesh.distance(p);
+        // The query bounded by a 5 cm radius: the same answer, bit for bit, where the surface is that close or
+        // no bound says the point is not deeper inside; nothing beyond it where a valid bound (here 1 cm below
+        // the distance) rules a deep inside out.
+        use flexsurf::contact::Shape;
+        let bounded = |floor| mesh.distance_within_above(p, &mut None, 0.05, floor);
+        assert_eq!(bounded(f64::NEG_INFINITY), Some((d, n)), "{p:?}");
+        assert_eq!(bounded(d - 0.01), (d < 0.05).then_some((d, n)), "{p:?}");
         worst = worst.max((d - (rho - r)).abs());
         assert!((d - (rho - r)).abs() <= sag + 1e-12, "{rho}: {d}");
         if (rho - r).abs() > sag {
