@@ -158,7 +158,7 @@ impl ContactCache {
             nodes,
             dist: vec![f64::NEG_INFINITY; nodes],
             at: vec![Vec3::ZERO; nodes],
-            recall: vec![None; obstacles * nodes],
+            recall: Vec::new(),
         }
     }
 
@@ -210,15 +210,18 @@ pub fn closest_cached(
     let nodes = cache.nodes;
     // Every obstacle's signed distance is at least the nearest one's lower bound.
     let floor = cache.lower_bound(k, p);
-    if cache.recall.len() != cache.hints.len() {
-        cache.recall = vec![None; cache.hints.len()];
-    }
     let mut best: Option<(f64, Vec3)> = None;
     for (o, obstacle) in obstacles.iter().enumerate() {
-        let (hint, recall) = (&mut cache.hints[o * nodes + k], &mut cache.recall[o * nodes + k]);
         let found = match obstacle {
-            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => recalled(obstacle, recall, hint, p, (radius, floor)),
-            _ => obstacle.distance_hinted(p, hint, radius),
+            Obstacle::Nurbs(_) | Obstacle::Mesh(_) => {
+                // Sized at a body's first query (not for planes and balls, whose queries cost less than it).
+                if cache.recall.len() != cache.hints.len() {
+                    cache.recall = vec![None; cache.hints.len()];
+                }
+                let (hint, recall) = (&mut cache.hints[o * nodes + k], &mut cache.recall[o * nodes + k]);
+                recalled(obstacle, recall, hint, p, (radius, floor))
+            }
+            _ => obstacle.distance_hinted(p, &mut cache.hints[o * nodes + k], radius),
         };
         if let Some((d, n)) = found {
             if best.is_none_or(|b| d < b.0) {
