@@ -2,6 +2,7 @@
 //!
 //! A new test file is one `mod` line here. Run one module with its path as the filter, e.g.
 //! `cargo test --profile ci -p flexsurf-cli --test suite hardening::` (docs/testing.md).
+#![warn(clippy::too_many_lines)]
 
 mod cli;
 mod hardening;

@@ -391,32 +391,12 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let findings_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/fuzz-findings");
     let mut findings = Findings { dir: findings_dir.clone(), list: Vec::new() };
 
-    // Panics are findings, caught and reported; the default hook's messages would only clutter the log. Only
-    // this thread's: the other tests of the binary run beside it and keep their messages.
-    let (fuzzing, default_hook) = (std::thread::current().id(), std::panic::take_hook());
-    std::panic::set_hook(Box::new(move |info| {
-        if std::thread::current().id() != fuzzing {
-            default_hook(info);
-        }
-    }));
+    quiet_panics_here();
     // Watchdog: the start time (ms since `t0`) of the input in progress, and the input itself.
     let t0 = Instant::now();
     let busy_since = Arc::new(AtomicU64::new(u64::MAX));
     let current: Arc<Mutex<(u64, Vec<u8>)>> = Arc::new(Mutex::new((0, Vec::new())));
-    {
-        let (busy_since, current, findings_dir) = (Arc::clone(&busy_since), Arc::clone(&current), findings_dir.clone());
-        std::thread::spawn(move || loop {
-            std::thread::sleep(Duration::from_secs(1));
-            let since = busy_since.load(Ordering::SeqCst);
-            if since != u64::MAX && t0.elapsed().as_millis() as u64 > since + HANG_SECONDS * 1000 {
-                let (n, input) = current.lock().map(|c| c.clone()).unwrap_or_default();
-                let _ = std::fs::create_dir_all(&findings_dir);
-                let _ = std::fs::write(findings_dir.join("hang.toml"), &input);
-                eprintln!("fuzz: input {n} ran for more than {HANG_SECONDS} s (a hang); saved as target/fuzz-findings/hang.toml");
-                std::process::exit(3);
-            }
-        });
-    }
+    watch(t0, Arc::clone(&busy_since), Arc::clone(&current), findings_dir.clone());
 
     let deadline = Instant::now() + Duration::from_secs(seconds);
     let (mut inputs, mut built, mut runs) = (0u64, 0u64, 0u64);
@@ -425,15 +405,7 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     let dump = std::env::var("FLEXSURF_FUZZ_DUMP").is_ok();
     while Instant::now() < deadline && inputs < max_inputs {
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ n);
-        let mut pick_at = rng.random_range(0..total_weight);
-        let s = seeds
-            .iter()
-            .find(|s| {
-                let here = pick_at < s.weight;
-                pick_at = pick_at.saturating_sub(s.weight);
-                here
-            })
-            .unwrap_or(&seeds[0]);
+        let s = seed_at(&seeds, rng.random_range(0..total_weight));
         let mut input = s.bytes.clone();
         // One input in 32 is a seed as it is (the corpus itself must stay clean).
         if rng.random_range(0..32) != 0 {
@@ -488,6 +460,48 @@ fn mutation_fuzz_of_the_shipped_inputs() {
     );
     assert!(inputs > 0, "the fuzzer ran no input");
     assert!(findings.list.is_empty(), "fuzz findings:\n{}", findings.list.join("\n"));
+}
+
+/// Panics are findings, caught and reported; the default hook's messages would only clutter the log. Only this
+/// thread's: the other tests of the binary run beside it and keep their messages.
+fn quiet_panics_here() {
+    let (fuzzing, default_hook) = (std::thread::current().id(), std::panic::take_hook());
+    std::panic::set_hook(Box::new(move |info| {
+        if std::thread::current().id() != fuzzing {
+            default_hook(info);
+        }
+    }));
+}
+
+/// The watchdog of a campaign: a thread that, when the input in progress (started at `busy_since` ms after `t0`,
+/// `u64::MAX` while none is) has run for more than [`HANG_SECONDS`], saves it (`current`) as `hang.toml` in
+/// `findings_dir` and ends the process.
+fn watch(t0: Instant, busy_since: Arc<AtomicU64>, current: Arc<Mutex<(u64, Vec<u8>)>>, findings_dir: PathBuf) {
+    std::thread::spawn(move || loop {
+        std::thread::sleep(Duration::from_secs(1));
+        let since = busy_since.load(Ordering::SeqCst);
+        if since != u64::MAX && t0.elapsed().as_millis() as u64 > since + HANG_SECONDS * 1000 {
+            let (n, input) = current.lock().map(|c| c.clone()).unwrap_or_default();
+            let _ = std::fs::create_dir_all(&findings_dir);
+            let _ = std::fs::write(findings_dir.join("hang.toml"), &input);
+            eprintln!(
+                "fuzz: input {n} ran for more than {HANG_SECONDS} s (a hang); saved as target/fuzz-findings/hang.toml"
+            );
+            std::process::exit(3);
+        }
+    });
+}
+
+/// The seed whose share of the corpus's summed weights holds `at`.
+fn seed_at(seeds: &[Seed], mut at: u32) -> &Seed {
+    seeds
+        .iter()
+        .find(|s| {
+            let here = at < s.weight;
+            at = at.saturating_sub(s.weight);
+            here
+        })
+        .unwrap_or(&seeds[0])
 }
 
 /// The files corpus scenes name, copied into the fuzz folder `dir`: `cube.obj` and the pattern `wrapped.toml`

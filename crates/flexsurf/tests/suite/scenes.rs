@@ -118,11 +118,23 @@ fn pins_springs_materials_and_topology() {
 #[test]
 fn every_error_names_the_file_and_the_key() {
     let d = scratch("errors");
-    let with = |section: &str, old: &str, new: &str| -> String {
-        assert!(MINIMAL.contains(old));
-        format!("{}{section}", MINIMAL.replace(old, new))
-    };
-    let cases: Vec<(&str, String, &str)> = vec![
+    for (name, text, key) in value_error_cases().iter().chain(&name_error_cases()) {
+        let e = error_of(&d, name, text);
+        assert_names(&e, name, key);
+    }
+    material_and_file_errors_name_them(&d);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// The minimal scene with `old` replaced by `new` and `section` appended.
+fn with(section: &str, old: &str, new: &str) -> String {
+    assert!(MINIMAL.contains(old));
+    format!("{}{section}", MINIMAL.replace(old, new))
+}
+
+/// Scenes with a malformed, missing, unknown or out-of-range value: (file name, text, the key the error names).
+fn value_error_cases() -> Vec<(&'static str, String, &'static str)> {
+    vec![
         // Malformed TOML.
         ("malformed.toml", with("", "dt = 0.01", "dt = 0.01.5"), "time.dt"),
         // Unknown keys.
@@ -172,6 +184,12 @@ fn every_error_names_the_file_and_the_key() {
         ("bad_size.toml", with("", "size = [1.0, 1.0]", "size = [1.0, 0.0]"), "sheet.size"),
         // Too few nodes.
         ("two_nodes.toml", with("", "nodes = [5, 5]", "nodes = [2, 5]"), "sheet.nodes"),
+    ]
+}
+
+/// Scenes with an unknown name or an inconsistent setting: (file name, text, the key the error names).
+fn name_error_cases() -> Vec<(&'static str, String, &'static str)> {
+    vec![
         // Unknown names.
         ("unknown_preset.toml", with("\n[material]\npreset = \"silk\"\n", "", ""), "material.preset"),
         ("unknown_model.toml", with("\n[model]\nkind = \"mass-spring\"\n", "", ""), "model.kind"),
@@ -220,26 +238,24 @@ fn every_error_names_the_file_and_the_key() {
             with("\n[integrator]\nkind = \"static\"\nnewton_iterations = 8\n", "", ""),
             "integrator.newton_iterations",
         ),
-    ];
-    for (name, text, key) in &cases {
-        let e = error_of(&d, name, text);
-        assert_names(&e, name, key);
-    }
+    ]
+}
 
-    // A bad value inside a material file names that file and its key.
+/// A bad value inside a material file names that file and its key; a parse error carries the line; an
+/// unreadable file is named.
+fn material_and_file_errors_name_them(d: &Path) {
     std::fs::write(d.join("bad-cloth.toml"), "units = \"kes\"\ndensity = 7.45\ntensile_warp = 100\ntensile_weft = 100\nshear = -1\nbending_warp = 1\nbending_weft = 1\n").unwrap();
-    let e = error_of(&d, "uses_bad_material.toml", &with("\n[material]\nfile = \"bad-cloth.toml\"\n", "", ""));
+    let e = error_of(d, "uses_bad_material.toml", &with("\n[material]\nfile = \"bad-cloth.toml\"\n", "", ""));
     assert_names(&e, "bad-cloth.toml", "shear");
     std::fs::write(d.join("typo-cloth.toml"), "density = 0.1\nbendng_warp = 1e-5\n").unwrap();
-    let e = error_of(&d, "uses_typo_material.toml", &with("\n[material]\nfile = \"typo-cloth.toml\"\n", "", ""));
+    let e = error_of(d, "uses_typo_material.toml", &with("\n[material]\nfile = \"typo-cloth.toml\"\n", "", ""));
     assert_names(&e, "typo-cloth.toml", "bendng_warp");
     // A parse error carries the line.
-    let e = error_of(&d, "malformed.toml", &with("", "dt = 0.01", "dt = 0.01.5"));
+    let e = error_of(d, "malformed.toml", &with("", "dt = 0.01", "dt = 0.01.5"));
     assert!(e.to_string().contains("malformed.toml:8:"), "{e}");
     // An unreadable file.
     let e = scene::load(&d.join("absent.toml")).unwrap_err();
     assert!(e.to_string().contains("absent.toml"), "{e}");
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -294,8 +310,19 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     let mut seen = 0;
     let out = run_scene(&s, &d, |step| seen = step).unwrap();
     assert_eq!(seen, 20);
+    assert_complete_outputs(&d);
+    // After 0.2 s the sheet has fallen onto the ball (top at 0.3 m) and starts to drape: its footprint shrinks.
+    let f = &out.summary.final_state;
+    assert!(f.max_z < 0.31 && f.max_z > 0.29, "{}", f.max_z);
+    assert!(f.projected_area_xy > 0.5 && f.projected_area_xy < 1.0, "{}", f.projected_area_xy);
+    a_diverging_run_leaves_no_summary(spec, &path, &d);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// The 9 × 9 drop's 20 steps, frames every 8: every output file, every summary key, the energy rows.
+fn assert_complete_outputs(d: &Path) {
     assert_eq!(
-        listing(&d),
+        listing(d),
         [
             "animation.glb",
             "animation.pvd",
@@ -354,32 +381,29 @@ fn a_short_run_writes_complete_outputs_and_a_diverging_one_no_summary() {
     }
     assert_eq!(json["grid"], serde_json::json!([9, 9]));
     assert_eq!(json["steps"], 20);
-    // After 0.2 s the sheet has fallen onto the ball (top at 0.3 m) and starts to drape: its footprint shrinks.
-    let f = &out.summary.final_state;
-    assert!(f.max_z < 0.31 && f.max_z > 0.29, "{}", f.max_z);
-    assert!(f.projected_area_xy > 0.5 && f.projected_area_xy < 1.0, "{}", f.projected_area_xy);
     let csv = std::fs::read_to_string(d.join("energy.csv")).unwrap();
     assert_eq!(csv.lines().count(), 22);
     assert!(csv.starts_with("step,time,kinetic,membrane,bending,potential\n"));
     let obj = std::fs::read_to_string(d.join("frames/frame_00020.obj")).unwrap();
     assert!(obj.lines().any(|l| l.starts_with("vn ")));
+}
 
-    // The paper's lagged step at Δt = 0.01 s diverges (docs/model.md §8.6): the error names the step, the directory
-    // holds no summary (not even the earlier run's) and no temporary file. The folder holds the first run's
-    // outputs, so the second run is refused unless told to overwrite them.
+/// The paper's lagged step at Δt = 0.01 s diverges (docs/model.md §8.6): the error names the step, the directory
+/// holds no summary (not even the earlier run's) and no temporary file. The folder holds the first run's
+/// outputs, so the second run is refused unless told to overwrite them.
+fn a_diverging_run_leaves_no_summary(mut spec: SceneSpec, path: &Path, d: &Path) {
     spec.integrator.kind = IntegratorKind::Lagged;
     spec.time.steps = 200;
-    let s = spec.build(&path).unwrap();
-    let refused = run_scene(&s, &d, |_| {}).unwrap_err().to_string();
+    let s = spec.build(path).unwrap();
+    let refused = run_scene(&s, d, |_| {}).unwrap_err().to_string();
     assert!(refused.contains("holds the outputs of another run"), "{refused}");
     let overwrite = flexsurf::runner::RunOptions { overwrite: true, ..Default::default() };
-    let err = flexsurf::runner::run_scene_with(&s, &d, &overwrite, |_| {}).unwrap_err().to_string();
+    let err = flexsurf::runner::run_scene_with(&s, d, &overwrite, |_| {}).unwrap_err().to_string();
     assert!(err.contains("diverged at step"), "{err}");
-    let files = listing(&d);
+    let files = listing(d);
     assert!(!files.iter().any(|f| f.ends_with("summary.json")), "{files:?}");
     assert!(!files.iter().any(|f| f.contains(".tmp")), "{files:?}");
     assert!(files.contains(&"energy.csv".to_string()));
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// `integrator = "static"`: a hammock (both u1 edges pinned) sags to equilibrium; the run writes frames 0 and 1,
