@@ -71,6 +71,12 @@ impl ExtraRows {
         gather(&a.extra.blocks, &self.src, &mut self.blocks);
     }
 
+    /// Whether the matrix has no extra blocks (then no rows are built).
+    #[inline]
+    fn is_empty(&self) -> bool {
+        self.start.is_empty()
+    }
+
     /// `Σ_c E_pc x_c` over the extra blocks of row `p` (the rows built: some pairs).
     #[inline]
     fn row_dot(&self, p: usize, x: &[Vec3]) -> Vec3 {
@@ -166,9 +172,10 @@ impl RowMatrix {
         {
             even += term(m, c);
         }
-        match self.extra.start.is_empty() {
-            true => even + odd,
-            false => even + odd + self.extra.row_dot(p, x),
+        if self.extra.is_empty() {
+            even + odd
+        } else {
+            even + odd + self.extra.row_dot(p, x)
         }
     }
 
@@ -256,7 +263,7 @@ impl Glued {
         self.pairs.clear();
         self.blocks.clear();
         let extra = &rows.extra;
-        if extra.start.is_empty() {
+        if extra.is_empty() {
             return;
         }
         let n = masked.len();
@@ -457,7 +464,7 @@ impl Family {
     /// are only part of a pair's rank-one stiffness was indefinite) and `2 M − A_cc = A_cc + 2 (L − E)` is too: the
     /// cycle stays a positive definite preconditioner. Empty without extra blocks.
     fn lumps(&self, extra: &ExtraRows) -> Vec<f64> {
-        if extra.start.is_empty() {
+        if extra.is_empty() {
             return Vec::new();
         }
         (0..self.color_of.len())
