@@ -37,6 +37,10 @@ def test_bad_test_arguments_raise():
         flexsurf.cantilever(width=float("nan"))
     with pytest.raises(TypeError):
         flexsurf.kes(material=3.5)
+    # A huge specimen's default grid is refused by its memory estimate (it aborted the interpreter on an
+    # allocation of hundreds of petabytes).
+    with pytest.raises(flexsurf.SimulationError, match="memory"):
+        flexsurf.cusick(specimen=1e9)
 
 
 def test_fit_from_a_dict(root):

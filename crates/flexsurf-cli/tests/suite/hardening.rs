@@ -53,6 +53,45 @@ fn regression_broken_pipe_panicked() {
     assert!(out.join("summary.json").exists(), "the run's outputs are written all the same");
 }
 
+/// `flexsurf test cusick --specimen 1e9` (whose default grid then has 1e11 rings) and `--grid 100000,100000`
+/// aborted the process on a failed allocation of hundreds of terabytes, and ten 5 m specimens draped at once
+/// asked for 9.7 GiB; each is now an error naming the options and the estimated memory, before any specimen is
+/// built, and the same grids through the library ([`flexsurf::lab::cusick`]) are errors too.
+#[test]
+fn regression_a_huge_cusick_grid_aborted_on_allocation() {
+    let d = scratch("cusick-size");
+    let out = d.join("out");
+    let out = out.to_str().unwrap();
+    let t = Instant::now();
+    for (args, flags) in [
+        (vec!["--specimen", "1e9"], "--specimen, --level, --specimens"),
+        (vec!["--grid", "100000,100000"], "--specimen, --grid, --specimens"),
+        (vec!["--grid", "18446744073709551615,8"], "--specimen, --grid, --specimens"),
+        (vec!["--specimen", "5", "--specimens", "10"], "--specimen, --level, --specimens"),
+    ] {
+        let mut all = vec!["test", "cusick", "--out", out];
+        all.extend(&args);
+        let (code, _, err) = flexsurf(&all);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(flags) && err.contains("more than the limit of 4.0 GiB"), "{args:?}: {err}");
+        assert!(!err.contains("memory allocation") && !err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(t.elapsed() < Duration::from_secs(20), "refused in {:?}", t.elapsed());
+    assert!(!Path::new(out).exists(), "nothing written");
+    use flexsurf::lab::cusick::{cusick_specimen, specimen_memory, PolarGrid};
+    use flexsurf::material::{Calibration, Fabric};
+    let fabric = Fabric::paper_cotton();
+    let e = match cusick_specimen(&fabric, Calibration::Kes, 0.3, 100_000, 100_000, 0) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a 100000 x 100000 grid was draped"),
+    };
+    assert!(e.contains("memory"), "{e}");
+    // A standard specimen's default grid (14 x 144 nodes) needs some tens of megabytes.
+    let grid = PolarGrid { radial: 12, angular: 144, grading: 1.0 };
+    let bytes = specimen_memory(0.3, grid, 3).unwrap();
+    assert!((1 << 20..1 << 30).contains(&bytes), "{bytes}");
+}
+
 #[test]
 fn regression_cantilever_overhang_1e308_printed_nan() {
     let (code, _, err) = flexsurf(&["test", "cantilever", "--overhang", "1e308"]);

@@ -23,6 +23,7 @@ use crate::integrate::{StepParams, Stepper};
 use crate::material::{Calibration, Fabric, Stiffness};
 use crate::math::Vec3;
 use crate::model::{ElasticOptions, Model, ModelBuilder, ModelKind};
+use crate::scene::budget;
 use crate::state::State;
 use crate::surface::coons::CoonsSurface;
 use crate::surface::footprint::projected_area_xy;
@@ -298,7 +299,8 @@ pub fn cusick_settled(
     Ok(drape)
 }
 
-/// The annulus of a specimen of diameter `specimen` on `grid`, checked.
+/// The annulus of a specimen of diameter `specimen` on `grid`, checked (its memory too:
+/// [`specimen_memory`]).
 fn annulus(specimen: f64, grid: PolarGrid) -> Result<Annulus, LabError> {
     let PolarGrid { radial, angular, grading } = grid;
     if !(specimen.is_finite() && specimen > DISC) {
@@ -310,7 +312,30 @@ fn annulus(specimen: f64, grid: PolarGrid) -> Result<Annulus, LabError> {
              a grading between 1 and 100"
         )));
     }
+    specimen_memory(specimen, grid, 1)?;
     Ok(Annulus { rd: 0.5 * DISC, rs: 0.5 * specimen, radial, grading })
+}
+
+/// The estimated memory (bytes) of `count` specimens of diameter `specimen` draped at once on `grid` (its
+/// `radial + 2` rings of `angular` nodes), by the scene budget's estimate of a model, its step matrix and its
+/// factor ([`budget::direct_solve_bytes`]); an error naming the grid (and the specimen, whose size sets the
+/// default grids' rings) where the node count overflows or the estimate exceeds the default memory limit
+/// ([`budget::DEFAULT_MAX_MEMORY`]), as a scene's is, instead of an allocation that aborts the process.
+pub fn specimen_memory(specimen: f64, grid: PolarGrid, count: usize) -> Result<u64, LabError> {
+    let PolarGrid { radial, angular, .. } = grid;
+    let nodes = radial.checked_add(2).and_then(|m| m.checked_mul(angular));
+    let bytes = nodes.map(|n| budget::direct_solve_bytes(n).saturating_mul(count as u64));
+    match (nodes, bytes) {
+        (Some(_), Some(b)) if b <= budget::DEFAULT_MAX_MEMORY => Ok(b),
+        _ => Err(LabError::Input(format!(
+            "cusick: {count} specimen(s) of {specimen} m on {radial} radial cells x {angular} nodes around ({} \
+             nodes each) need an estimated {} of memory, more than the limit of {} (a smaller specimen, a \
+             coarser grid or fewer specimens at once)",
+            nodes.map_or_else(|| "too many".to_string(), |n| n.to_string()),
+            bytes.map_or_else(|| "unbounded amount".to_string(), budget::human),
+            budget::human(budget::DEFAULT_MAX_MEMORY)
+        ))),
+    }
 }
 
 /// The flat specimen's model builder (its inner two rings clamped) of diameter `specimen` on `grid`, as

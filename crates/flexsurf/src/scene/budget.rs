@@ -194,15 +194,29 @@ const BLOCK_BYTES: u64 = 72;
 /// the prolongation's 3×3 blocks, which carry rotations on curved sheets, added about 460 bytes a node at 641²).
 const MULTIGRID_BYTES_PER_NODE: u64 = 3500;
 
+/// The estimated bytes of the sparse Cholesky factor of a grid of `nodes` nodes (saturating). The fill of the
+/// factor of a 2D grid grows as n log n. Measured (`flexsurf bench`, nnz(L) / 9 per node): 33 blocks per node at
+/// 21×21, 76 at 81×81, 89 at 161×161; 8·⌈log₂ n⌉ (72, 104, 120) bounds them with a third to spare.
+fn factor_bytes(nodes: u64) -> u64 {
+    let log2 = 64 - nodes.max(2).leading_zeros() as u64;
+    nodes.saturating_mul(8 * log2).saturating_mul(BLOCK_BYTES)
+}
+
+/// The estimated memory (bytes, saturating) of the model, the step matrix and the sparse Cholesky factor of a
+/// grid of `nodes` nodes solved by the direct solver: what a run that is not a scene and writes no frames needs
+/// (a virtual test's specimen, [`crate::lab::cusick`]).
+pub fn direct_solve_bytes(nodes: usize) -> u64 {
+    let nodes = nodes as u64;
+    nodes
+        .saturating_mul(MODEL_BYTES_PER_NODE)
+        .saturating_add(nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES))
+        .saturating_add(factor_bytes(nodes))
+}
+
 /// The memory estimate of a run of `nodes = m · n` nodes with `spec`'s outputs (saturating arithmetic).
 pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate {
     use crate::integrate::linsolve::SolverKind;
     let nodes = nodes as u64;
-    let log2 = 64 - nodes.max(2).leading_zeros() as u64;
-    // The fill of the factor of a 2D grid grows as n log n. Measured (`flexsurf bench`, nnz(L) / 9 per node):
-    // 33 blocks per node at 21×21, 76 at 81×81, 89 at 161×161; 8·⌈log₂ n⌉ (72, 104, 120) bounds them with
-    // a third to spare.
-    let factor_blocks = nodes.saturating_mul(8 * log2);
     let s = spec.output.coons_subdivisions.max(1) as u64;
     let verts =
         ((m as u64).saturating_mul(s).saturating_add(1)).saturating_mul((n as u64).saturating_mul(s).saturating_add(1));
@@ -216,10 +230,10 @@ pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate 
         matrix: nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES),
         // A static solve always factorises.
         factor: match (spec.integrator.kind, spec.integrator.solver.resolve(nodes as usize)) {
-            (crate::scene::spec::IntegratorKind::Static, _) => factor_blocks.saturating_mul(BLOCK_BYTES),
+            (crate::scene::spec::IntegratorKind::Static, _) => factor_bytes(nodes),
             (_, SolverKind::Multigrid) => nodes.saturating_mul(MULTIGRID_BYTES_PER_NODE),
             (_, SolverKind::Pcg) => 0,
-            _ => factor_blocks.saturating_mul(BLOCK_BYTES),
+            _ => factor_bytes(nodes),
         },
         frames: frame.saturating_mul(9),
         pictures: image.saturating_mul(9 + 8),

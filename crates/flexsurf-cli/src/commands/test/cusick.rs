@@ -9,7 +9,7 @@ use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
 use flexsurf::lab::cusick::{
-    cusick_settled, default_polar, grid_convergence, Drape, GridConvergence, PolarGrid, Settle, DISC,
+    cusick_settled, default_polar, grid_convergence, specimen_memory, Drape, GridConvergence, PolarGrid, Settle, DISC,
 };
 use flexsurf::material::{Calibration, Fabric};
 use flexsurf::math::Vec3;
@@ -136,6 +136,12 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
         bail!("--rest-speed: {rest_speed} m/s must be positive");
     }
     let grids = grids(args)?;
+    // The specimens of a level are draped at once: their memory together, before any is built.
+    for &(level, grid) in &grids {
+        let flag = if level.is_some() { "--level" } else { "--grid" };
+        specimen_memory(specimen, grid, specimens)
+            .map_err(|e| anyhow::anyhow!("--specimen, {flag}, --specimens: {e}"))?;
+    }
     let (fabric, name) = args.fabric.load()?;
     let calibration = args.fabric.calibration();
     let t = std::time::Instant::now();
