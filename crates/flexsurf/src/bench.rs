@@ -175,12 +175,16 @@ pub struct BenchRow {
 
 /// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
 pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Result<BenchRow, BenchError> {
+    if !(1..=crate::ranges::STEPS).contains(&steps) {
+        return Err(BenchError::Steps(steps));
+    }
     reset_peak_memory();
     let scene = scene(n, workload)?;
     let mut state = scene.state.clone();
     let params = StepParams { solver, ..scene.step_params() };
     let mut stepper = Stepper::new(&scene.model, &params)?;
-    let mut times = Vec::with_capacity(steps);
+    // Grown as the steps run: a long bench's times are allocated as it goes, not up front.
+    let mut times = Vec::with_capacity(steps.min(1 << 16));
     for _ in 0..steps {
         let t = Instant::now();
         // The pins' motions (the hanging sheet's carried corner), as the runner drives them before each step.
@@ -285,4 +289,7 @@ pub enum BenchError {
     /// A pin's motion could not be applied.
     #[error(transparent)]
     Motion(#[from] crate::model::ModelError),
+    /// The step count is outside 1 to [`crate::ranges::STEPS`].
+    #[error("{0} steps: a bench times 1 to {max} steps", max = crate::ranges::STEPS)]
+    Steps(usize),
 }

@@ -38,9 +38,23 @@ pub struct BenchArgs {
     json: bool,
 }
 
+/// Most threads `--threads` may ask for (each is an operating-system thread of the pool, started at once).
+const MAX_THREADS: usize = 1024;
+/// Most repetitions of a size.
+const MAX_REPEAT: usize = 1000;
+
 /// `flexsurf bench`.
 pub fn execute(args: &BenchArgs) -> Result<()> {
     let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json } = args;
+    if let Some(s) = steps.filter(|s| !(1..=flexsurf::ranges::STEPS).contains(s)) {
+        anyhow::bail!("--steps: {s} must be between 1 and {}", flexsurf::ranges::STEPS);
+    }
+    if !(1..=MAX_REPEAT).contains(&repeat) {
+        anyhow::bail!("--repeat: {repeat} must be between 1 and {MAX_REPEAT}");
+    }
+    if let Some(t) = threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
+        anyhow::bail!("--threads: {t} must be between 1 and {MAX_THREADS}");
+    }
     if let Some(t) = threads {
         rayon::ThreadPoolBuilder::new().num_threads(t).build_global().context("setting the thread count")?;
     }
@@ -64,7 +78,7 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
             (Workload::Pile | Workload::PileAlone, _) => 120,
         });
         let mut runs = Vec::new();
-        for _ in 0..repeat.max(1) {
+        for _ in 0..repeat {
             runs.push(bench::run(n, steps, workload, solver).with_context(|| format!("{workload:?} {n}x{n}"))?);
         }
         runs.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));

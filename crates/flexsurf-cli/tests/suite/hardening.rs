@@ -92,6 +92,33 @@ fn regression_a_huge_cusick_grid_aborted_on_allocation() {
     assert!((1 << 20..1 << 30).contains(&bytes), "{bytes}");
 }
 
+/// `flexsurf bench --steps 100000000000` aborted on allocating its step times up front (800 GB), `--threads
+/// 100000` sat starting a pool of 100,000 threads, and `--steps 0` printed a row of zeros; each is now an error
+/// naming the option (and the library's `bench::run` refuses such a step count too).
+#[test]
+fn regression_bench_step_and_thread_counts_aborted_or_stalled() {
+    let t = Instant::now();
+    for (args, flag) in [
+        (vec!["--steps", "100000000000"], "--steps"),
+        (vec!["--steps", "0"], "--steps"),
+        (vec!["--repeat", "0"], "--repeat"),
+        (vec!["--threads", "100000"], "--threads"),
+        (vec!["--threads", "0"], "--threads"),
+    ] {
+        let mut all = vec!["bench", "--sizes", "21"];
+        all.extend(&args);
+        let (code, _, err) = flexsurf(&all);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(flag) && err.contains("must be between 1 and"), "{args:?}: {err}");
+        assert!(!err.contains("memory allocation") && !err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(t.elapsed() < Duration::from_secs(20), "refused in {:?}", t.elapsed());
+    let e =
+        flexsurf::bench::run(21, 0, flexsurf::bench::Workload::Drop, flexsurf::integrate::linsolve::SolverKind::Auto)
+            .unwrap_err();
+    assert!(e.to_string().contains("0 steps"), "{e}");
+}
+
 #[test]
 fn regression_cantilever_overhang_1e308_printed_nan() {
     let (code, _, err) = flexsurf(&["test", "cantilever", "--overhang", "1e308"]);
