@@ -53,6 +53,20 @@ fn regression_broken_pipe_panicked() {
     assert!(out.join("summary.json").exists(), "the run's outputs are written all the same");
 }
 
+/// Runs `command` with each case's options: each must fail with status 1 within seconds, its message naming
+/// the case's options and containing `expect`, neither an aborted allocation nor a panic.
+fn refused(command: &[&str], cases: &[(Vec<&str>, &str)], expect: &str) {
+    let t = Instant::now();
+    for (args, names) in cases {
+        let all: Vec<&str> = command.iter().chain(args).copied().collect();
+        let (code, _, err) = flexsurf(&all);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(names) && err.contains(expect), "{args:?}: {err}");
+        assert!(!err.contains("memory allocation") && !err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(t.elapsed() < Duration::from_secs(20), "refused in {:?}", t.elapsed());
+}
+
 /// `flexsurf test cusick --specimen 1e9` (whose default grid then has 1e11 rings) and `--grid 100000,100000`
 /// aborted the process on a failed allocation of hundreds of terabytes, and ten 5 m specimens draped at once
 /// asked for 9.7 GiB; each is now an error naming the options and the estimated memory, before any specimen is
@@ -62,21 +76,13 @@ fn regression_a_huge_cusick_grid_aborted_on_allocation() {
     let d = scratch("cusick-size");
     let out = d.join("out");
     let out = out.to_str().unwrap();
-    let t = Instant::now();
-    for (args, flags) in [
+    let cases = [
         (vec!["--specimen", "1e9"], "--specimen, --level, --specimens"),
         (vec!["--grid", "100000,100000"], "--specimen, --grid, --specimens"),
         (vec!["--grid", "18446744073709551615,8"], "--specimen, --grid, --specimens"),
         (vec!["--specimen", "5", "--specimens", "10"], "--specimen, --level, --specimens"),
-    ] {
-        let mut all = vec!["test", "cusick", "--out", out];
-        all.extend(&args);
-        let (code, _, err) = flexsurf(&all);
-        assert_eq!(code, 1, "{args:?}: {err}");
-        assert!(err.contains(flags) && err.contains("more than the limit of 4.0 GiB"), "{args:?}: {err}");
-        assert!(!err.contains("memory allocation") && !err.contains("panicked"), "{args:?}: {err}");
-    }
-    assert!(t.elapsed() < Duration::from_secs(20), "refused in {:?}", t.elapsed());
+    ];
+    refused(&["test", "cusick", "--out", out], &cases, "more than the limit of 4.0 GiB");
     assert!(!Path::new(out).exists(), "nothing written");
     use flexsurf::lab::cusick::{cusick_specimen, specimen_memory, PolarGrid};
     use flexsurf::material::{Calibration, Fabric};
@@ -97,22 +103,14 @@ fn regression_a_huge_cusick_grid_aborted_on_allocation() {
 /// naming the option (and the library's `bench::run` refuses such a step count too).
 #[test]
 fn regression_bench_step_and_thread_counts_aborted_or_stalled() {
-    let t = Instant::now();
-    for (args, flag) in [
+    let cases = [
         (vec!["--steps", "100000000000"], "--steps"),
         (vec!["--steps", "0"], "--steps"),
         (vec!["--repeat", "0"], "--repeat"),
         (vec!["--threads", "100000"], "--threads"),
         (vec!["--threads", "0"], "--threads"),
-    ] {
-        let mut all = vec!["bench", "--sizes", "21"];
-        all.extend(&args);
-        let (code, _, err) = flexsurf(&all);
-        assert_eq!(code, 1, "{args:?}: {err}");
-        assert!(err.contains(flag) && err.contains("must be between 1 and"), "{args:?}: {err}");
-        assert!(!err.contains("memory allocation") && !err.contains("panicked"), "{args:?}: {err}");
-    }
-    assert!(t.elapsed() < Duration::from_secs(20), "refused in {:?}", t.elapsed());
+    ];
+    refused(&["bench", "--sizes", "21"], &cases, "must be between 1 and");
     let e =
         flexsurf::bench::run(21, 0, flexsurf::bench::Workload::Drop, flexsurf::integrate::linsolve::SolverKind::Auto)
             .unwrap_err();
