@@ -325,8 +325,8 @@ pub fn specimen_memory(specimen: f64, grid: PolarGrid, count: usize) -> Result<u
     let PolarGrid { radial, angular, .. } = grid;
     let nodes = radial.checked_add(2).and_then(|m| m.checked_mul(angular));
     let bytes = nodes.map(|n| budget::direct_solve_bytes(n).saturating_mul(count as u64));
-    match (nodes, bytes) {
-        (Some(_), Some(b)) if b <= budget::DEFAULT_MAX_MEMORY => Ok(b),
+    match bytes {
+        Some(b) if b <= budget::DEFAULT_MAX_MEMORY => Ok(b),
         _ => Err(LabError::Input(format!(
             "cusick: {count} specimen(s) of {specimen} m on {radial} radial cells x {angular} nodes around ({} \
              nodes each) need an estimated {} of memory, more than the limit of {} (a smaller specimen, a \

@@ -194,6 +194,16 @@ const BLOCK_BYTES: u64 = 72;
 /// the prolongation's 3×3 blocks, which carry rotations on curved sheets, added about 460 bytes a node at 641²).
 const MULTIGRID_BYTES_PER_NODE: u64 = 3500;
 
+/// The estimated bytes of the model of `nodes` nodes and its per-node buffers (saturating).
+fn model_bytes(nodes: u64) -> u64 {
+    nodes.saturating_mul(MODEL_BYTES_PER_NODE)
+}
+
+/// The estimated bytes of the step matrix of `nodes` nodes (saturating).
+fn matrix_bytes(nodes: u64) -> u64 {
+    nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES)
+}
+
 /// The estimated bytes of the sparse Cholesky factor of a grid of `nodes` nodes (saturating). The fill of the
 /// factor of a 2D grid grows as n log n. Measured (`flexsurf bench`, nnz(L) / 9 per node): 33 blocks per node at
 /// 21×21, 76 at 81×81, 89 at 161×161; 8·⌈log₂ n⌉ (72, 104, 120) bounds them with a third to spare.
@@ -207,10 +217,7 @@ fn factor_bytes(nodes: u64) -> u64 {
 /// (a virtual test's specimen, [`crate::lab::cusick`]).
 pub fn direct_solve_bytes(nodes: usize) -> u64 {
     let nodes = nodes as u64;
-    nodes
-        .saturating_mul(MODEL_BYTES_PER_NODE)
-        .saturating_add(nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES))
-        .saturating_add(factor_bytes(nodes))
+    model_bytes(nodes).saturating_add(matrix_bytes(nodes)).saturating_add(factor_bytes(nodes))
 }
 
 /// The memory estimate of a run of `nodes = m · n` nodes with `spec`'s outputs (saturating arithmetic).
@@ -226,8 +233,8 @@ pub fn estimate(nodes: usize, m: usize, n: usize, spec: &SceneSpec) -> Estimate 
     let [w, h] = spec.output.image_size;
     let image = (w as u64).saturating_mul(h as u64).saturating_mul(3 + 8); // RGB and a depth buffer
     Estimate {
-        model: nodes.saturating_mul(MODEL_BYTES_PER_NODE),
-        matrix: nodes.saturating_mul(MATRIX_BLOCKS_PER_NODE * BLOCK_BYTES),
+        model: model_bytes(nodes),
+        matrix: matrix_bytes(nodes),
         // A static solve always factorises.
         factor: match (spec.integrator.kind, spec.integrator.solver.resolve(nodes as usize)) {
             (crate::scene::spec::IntegratorKind::Static, _) => factor_bytes(nodes),
