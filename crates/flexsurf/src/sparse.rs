@@ -64,6 +64,12 @@ impl BlockPattern {
         r.binary_search(&i).ok().map(|k| self.col_start[j] + k)
     }
 
+    /// The node graph's upper triangle in compressed columns: column pointers and row nodes (sorted, the
+    /// diagonal last), one entry a block.
+    pub fn csc_nodes(&self) -> (&[usize], &[usize]) {
+        (&self.col_start, &self.rows)
+    }
+
     /// Scalar CSC structure of the upper triangle of the `3n × 3n` matrix, plus, for each scalar entry, the
     /// block id and the entry inside the block.
     pub fn csc_upper(&self) -> (Vec<usize>, Vec<usize>, Vec<(u32, u8)>) {

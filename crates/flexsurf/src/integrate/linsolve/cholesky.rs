@@ -1,5 +1,5 @@
-//! Sparse Cholesky from `faer` ([`BlockSolver`]) with the symbolic analysis (AMD ordering, elimination tree)
-//! done once per run and a numeric factorisation per new matrix. A re-solve after a contact active-set change
+//! Sparse Cholesky from `faer` ([`BlockSolver`]) with the symbolic analysis (AMD ordering of the node graph,
+//! elimination tree) done once per run and a numeric factorisation per new matrix. A re-solve after a contact active-set change
 //! or a friction re-linearisation ([`Reuse::Nearby`]: a few diagonal blocks changed) first runs conjugate
 //! gradients preconditioned by the existing factor and refactorises only if they do not converge within
 //! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
@@ -20,6 +20,7 @@ use crate::sparse::{BlockMatrix, BlockPattern, ExtraBlocks};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, simplicial, supernodal, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
@@ -197,7 +198,7 @@ impl Cholesky {
     }
 }
 
-/// The scalar structure of a block pattern, its symbolic Cholesky factorisation (AMD ordering) and the
+/// The scalar structure of a block pattern, its symbolic Cholesky factorisation ([`node_ordering`]) and the
 /// buffers sized for it. The triangle is kept already permuted by the ordering, in the form the numeric
 /// kernel reads (the lower triangle for a supernodal factor, the upper for a simplicial one): `faer`'s
 /// `factorize_numeric_llt` would otherwise permute a copy of it at every factorisation (4.6 % of the 21²
@@ -220,9 +221,10 @@ impl Structure {
         let (col_ptr, row_idx, src) = pattern.csc_upper();
         let n = 3 * pattern.nodes();
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic =
-            factorize_symbolic_cholesky(sym, Side::Upper, SymmetricOrdering::Amd, CholeskySymbolicParams::default())
-                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+        let (fwd, inv) = node_ordering(pattern)?;
+        let ordering = SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n));
+        let symbolic = factorize_symbolic_cholesky(sym, Side::Upper, ordering, CholeskySymbolicParams::default())
+            .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
@@ -261,6 +263,26 @@ impl Structure {
 }
 
 /// `out = (L Lᵀ)⁻¹ r` with the factor in `l_values`.
+/// The fill-reducing ordering of the scalar unknowns: AMD on the node graph (one vertex a node, one edge a
+/// block), each node's three unknowns kept together in its place. The factor is the scalar graph's AMD's
+/// (the same non-zeros on the sheets, the skirts and the T-shirt, docs/performance.md) at a ninth of the
+/// ordering's edges, which matters where the analysis is redone as pairs between faces come and go.
+fn node_ordering(pattern: &BlockPattern) -> Result<(Vec<usize>, Vec<usize>), LinearError> {
+    let n = pattern.nodes();
+    let (col_ptr, rows) = pattern.csc_nodes();
+    let graph = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, rows);
+    let (mut perm, mut inv) = (vec![0usize; n], vec![0usize; n]);
+    let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n, rows.len()));
+    amd::order(&mut perm, &mut inv, graph, amd::Control::default(), MemStack::new(&mut mem))
+        .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+    let fwd: Vec<usize> = perm.iter().flat_map(|&k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+    let mut inv = vec![0usize; 3 * n];
+    for (position, &unknown) in fwd.iter().enumerate() {
+        inv[unknown] = position;
+    }
+    Ok((fwd, inv))
+}
+
 fn apply_factor(
     symbolic: &SymbolicCholesky<usize>,
     l_values: &[f64],
