@@ -709,17 +709,8 @@ impl ActiveSet for PenaltyContact {
                             at: Vec3::ZERO,
                             majorant: false,
                         };
-                        // The first solve linearises about the slip the node's motion predicts: for a node
-                        // that slid, `(v + ½ a Δt) Δt` with `a Δt ≈ v − v⁻`; for one that stuck (moved less
-                        // than ε in the last step), that step's slip, from which the majorant's iteration
-                        // approaches the creep from below (holding, never overshooting).
-                        let last = l.tangential(m.x[k] - m.x_prev[k]);
-                        let predicted = if last.length() < eps {
-                            last
-                        } else {
-                            l.tangential((m.v[k] * 1.5 - m.v_prev[k] * 0.5) * m.dt)
-                        };
-                        l.linearize(predicted, eps, true);
+                        // The first solve linearises about the slip the node's motion predicts.
+                        l.predict(m.x[k] - m.x_prev[k], m.v[k], m.v_prev[k], m.dt, eps);
                         s.lagged.push(l);
                     }
                 }

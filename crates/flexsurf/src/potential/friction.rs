@@ -169,6 +169,29 @@ impl Lagged {
         self.at = u;
     }
 
+    /// The model of a step's first solve, from the node's (or a face point's) motion: its displacement `last`
+    /// over the step before and its velocities `v` at the start of the step and `v_prev` one step earlier.
+    /// A node that stuck (moved less than `eps` in the last step) is linearised about that step's slip, from
+    /// which the majorant's iteration approaches the creep from below (holding, never overshooting). One that
+    /// slid is linearised about the slip its motion predicts, `(v + ½ a Δt) Δt` with `a Δt ≈ v − v⁻`: by the
+    /// tangent model, which makes steady sliding exact at once, unless its slip reversed over the last step
+    /// (`v · v⁻ < 0`, tangentially). Such a node is not sliding steadily, and the tangent model about the
+    /// predicted slip would apply the Coulomb force along the node's motion wherever it reverses again: a
+    /// friction force that drives the node, which the one re-linearisation of a solve undoes only in part, and
+    /// which kept nodes of the 21² drop zig-zagging by ±10 μm a step for dozens of steps (a re-solve each) and
+    /// made the drop's run a discontinuous function of its input (docs/performance.md, "Friction's predictor").
+    /// It takes the majorant about the predicted slip instead, which resists a motion in any direction.
+    pub fn predict(&mut self, last: Vec3, v: Vec3, v_prev: Vec3, dt: f64, eps: f64) {
+        let last = self.tangential(last);
+        if last.length() < eps {
+            self.linearize(last, eps, true);
+            return;
+        }
+        let (v, v_prev) = (self.tangential(v), self.tangential(v_prev));
+        self.linearize((v * 1.5 - v_prev * 0.5) * dt, eps, true);
+        self.majorant |= v.dot(v_prev) < 0.0;
+    }
+
     /// Takes the law's own second-order model about `u`: its gradient there is the law's and its Hessian the
     /// law's exact, positive semi-definite one (a Newton iteration on the step's potential).
     pub fn exact(&mut self, u: Vec3) {

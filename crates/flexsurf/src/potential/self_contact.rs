@@ -330,13 +330,7 @@ fn lag_friction(params: &SelfContactParams, s: &mut SelfScratch, m: &Motion, fix
             majorant: false,
         };
         let st = &c.stencil;
-        let last = l.tangential(st.point(m.x) - st.point(m.x_prev));
-        let predicted = if last.length() < eps {
-            last
-        } else {
-            l.tangential((st.point(m.v) * 1.5 - st.point(m.v_prev) * 0.5) * m.dt)
-        };
-        l.linearize(predicted, eps, true);
+        l.predict(st.point(m.x) - st.point(m.x_prev), st.point(m.v), st.point(m.v_prev), m.dt, eps);
         s.lagged.push((c.stencil, l));
     }
 }
