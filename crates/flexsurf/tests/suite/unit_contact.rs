@@ -389,6 +389,33 @@ mod friction {
             }
         }
     }
+
+    /// A step's first model (`Lagged::predict`): a node that stuck keeps its last slip and the majorant; one that
+    /// slid steadily the tangent model about `(1.5 v − 0.5 v⁻) Δt`; one whose slip reversed over the last step
+    /// the majorant about that slip, whose force at any slip resists it (the tangent model about a slip that
+    /// reverses again pushes the node along its motion: the 21² drop's zig-zag, tests/suite/continuity.rs).
+    #[test]
+    fn a_steps_first_model_resists_a_reversing_node() {
+        let (dt, eps) = (0.01, 1e-6);
+        let law = FrictionLaw { limit: 1.0, eps };
+        let fresh = || Lagged { node: 0, limit: 1.0, normal: Vec3::Z, at: Vec3::ZERO, majorant: false };
+        let (x, tilt) = (Vec3::X, Vec3::new(0.0, 0.0, 3.0));
+        let mut stuck = fresh();
+        stuck.predict(x * 4e-7 + tilt * 1e-7, x * 4e-5, x * 4e-5, dt, eps);
+        assert!(stuck.majorant && (stuck.at - x * 4e-7).length() < 1e-18, "{stuck:?}");
+        let mut steady = fresh();
+        steady.predict(x * 1e-4, x * 0.012 + tilt, x * 0.010, dt, eps);
+        assert!(!steady.majorant && (steady.at - x * 1.3e-4).length() < 1e-15, "{steady:?}");
+        let mut reversing = fresh();
+        reversing.predict(x * -1e-4, x * -0.01, x * 0.01 + tilt, dt, eps);
+        assert!(reversing.majorant && (reversing.at - x * -2e-4).length() < 1e-15, "{reversing:?}");
+        // The slip reverses again in the step: the tangent model's force would push along it, the majorant's resists.
+        let back = x * 5e-5;
+        let along = |l: &Lagged| -l.model(&law, back).1.dot(back);
+        let mut tangent = reversing;
+        tangent.majorant = false;
+        assert!(along(&tangent) > 0.0 && along(&reversing) < 0.0, "{} {}", along(&tangent), along(&reversing));
+    }
 }
 
 /// Held records of the obstacle contact (`potential/contact.rs`, `ActiveSet::hold`).
