@@ -1,7 +1,7 @@
 //! Sparse Cholesky from `faer` ([`BlockSolver`]) with the symbolic analysis (AMD ordering of the node graph,
-//! elimination tree) done once per run and a numeric factorisation per new matrix. A re-solve after a contact active-set change
-//! or a friction re-linearisation ([`Reuse::Nearby`]: a few diagonal blocks changed) first runs conjugate
-//! gradients preconditioned by the existing factor and refactorises only if they do not converge within
+//! elimination tree) done once per run and a numeric factorisation per new matrix. A re-solve after a contact
+//! active-set change or a friction re-linearisation ([`Reuse::Nearby`]: a few diagonal blocks changed) first runs
+//! conjugate gradients preconditioned by the existing factor and refactorises only if they do not converge within
 //! [`Cholesky::MAX_REUSE_ITERATIONS`]. Keeping the factor across steps was measured and rejected
 //! (docs/performance.md): the first solve of a step always factorises, so nothing carries over between steps.
 //! Those re-solves stop at the tolerance the solve asks for ([`BlockSolver::solve_to`]: the contact steps'
@@ -262,7 +262,6 @@ impl Structure {
     }
 }
 
-/// `out = (L Lᵀ)⁻¹ r` with the factor in `l_values`.
 /// The fill-reducing ordering of the scalar unknowns: AMD on the node graph (one vertex a node, one edge a
 /// block), each node's three unknowns kept together in its place. The factor is the scalar graph's AMD's
 /// (the same non-zeros on the sheets, the skirts and the T-shirt, docs/performance.md) at a ninth of the
@@ -283,6 +282,7 @@ fn node_ordering(pattern: &BlockPattern) -> Result<(Vec<usize>, Vec<usize>), Lin
     Ok((fwd, inv))
 }
 
+/// `out = (L Lᵀ)⁻¹ r` with the factor in `l_values`.
 fn apply_factor(
     symbolic: &SymbolicCholesky<usize>,
     l_values: &[f64],
