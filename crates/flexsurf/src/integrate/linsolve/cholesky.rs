@@ -237,8 +237,8 @@ impl Structure {
             SymbolicCholeskyRaw::Simplicial(_) => Side::Upper,
             SymbolicCholeskyRaw::Supernodal(_) => Side::Lower,
         };
-        let identity: Vec<usize> = (0..n).collect();
-        let perm = symbolic.perm().unwrap_or_else(|| PermRef::new_checked(&identity, &identity, n));
+        // The ordering is the node graph's, which the symbolic factorisation keeps as it is.
+        let perm = PermRef::new_checked(&fwd, &inv, n);
         let (mut moved, mut new_ptr, mut new_rows) = (vec![0.0; nnz], vec![0usize; n + 1], vec![0usize; nnz]);
         permute_self_adjoint_to_unsorted(
             &mut moved,
