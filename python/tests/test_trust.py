@@ -115,3 +115,27 @@ def test_a_process_sweep_from_an_unguarded_script_says_why(tmp_path, small_drop)
     done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert done.returncode != 0
     assert 'if __name__ == "__main__":' in done.stderr, done.stderr[-2000:]
+
+
+@pytest.mark.parametrize(
+    "out, what",
+    [
+        (np.zeros((11, 11, 3), dtype=np.float32), r"got a float32 array of shape \(11, 11, 3\)"),
+        (np.zeros((121, 3)), r"got a float64 array of shape \(121, 3\)"),
+        ([[0.0] * 3] * 121, r"got a list"),
+    ],
+)
+def test_positions_into_a_wrong_array_says_what_it_got(small_drop, out, what):
+    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
+    with pytest.raises(TypeError, match=r"out: expected a float64 array of shape \(11, 11, 3\), " + what):
+        sim.positions_into(out)
+    right = np.zeros((11, 11, 3))
+    sim.positions_into(right)
+    assert np.array_equal(right, sim.positions)
+
+
+def test_a_scene_file_that_cannot_be_read_says_why(tmp_path):
+    with pytest.raises(flexsurf.SceneError, match=r"missing\.toml: cannot read the file: .*No such file"):
+        flexsurf.Scene.from_toml(tmp_path / "missing.toml")
+    with pytest.raises(flexsurf.SceneError, match=r"cannot read the file: it is a directory"):
+        flexsurf.Scene.from_toml(tmp_path)

@@ -62,11 +62,26 @@ fn run_err(e: &flexsurf::runner::RunError) -> PyErr {
 
 /// A library scene error as a Python `SceneError` carrying `key` (the dotted key) and `file`.
 fn scene_err(py: Python<'_>, e: &LibSceneError) -> PyErr {
-    let err = SceneError::new_err(e.to_string());
+    let err = SceneError::new_err(with_causes(e));
     let value = err.value(py);
     // Setting attributes on a fresh exception instance cannot fail in practice; keep the message if it does.
     let _ = value.setattr("key", e.key());
     err
+}
+
+/// The message of `e` followed by those of its causes that it does not already contain (the operating system's
+/// reason a file cannot be read), as the command line prints them.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !message.contains(&text) {
+            message = format!("{message}: {text}");
+        }
+        cause = c.source();
+    }
+    message
 }
 
 /// Any other library error as a `SimulationError` with its message.

@@ -11,7 +11,7 @@ use flexsurf::model::Model;
 use flexsurf::state::State;
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyIndexError, PyValueError};
+use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Mutex, PoisonError};
@@ -181,15 +181,22 @@ impl PySimulation {
     }
 
     /// Writes the node positions into `out`, a C-contiguous float64 array of shape `(M, N, 3)` (no allocation).
-    fn positions_into(&self, out: &Bound<'_, PyArray3<f64>>) -> PyResult<()> {
+    fn positions_into(&self, out: &Bound<'_, PyAny>) -> PyResult<()> {
         let g = &self.grid;
+        let out = float64_grid(out, g)?;
         if out.shape() != [g.m, g.n, 3] {
-            return Err(PyValueError::new_err(format!("out: shape {:?} must be ({}, {}, 3)", out.shape(), g.m, g.n)));
+            return Err(PyValueError::new_err(format!(
+                "out: shape {} must be ({}, {}, 3)",
+                tuple(out.shape()),
+                g.m,
+                g.n
+            )));
         }
         if !out.is_c_contiguous() {
             return Err(PyValueError::new_err("out: must be C-contiguous"));
         }
-        let mut rw = out.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {e}")))?;
+        // numpy's reasons ("The given array is not writeable", "… is already borrowed") after the argument's name.
+        let mut rw = out.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {}", lower_first(&e))))?;
         let slice = rw.as_slice_mut().map_err(|_| PyValueError::new_err("out: must be C-contiguous"))?;
         for i in 0..g.m {
             for j in 0..g.n {
@@ -319,4 +326,40 @@ impl PySimulation {
     fn __repr__(&self) -> String {
         format!("Simulation(grid={}x{}, step={}, t={})", self.grid.m, self.grid.n, self.state.step, self.state.time)
     }
+}
+
+/// `out` as a three-dimensional float64 array, or a `TypeError` that says what it is instead and what
+/// [`PySimulation::positions_into`] needs (numpy's own cast error names neither the type nor the shape).
+fn float64_grid<'a, 'py>(out: &'a Bound<'py, PyAny>, g: &Grid) -> PyResult<&'a Bound<'py, PyArray3<f64>>> {
+    if let Ok(array) = out.cast::<PyArray3<f64>>() {
+        return Ok(array);
+    }
+    let what = match out.cast::<numpy::PyUntypedArray>() {
+        Ok(a) => format!("{} array of shape {}", article(&a.dtype().to_string()), tuple(a.shape())),
+        Err(_) => article(&out.get_type().name().map_or_else(|_| "value".to_string(), |n| n.to_string())),
+    };
+    Err(PyTypeError::new_err(format!("out: expected a float64 array of shape ({}, {}, 3), got {what}", g.m, g.n)))
+}
+
+/// `shape` as Python writes a tuple: `(7, 7, 3)`, `(147,)`.
+fn tuple(shape: &[usize]) -> String {
+    let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
+    if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    }
+}
+
+/// `word` after its indefinite article: `a float32`, `an int64`.
+fn article(word: &str) -> String {
+    let an = word.starts_with(['a', 'e', 'i', 'o', 'u']);
+    format!("{} {word}", if an { "an" } else { "a" })
+}
+
+/// `e`'s message with its first letter in lower case, to follow an argument's name.
+fn lower_first(e: &impl std::fmt::Display) -> String {
+    let text = e.to_string();
+    let mut chars = text.chars();
+    chars.next().map_or_else(String::new, |c| c.to_lowercase().chain(chars).collect())
 }
