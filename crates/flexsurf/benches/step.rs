@@ -1,5 +1,7 @@
 //! Criterion benchmarks of the time stepping: the canonical 21×21 ball drop (300 steps, the paper's 6-minute
-//! demo) and one step of larger grids. `cargo bench -p flexsurf`; `flexsurf bench` prints the per-stage table.
+//! demo), one step of larger grids, and one assembly of the step system (the energy terms' values, gradients and
+//! operator blocks, with the contacts found) of the sheet touching the ball. `cargo bench -p flexsurf`;
+//! `flexsurf bench` prints the per-stage table.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use flexsurf::bench::ball_drop;
@@ -44,5 +46,15 @@ fn single_step(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, ball_drop_300_steps, single_step);
+fn assembly(c: &mut Criterion) {
+    let mut g = c.benchmark_group("assembly");
+    for n in [21, 81] {
+        let scene = flexsurf::bench::scene(n, flexsurf::bench::Workload::Touching).expect("embedded scene builds");
+        let mut st = Stepper::new(&scene.model, &scene.step_params()).expect("stepper");
+        g.bench_function(format!("touching_{n}x{n}"), |b| b.iter(|| st.assemble(&scene.model, &scene.state)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, ball_drop_300_steps, single_step, assembly);
 criterion_main!(benches);
