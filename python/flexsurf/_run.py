@@ -41,22 +41,47 @@ def scene_dict(path: str | os.PathLike[str]) -> dict:
 
 def with_overrides(d: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict:
     """A deep copy of the scene dict ``d`` with ``overrides`` set; each key is dotted
-    (``"material.bending_warp"``, ``"time.steps"``, ``"obstacle.0.sphere.radius"``: a number indexes a list)."""
+    (``"material.bending_warp"``, ``"time.steps"``, ``"obstacle.0.sphere.radius"``: a number indexes a list, and
+    the number one past a list's end adds an entry: ``"obstacle.1.plane.point"`` on a scene with one obstacle).
+    Tables a key names that are not there yet are made. A key that cannot be set (an empty part, a list indexed
+    by a name or beyond its end, a number where a table should be) raises naming the key."""
     out = copy.deepcopy(dict(d))
     for key, value in overrides.items():
+        if not isinstance(key, str):
+            raise TypeError(f"override keys must be dotted strings, got {key!r}")
         parts = key.split(".")
+        if "" in parts:
+            raise ValueError(f"override {key!r}: a dotted key has no empty parts")
         node: Any = out
-        for k, part in enumerate(parts[:-1]):
-            if isinstance(node, list):
-                node = node[int(part)]
-            else:
-                node = node.setdefault(part, [] if parts[k + 1].isdigit() else {})
-        last = parts[-1]
-        if isinstance(node, list):
-            node[int(last)] = value
-        else:
-            node[last] = value
+        for k, part in enumerate(parts):
+            node = _override_step(node, key, parts, k, value)
     return out
+
+
+def _override_step(node: Any, key: str, parts: list[str], k: int, value: Any) -> Any:
+    """Sets ``value`` at ``parts[k]`` of ``node`` (the last part) or returns the table or list there (made if
+    missing) for the next part."""
+    part, last = parts[k], k == len(parts) - 1
+    where = f"`{'.'.join(parts[:k])}`" if k else "the scene"
+    fresh = None if last else ([] if parts[k + 1].isdigit() else {})
+    if isinstance(node, list):
+        if not part.isdigit():
+            raise ValueError(f"override {key!r}: {where} is a list, indexed by 0, 1, …, not by {part!r}")
+        i = int(part)
+        if i > len(node):
+            entries = "entry" if len(node) == 1 else "entries"
+            raise IndexError(f"override {key!r}: {where} has {len(node)} {entries}: index {i} is beyond its end")
+        if i == len(node):
+            node.append(value if last else fresh)
+        elif last:
+            node[i] = value
+        return node[i]
+    if isinstance(node, Mapping):
+        if last:
+            node[part] = value
+            return value
+        return node.setdefault(part, fresh)
+    raise TypeError(f"override {key!r}: {where} is {node!r}, not a table or a list")
 
 
 def as_scene(scene: SceneLike, file: str | os.PathLike[str] | None = None) -> Scene:

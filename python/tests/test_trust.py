@@ -139,3 +139,27 @@ def test_a_scene_file_that_cannot_be_read_says_why(tmp_path):
         flexsurf.Scene.from_toml(tmp_path / "missing.toml")
     with pytest.raises(flexsurf.SceneError, match=r"cannot read the file: it is a directory"):
         flexsurf.Scene.from_toml(tmp_path)
+
+
+@pytest.mark.parametrize(
+    "key, error, message",
+    [
+        ("obstacle.5.sphere.radius", IndexError, r"'obstacle\.5\.sphere\.radius': `obstacle` has 1 entry: index 5"),
+        ("obstacle.x.radius", ValueError, r"`obstacle` is a list, indexed by 0, 1, …, not by 'x'"),
+        ("obstacle.-1.sphere.radius", ValueError, r"not by '-1'"),
+        ("time.dt.x", TypeError, r"'time\.dt\.x': `time\.dt` is 0\.01, not a table or a list"),
+        ("time..dt", ValueError, r"'time\.\.dt': a dotted key has no empty parts"),
+        ("", ValueError, r"no empty parts"),
+    ],
+)
+def test_an_override_that_cannot_be_set_names_its_key(small_drop, key, error, message):
+    with pytest.raises(error, match=message):
+        flexsurf.with_overrides(small_drop, {key: 0.2})
+
+
+def test_an_override_one_past_a_list_adds_an_entry(small_drop):
+    floor = {"obstacle.1.plane.point": [0.0, 0.0, -0.5], "obstacle.1.plane.normal": [0.0, 0.0, 1.0]}
+    d = flexsurf.with_overrides(small_drop, floor)
+    assert d["obstacle"][1] == {"plane": {"point": [0.0, 0.0, -0.5], "normal": [0.0, 0.0, 1.0]}}
+    assert len(small_drop["obstacle"]) == 1, "the scene dict given is not changed"
+    flexsurf.Scene.from_dict(d)  # a scene with a sphere and a floor
