@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import operator
 import os
+import socket
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Iterable, Mapping, Sequence, Union
@@ -109,9 +111,13 @@ def sweep(
     """
     import pandas as pd
 
+    _check_workers(workers)
     file: str | None = None
     if isinstance(scene, str) and scene in LAB_TESTS:
         task: str | dict = scene
+    elif isinstance(scene, str) and not os.path.exists(scene) and os.sep not in scene and "." not in scene:
+        tests = ", ".join(f'"{t}"' for t in LAB_TESTS)
+        raise ValueError(f"scene: {scene!r} is neither a scene file nor a virtual test ({tests})")
     elif isinstance(scene, Mapping):
         task = dict(scene)
     else:
@@ -163,6 +169,8 @@ def _run_ray(
         raise ImportError('backend="ray" needs Ray: pip install "./python[ray]" (or pip install ray)') from e
     started = False
     if not ray.is_initialized():
+        if address is not None:
+            _reachable(address)
         if address is None:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         else:
@@ -174,3 +182,33 @@ def _run_ray(
     finally:
         if started:
             ray.shutdown()
+
+
+def _reachable(address: str) -> None:
+    """Raises ``ConnectionError`` where ``address`` is a ``host:port`` (or ``ray://host:port``) that accepts no
+    connection within 10 s: ``ray.init`` would wait minutes for it. Other forms (``"auto"``, ``"local"``) are
+    Ray's to resolve."""
+    target = address[len("ray://") :] if address.startswith("ray://") else address
+    host, sep, port = target.rpartition(":")
+    if not sep or not host or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=10).close()
+    except OSError as e:
+        raise ConnectionError(
+            f"address: no Ray cluster answers at {address!r} ({e}); start one (ray start --head) or leave address "
+            "out for a local one"
+        ) from e
+
+
+def _check_workers(workers: Any) -> None:
+    """Raises unless ``workers`` is ``None`` or a positive integer (numpy's included, not a bool)."""
+    if workers is None:
+        return
+    what = f"workers: {workers!r} must be a positive number of processes (or None for the CPU count)"
+    try:
+        n = operator.index(workers)
+    except TypeError:
+        raise TypeError(what) from None
+    if isinstance(workers, bool) or n < 1:
+        raise ValueError(what)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import socket
+import time
+
 import pandas as pd
 import pytest
 
@@ -62,6 +65,22 @@ def test_bad_sweeps_raise(small_drop):
         flexsurf.sweep(small_drop, [{}], backend="mpi")
     with pytest.raises(TypeError, match="list of values"):
         flexsurf.sweep(small_drop, {"time.dt": 0.01})
+    for workers, error in ((0, ValueError), (-3, ValueError), (True, ValueError), (1.5, TypeError)):
+        with pytest.raises(error, match=rf"workers: {workers!r} must be a positive number"):
+            flexsurf.sweep(small_drop, [{}], workers=workers)
+    with pytest.raises(ValueError, match=r"'kez' is neither a scene file nor a virtual test \(\"kes\""):
+        flexsurf.sweep("kez", [{}])
+
+
+def test_a_ray_sweep_to_an_address_nothing_answers_at_fails_at_once(small_drop):
+    pytest.importorskip("ray", reason="ray cannot be imported here (pip install './python[ray]')")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # free once closed: nothing listens there
+    start = time.monotonic()
+    with pytest.raises(ConnectionError, match=rf"no Ray cluster answers at '127\.0\.0\.1:{port}'"):
+        flexsurf.sweep(small_drop, [{}], backend="ray", address=f"127.0.0.1:{port}")
+    assert time.monotonic() - start < 30  # ray.init alone waits minutes
 
 
 def test_ray_sweep_equals_single_runs(small_drop):
