@@ -163,3 +163,12 @@ def test_an_override_one_past_a_list_adds_an_entry(small_drop):
     assert d["obstacle"][1] == {"plane": {"point": [0.0, 0.0, -0.5], "normal": [0.0, 0.0, 1.0]}}
     assert len(small_drop["obstacle"]) == 1, "the scene dict given is not changed"
     flexsurf.Scene.from_dict(d)  # a scene with a sphere and a floor
+
+
+def test_a_run_into_an_empty_path_or_onto_a_file_says_why(small_drop, tmp_path):
+    with pytest.raises(flexsurf.FolderError, match=r"the output folder's path is empty: name a folder"):
+        flexsurf.run(small_drop, out="")
+    (tmp_path / "afile").write_text("mine")
+    with pytest.raises(flexsurf.SimulationError, match=r"cannot write .*afile: File exists"):
+        flexsurf.run(small_drop, out=tmp_path / "afile")
+    assert (tmp_path / "afile").read_text() == "mine"

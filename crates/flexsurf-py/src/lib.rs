@@ -56,7 +56,7 @@ fn run_err(e: &flexsurf::runner::RunError) -> PyErr {
                 .replace(OVERWRITE_HINT, "pass overwrite=True")
                 .replace(RESUME_HINT, "resume it from the command line (flexsurf run SCENE --resume)"),
         ),
-        _ => sim_err(format!("{e:#}")),
+        _ => sim_err(with_causes(e)),
     }
 }
 

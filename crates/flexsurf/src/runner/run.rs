@@ -17,7 +17,7 @@ use crate::scene::Scene;
 use crate::sim::{self, RunStats};
 use crate::state::State;
 use std::ops::ControlFlow;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
 /// A run under way: the scene, its folder and options, and its outputs.
@@ -47,6 +47,11 @@ pub(super) fn run<'a>(
     extra: Vec<Box<dyn Output + 'a>>,
     observe: &'a mut dyn FnMut(&State),
 ) -> Result<RunOutput, RunError> {
+    if out.as_os_str().is_empty() {
+        // `Path::new("")` joins to bare file names: the run would go to the working directory unasked.
+        let message = "the output folder's path is empty: name a folder (\".\" for the current one)".into();
+        return Err(RunError::Folder { path: PathBuf::from("\"\""), message });
+    }
     let fp = fingerprint(scene);
     let is_static = matches!(scene.method(), Method::Static(_));
     if options.resume && is_static {

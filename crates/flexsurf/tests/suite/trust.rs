@@ -1,7 +1,7 @@
 //! Issue 22, "trust boundaries": each reproducer of the run-folder, checkpoint and viewer cases as a regression
 //! test named after it (links inside the output folder, files flexsurf did not write, two runs into one
 //! folder, a forged checkpoint with a valid checksum, `/dev/zero` and FIFO inputs of the viewer, a scene name
-//! that closed the viewer's `<script>`).
+//! that closed the viewer's `<script>`, an empty output path).
 use flexsurf::runner::checkpoint;
 use flexsurf::runner::fields::FrameFields;
 use flexsurf::runner::outputs::OutputState;
@@ -309,4 +309,16 @@ fn regression_a_scene_named_like_markup_blanked_the_viewer() {
     }
     let value: serde_json::Value = serde_json::from_str(data).unwrap();
     assert_eq!(value["summary"]["scene"], name);
+}
+
+#[test]
+fn regression_an_empty_output_path_ran_into_the_working_directory() {
+    let d = scratch("empty");
+    let s = built(&d, SMALL);
+    for resume in [false, true] {
+        let options = RunOptions { resume, ..Default::default() };
+        let e = run_scene_with(&s, Path::new(""), &options, |_| panic!("no step may run")).unwrap_err();
+        let e = e.to_string();
+        assert!(e.contains("the output folder's path is empty") && e.contains("\".\""), "{e}");
+    }
 }
