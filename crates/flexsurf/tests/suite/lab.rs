@@ -75,6 +75,21 @@ fn cantilever_gives_back_the_bending_rigidity() {
 /// between the two bounds; for a fabric with isotropic bending the bias is the warp (narrow strips against the
 /// Kirchhoff rod: below).
 #[test]
+fn regression_a_cantilever_kilometres_long_ran_its_static_solve_out() {
+    use flexsurf::lab::cantilever::{cantilever, Direction, Strip};
+    let f = Fabric::paper_cotton();
+    let strip = Strip::new(Direction::Warp);
+    for (strip, overhang, what) in [
+        (strip, Some(1e6), "overhang 1000000 m must be a positive length of at most 10 m"),
+        (strip, Some(f64::NAN), "overhang NaN m"),
+        (Strip { width: 20.0, ..strip }, None, "strip width 20 m must be a positive length of at most 10 m"),
+    ] {
+        let e = cantilever(&f, Calibration::Kes, strip, overhang).unwrap_err().to_string();
+        assert!(e.contains(what), "{e}");
+    }
+}
+
+#[test]
 fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
     use flexsurf::lab::cantilever::{cantilever, chord_angle, strip_rigidity, Direction, Strip};
     let f = Fabric::paper_cotton();

@@ -5,7 +5,7 @@ use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
-use flexsurf::lab::cantilever::{cantilever_with_hang, CantileverReport, Direction, Hang, Strip};
+use flexsurf::lab::cantilever::{cantilever_with_hang, CantileverReport, Direction, Hang, Strip, MAX_LENGTH};
 use flexsurf::math::Vec3;
 use flexsurf::surface::mesh::TriMesh;
 use std::path::{Path, PathBuf};
@@ -38,9 +38,9 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     let (direction, width) = (args.direction, args.width);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cantilever"));
     for &l in &args.overhang {
-        // A bench strip is centimetres long; beyond 10 m the elastica's arithmetic overflows (issue 11:
-        // `--overhang 1e308` printed "chord angle NaN deg").
-        if !(l.is_finite() && l > 0.0 && l <= 10.0) {
+        // The library's bound (issue 11: `--overhang 1e308` printed "chord angle NaN deg"), checked here for every
+        // overhang of a sweep before any runs, in the flag's name.
+        if !(l.is_finite() && l > 0.0 && l <= MAX_LENGTH) {
             bail!("--overhang: {l} m must be a positive length of at most 10 m");
         }
     }
@@ -49,7 +49,7 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     }
     let overhang = args.overhang.first().copied();
     if let Some(b) = width {
-        if !(b.is_finite() && b > 0.0 && b <= 10.0) {
+        if !(b.is_finite() && b > 0.0 && b <= MAX_LENGTH) {
             bail!("--width: {b} m must be a positive length of at most 10 m");
         }
     }

@@ -146,6 +146,9 @@ pub fn cantilever(
     cantilever_with_hang(fabric, calibration, strip, overhang).map(|(report, _)| report)
 }
 
+/// The longest strip width or overhang the test takes (m).
+pub const MAX_LENGTH: f64 = 10.0;
+
 /// As [`cantilever`], with the strip as it hangs at the reported overhang (for pictures and meshes).
 pub fn cantilever_with_hang(
     fabric: &Fabric,
@@ -153,8 +156,17 @@ pub fn cantilever_with_hang(
     strip: Strip,
     overhang: Option<f64>,
 ) -> Result<(CantileverReport, Hang), LabError> {
-    if !(strip.width.is_finite() && strip.width > 0.0) {
-        return Err(LabError::Input(format!("strip width {} m must be a positive length", strip.width)));
+    // A bench strip is centimetres wide and long; beyond 10 m the elastica's arithmetic overflows (issue 11) and
+    // the static solve of a strip kilometres long runs out of iterations.
+    let bench = |l: f64| l.is_finite() && l > 0.0 && l <= MAX_LENGTH;
+    if !bench(strip.width) {
+        return Err(LabError::Input(format!(
+            "strip width {} m must be a positive length of at most 10 m",
+            strip.width
+        )));
+    }
+    if let Some(l) = overhang.filter(|&l| !bench(l)) {
+        return Err(LabError::Input(format!("overhang {l} m must be a positive length of at most 10 m")));
     }
     let s = Stiffness::calibrate(fabric, calibration)?;
     let w = fabric.density * G;
