@@ -91,7 +91,8 @@ pub fn locate(text: &str, error: &toml::de::Error) -> (usize, usize, String, Str
     let span = error.span().unwrap_or(0..0);
     let (line, column) = line_col(text, span.start);
     let message = error.message().trim().to_string();
-    let mut key = key_at(text, span.start);
+    // An empty span at the start is the top-level table's (a missing field of it), not the first key's.
+    let mut key = if span == (0..0) { String::new() } else { key_at(text, span.start) };
     if let Some(field) = message.strip_prefix("missing field `").and_then(|s| s.split('`').next()) {
         key = join(&key, field);
     }

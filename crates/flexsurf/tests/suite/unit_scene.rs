@@ -47,6 +47,35 @@ mod spans {
         assert_eq!(key_at(u, u.find("sizes").unwrap()), "sheet.sizes");
     }
 
+    /// A missing field of the top-level table was reported under the first key of the file (`material.free`
+    /// for a fit problem without `[free]` whose first line set `material`): the parser's span for the top-level
+    /// table is empty at offset 0, which is also where the first key starts.
+    #[test]
+    fn regression_a_missing_top_level_field_took_the_first_key_s_path() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Root {
+            material: String,
+            free: u32,
+            time: Option<Time>,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Time {
+            dt: f64,
+            steps: u32,
+        }
+        for (text, key, line) in [
+            ("material = \"x\"\nunits = 3\n", "free", 1),
+            ("\n\nmaterial = \"x\"\n[time]\ndt = 1.0\nsteps = 2\n", "free", 1),
+            ("material = \"x\"\nfree = 1\n[time]\ndt = 1.0\n", "time.steps", 3),
+        ] {
+            let e = toml::from_str::<Root>(text).unwrap_err();
+            let (l, _, k, message) = locate(text, &e);
+            assert_eq!((k.as_str(), l), (key, line), "{text:?}: {message}");
+        }
+    }
+
     /// The hand-written locator this replaces sliced text at byte offsets and panicked on a non-ASCII key or a
     /// byte-order mark (issue 11: 356 of 365 fuzzer panics).
     #[test]
