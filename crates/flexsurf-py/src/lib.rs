@@ -368,7 +368,9 @@ fn cantilever<'py>(
         _ => return Err(PyValueError::new_err(format!("direction: {direction:?} must be warp, weft or bias"))),
     };
     if let Some(l) = overhang.filter(|&l| !(l.is_finite() && l > 0.0 && l <= MAX_LENGTH)) {
-        return Err(PyValueError::new_err(format!("overhang: {l} m must be a positive length of at most 10 m")));
+        return Err(PyValueError::new_err(format!(
+            "overhang: {l} m must be a positive length of at most {MAX_LENGTH} m"
+        )));
     }
     let strip = Strip { direction, width };
     let report = py.detach(|| run_cantilever(&fabric, cal, strip, overhang)).map_err(sim_err)?;

@@ -41,7 +41,7 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
         // The library's bound (issue 11: `--overhang 1e308` printed "chord angle NaN deg"), checked here for every
         // overhang of a sweep before any runs, in the flag's name.
         if !(l.is_finite() && l > 0.0 && l <= MAX_LENGTH) {
-            bail!("--overhang: {l} m must be a positive length of at most 10 m");
+            bail!("--overhang: {l} m must be a positive length of at most {MAX_LENGTH} m");
         }
     }
     if args.overhang.len() > 1 {
@@ -50,7 +50,7 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     let overhang = args.overhang.first().copied();
     if let Some(b) = width {
         if !(b.is_finite() && b > 0.0 && b <= MAX_LENGTH) {
-            bail!("--width: {b} m must be a positive length of at most 10 m");
+            bail!("--width: {b} m must be a positive length of at most {MAX_LENGTH} m");
         }
     }
     let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };

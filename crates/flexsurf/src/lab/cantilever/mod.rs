@@ -161,12 +161,12 @@ pub fn cantilever_with_hang(
     let bench = |l: f64| l.is_finite() && l > 0.0 && l <= MAX_LENGTH;
     if !bench(strip.width) {
         return Err(LabError::Input(format!(
-            "strip width {} m must be a positive length of at most 10 m",
+            "strip width {} m must be a positive length of at most {MAX_LENGTH} m",
             strip.width
         )));
     }
     if let Some(l) = overhang.filter(|&l| !bench(l)) {
-        return Err(LabError::Input(format!("overhang {l} m must be a positive length of at most 10 m")));
+        return Err(LabError::Input(format!("overhang {l} m must be a positive length of at most {MAX_LENGTH} m")));
     }
     let s = Stiffness::calibrate(fabric, calibration)?;
     let w = fabric.density * G;
