@@ -602,11 +602,32 @@ impl SceneSpec {
 
     /// Parses scene text; `file` names it in messages.
     pub fn from_toml(text: &str, file: &Path) -> Result<Self, SceneError> {
-        parse_toml(text, file)
+        parse_toml(text, file).map_err(obstacle_kind)
     }
 
     /// The JSON schema of the scene format.
     pub fn json_schema() -> serde_json::Value {
         serde_json::to_value(schemars::schema_for!(SceneSpec)).unwrap_or(serde_json::Value::Null)
     }
+}
+
+/// An `[[obstacle]]` entry with no kind or several (`sphere` and `plane` in one table) is reported with the kinds
+/// there are: the parser's own message ("wanted exactly 1 element, found 0 elements") names neither. The kinds
+/// are the parser's list for an unknown one, so they follow [`ObstacleSpec`].
+fn obstacle_kind(e: SceneError) -> SceneError {
+    let SceneError::Parse { file, line, column, key, message } = e else { return e };
+    let entry =
+        key.strip_prefix("obstacle[").and_then(|k| k.strip_suffix(']')).is_some_and(|n| n.parse::<usize>().is_ok());
+    let found = match message.strip_prefix("wanted exactly 1 element, ") {
+        Some(m) if m.starts_with("found 0") => Some("none"),
+        Some(m) if m.starts_with("more than 1") => Some("several"),
+        _ => None,
+    };
+    let (true, Some(found)) = (entry, found) else { return SceneError::Parse { file, line, column, key, message } };
+    let listed = toml::from_str::<ObstacleSpec>("unknown = 1").err().map(|e| e.message().to_string());
+    let kinds = listed.as_deref().and_then(|m| m.split_once("expected ")).map_or("a kind", |(_, k)| k.trim());
+    let message = format!(
+        "an obstacle is exactly {kinds} (`sphere = {{ center = [0, 0, 0], radius = 0.3 }}`, …); this one names {found}"
+    );
+    SceneError::Parse { file, line, column, key, message }
 }

@@ -126,6 +126,24 @@ fn every_error_names_the_file_and_the_key() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// An `[[obstacle]]` without a kind, or with two, was reported in the parser's words ("wanted exactly 1 element,
+/// found 0 elements"), which name neither the kinds nor what to write.
+#[test]
+fn regression_an_obstacle_of_no_kind_or_two_did_not_say_which_kinds_there_are() {
+    let d = scratch("obstacle_kind");
+    let two = "\n[[obstacle]]\nsphere = { center = [0, 0, 0], radius = 0.3 }\nplane = { point = [0, 0, 0], normal = [0, 0, 1] }\n";
+    for (name, text, found) in
+        [("none.toml", with("\n[[obstacle]]\n", "", ""), "none"), ("two.toml", with(two, "", ""), "several")]
+    {
+        let e = error_of(&d, name, &text);
+        assert_names(&e, name, "obstacle[0]");
+        let msg = e.to_string();
+        let kinds = "exactly one of `sphere`, `plane`, `nurbs`, `mesh`";
+        assert!(msg.contains(kinds) && msg.ends_with(&format!("this one names {found}")), "{msg}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// The minimal scene with `old` replaced by `new` and `section` appended.
 fn with(section: &str, old: &str, new: &str) -> String {
     assert!(MINIMAL.contains(old));
