@@ -90,7 +90,15 @@ def as_scene(scene: SceneLike, file: str | os.PathLike[str] | None = None) -> Sc
         return scene
     if isinstance(scene, Mapping):
         return Scene.from_dict(dict(scene), os.fspath(file) if file is not None else None)
-    return Scene.from_toml(os.fspath(scene))
+    return Scene.from_toml(scene_path(scene))
+
+
+def scene_path(scene: Any, may_be: str = "a Scene, a path to a TOML scene or a dict of its keys") -> str:
+    """``scene`` as a path string, or a ``TypeError`` that names what the scene argument ``may_be``."""
+    try:
+        return os.fspath(scene)
+    except TypeError:
+        raise TypeError(f"scene: expected {may_be}, got {type(scene).__name__}") from None
 
 
 def run(scene: SceneLike, out: str | os.PathLike[str] | None = None, overwrite: bool = False) -> RunResult:

@@ -13,7 +13,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Iterable, Mapping, Sequence, Union
 
 from ._flexsurf import Material, Scene, cantilever, cusick, kes, read_toml
-from ._run import run, with_overrides
+from ._run import run, scene_path, with_overrides
 
 LAB_TESTS = ("kes", "cantilever", "cusick")
 """The virtual tests a sweep can run instead of a scene."""
@@ -121,7 +121,7 @@ def sweep(
     elif isinstance(scene, Mapping):
         task = dict(scene)
     else:
-        file = os.fspath(scene)
+        file = scene_path(scene, f"a path to a TOML scene, a dict of its keys or one of {LAB_TESTS}")
         task = read_toml(file)
     todo = cases(overrides)
     if backend == "process":

@@ -172,3 +172,10 @@ def test_a_run_into_an_empty_path_or_onto_a_file_says_why(small_drop, tmp_path):
     with pytest.raises(flexsurf.SimulationError, match=r"cannot write .*afile: File exists"):
         flexsurf.run(small_drop, out=tmp_path / "afile")
     assert (tmp_path / "afile").read_text() == "mine"
+
+
+def test_a_scene_argument_of_the_wrong_type_says_what_it_may_be():
+    with pytest.raises(TypeError, match=r"scene: expected a Scene, a path to a TOML scene or a dict of its keys, got int"):
+        flexsurf.run(12)
+    with pytest.raises(TypeError, match=r"scene: expected a path to a TOML scene, a dict of its keys or one of .*'kes'"):
+        flexsurf.sweep(12, [{}])
