@@ -52,6 +52,11 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
     if !(1..=MAX_REPEAT).contains(&repeat) {
         anyhow::bail!("--repeat: {repeat} must be between 1 and {MAX_REPEAT}");
     }
+    // A sheet needs 3 nodes a side (as a scene's `sheet.nodes`) and at most `ranges::NODES` in all.
+    let side = (flexsurf::ranges::NODES as f64).sqrt() as usize;
+    if let Some(n) = sizes.iter().find(|n| !(3..=side).contains(*n)) {
+        anyhow::bail!("--sizes: {n} must be between 3 and {side} (nodes along each side of the sheet)");
+    }
     if let Some(t) = threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
         anyhow::bail!("--threads: {t} must be between 1 and {MAX_THREADS}");
     }

@@ -117,6 +117,18 @@ fn regression_bench_step_and_thread_counts_aborted_or_stalled() {
     assert!(e.to_string().contains("0 steps"), "{e}");
 }
 
+/// `flexsurf bench --sizes 0` (or 2, or 100000) was refused in the words of the embedded scene
+/// (`scenes/ball_drop.toml: sheet.nodes: direction u1 has 0 nodes`), not of the option the user gave.
+#[test]
+fn regression_bench_sizes_were_refused_in_the_embedded_scene_s_words() {
+    let cases = [
+        (vec!["--sizes", "0"], "--sizes: 0"),
+        (vec!["--sizes", "21,2"], "--sizes: 2"),
+        (vec!["--sizes", "100000"], "--sizes: 100000"),
+    ];
+    refused(&["bench"], &cases, "must be between 3 and 10000");
+}
+
 #[test]
 fn regression_cantilever_overhang_1e308_printed_nan() {
     let (code, _, err) = flexsurf(&["test", "cantilever", "--overhang", "1e308"]);
