@@ -75,15 +75,16 @@ pub enum TriMeshError {
         distance: f64,
     },
     /// A vertex coordinate is NaN or infinite.
-    #[error("vertex {index} is not finite")]
+    /// Written 1-based, as an OBJ file numbers its vertices (and as the other errors here do).
+    #[error("vertex {} (1-based) is not finite", .index + 1)]
     NonFiniteVertex {
         /// Vertex index (0-based).
         index: usize,
     },
-    /// A triangle refers to a missing vertex.
-    #[error("triangle {triangle} refers to vertex {index}, but there are {vertices} vertices")]
+    /// A triangle refers to a missing vertex; written 1-based, as an OBJ file numbers them.
+    #[error("triangle {} refers to vertex {} (1-based), but there are {vertices} vertices", .triangle + 1, u64::from(*.index) + 1)]
     IndexOutOfRange {
-        /// Triangle number.
+        /// Triangle number (0-based).
         triangle: usize,
         /// The vertex index (0-based).
         index: u32,
