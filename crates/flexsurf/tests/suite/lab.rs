@@ -89,6 +89,28 @@ fn regression_a_cantilever_kilometres_long_ran_its_static_solve_out() {
     }
 }
 
+/// A fabric whose strip hangs straight down already at the Peirce estimate (KES numbers given with `units =
+/// "fast"`: a tensile stiffness of 0.98 N/m, bending lengths of 0.076 mm) sent the bending length's secant to
+/// L = ∞ and failed with "strip grid: spacing h1 = inf must be positive and finite"; its steps are now at most
+/// a factor 4 and the test fails saying what it could not do, and the shipped fabrics' reports are unchanged.
+#[test]
+fn regression_a_strip_hanging_straight_down_sent_the_bending_length_to_infinity() {
+    use flexsurf::lab::cantilever::{cantilever, Direction, Strip};
+    let dir = std::env::temp_dir().join(format!("flexsurf-fast-kes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("m.toml");
+    let text = "units = \"fast\"\ndensity = 25.3\ntensile_warp = 10000.0\ntensile_weft = 10000.0\nshear = 2.2\n\
+                bending_warp = 0.076\nbending_weft = 0.076\n";
+    std::fs::write(&path, text).unwrap();
+    let f = flexsurf::scene::material::load_material_file(&path).unwrap().fabric;
+    std::fs::remove_dir_all(&dir).unwrap();
+    let e = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), None).unwrap_err().to_string();
+    assert!(
+        !e.contains("inf") && (e.contains("did not converge") || e.contains("bending length was not found")),
+        "{e}"
+    );
+}
+
 #[test]
 fn bias_cantilever_lies_between_the_strip_and_plate_bounds() {
     use flexsurf::lab::cantilever::{cantilever, chord_angle, strip_rigidity, Direction, Strip};

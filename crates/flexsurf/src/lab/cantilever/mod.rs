@@ -53,32 +53,44 @@ pub enum Direction {
 }
 
 /// Secant iteration on ln L for `f(L) = 0` (`f` = chord angle − 41.5°), from `(l0, f0)` and `1.05 l0`: at most
-/// `iterations` updates, stopping when `|f| < tol` or two values differ by less than `flat` (degrees). Returns
-/// the last L.
+/// `iterations` updates, stopping when `|f| < tol` or two values differ by less than `flat` (degrees). A step
+/// is at most a factor [`MAX_SECANT_FACTOR`] in L: where the angle saturates (a strip that hangs straight down
+/// already at the first guess) the secant through two nearly equal angles pointed at L = ∞ or 0. Returns the
+/// last L and `f` there.
 pub(crate) fn secant_on_log<E>(
     (mut l0, mut f0): (f64, f64),
     iterations: usize,
     (tol, flat): (f64, f64),
     mut f: impl FnMut(f64) -> Result<f64, E>,
-) -> Result<f64, E> {
+) -> Result<(f64, f64), E> {
     let mut l1 = l0 * 1.05;
     let mut f1 = f(l1)?;
+    let most = MAX_SECANT_FACTOR.ln();
     for _ in 0..iterations {
         if (f1 - f0).abs() < flat || f1.abs() < tol {
             break;
         }
-        let next = (l1.ln() - f1 * (l1.ln() - l0.ln()) / (f1 - f0)).exp();
+        let step = -f1 * (l1.ln() - l0.ln()) / (f1 - f0);
+        if step.is_nan() {
+            break;
+        }
         (l0, f0) = (l1, f1);
-        l1 = next;
+        l1 = (l1.ln() + step.clamp(-most, most)).exp();
         f1 = f(l1)?;
     }
-    Ok(l1)
+    Ok((l1, f1))
 }
+
+/// How far (degrees) from 41.5° the bending length's search may end: it ends within 1e-6° on real fabrics.
+const BENDING_LENGTH_TOLERANCE: f64 = 0.01;
+
+/// The largest factor by which one secant step changes the overhang.
+const MAX_SECANT_FACTOR: f64 = 4.0;
 
 /// The overhang (m) at which the Kirchhoff rod of stiffness `c` ([`rod_chord_deg`]) hangs at 41.5°, from `guess`.
 fn rod_peirce_length(c: &Mat3, w: f64, guess: f64) -> f64 {
     let f = |l: f64| rod_chord_deg(c, w, l) - PEIRCE_ANGLE;
-    let Ok(l) = secant_on_log((guess, f(guess)), 30, (1e-9, 1e-14), |l| Ok::<f64, std::convert::Infallible>(f(l)));
+    let Ok((l, _)) = secant_on_log((guess, f(guess)), 30, (1e-9, 1e-14), |l| Ok::<f64, std::convert::Infallible>(f(l)));
     l
 }
 
@@ -174,9 +186,19 @@ pub fn cantilever_with_hang(
     let peirce = 2.0 * (k / w).cbrt();
     // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
     let at_peirce = solve_pair(fabric, &s, strip, peirce)?;
-    let l_peirce = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), 8, (1e-6, 1e-12), |l| {
+    let (l_peirce, off) = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), 8, (1e-6, 1e-12), |l| {
         extrapolated(fabric, &s, strip, l).map(|r| r.0 - PEIRCE_ANGLE)
     })?;
+    if off.is_nan() || off.abs() > BENDING_LENGTH_TOLERANCE {
+        let (angle, at) = (at_peirce.0, peirce);
+        return Err(LabError::Input(format!(
+            "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate {at:.3e} m \
+             (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of 8 trials, where 41.5° is sought: the fabric's \
+             constants do not describe a strip that bends under its weight as a bench strip does (its tensile \
+             stiffness or its units?)",
+            off + PEIRCE_ANGLE
+        )));
+    }
     let c = 0.5 * l_peirce;
     let l = overhang.unwrap_or(peirce);
     let (angle, fine, drop, columns) = if overhang.is_some() { solve_pair(fabric, &s, strip, l)? } else { at_peirce };
