@@ -81,6 +81,9 @@ pub(crate) fn secant_on_log<E>(
     Ok((l1, f1))
 }
 
+/// The secant updates of the bending length's search (each a static solve of the strip on two grids).
+const BENDING_LENGTH_TRIALS: usize = 8;
+
 /// How far (degrees) from 41.5° the bending length's search may end: it ends within 1e-6° on real fabrics.
 const BENDING_LENGTH_TOLERANCE: f64 = 0.01;
 
@@ -186,14 +189,15 @@ pub fn cantilever_with_hang(
     let peirce = 2.0 * (k / w).cbrt();
     // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
     let at_peirce = solve_pair(fabric, &s, strip, peirce)?;
-    let (l_peirce, off) = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), 8, (1e-6, 1e-12), |l| {
+    let trials = BENDING_LENGTH_TRIALS;
+    let (l_peirce, off) = secant_on_log((peirce, at_peirce.0 - PEIRCE_ANGLE), trials, (1e-6, 1e-12), |l| {
         extrapolated(fabric, &s, strip, l).map(|r| r.0 - PEIRCE_ANGLE)
     })?;
     if off.is_nan() || off.abs() > BENDING_LENGTH_TOLERANCE {
         let (angle, at) = (at_peirce.0, peirce);
         return Err(LabError::Input(format!(
             "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate {at:.3e} m \
-             (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of 8 trials, where 41.5° is sought: the fabric's \
+             (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of {trials} trials, where 41.5° is sought: the fabric's \
              constants do not describe a strip that bends under its weight as a bench strip does (its tensile \
              stiffness or its units?)",
             off + PEIRCE_ANGLE
