@@ -461,8 +461,9 @@ fn obstacle(v: &Validator<'_>, i: usize, o: &ObstacleSpec) -> Result<Obstacle, S
             (None, Some(BuiltinBody::MannequinUpper)) => Obstacle::Nurbs(Arc::new(mannequin::generate_upper())),
             (Some(f), None) => {
                 let path = relative_to(v.file(), f);
-                let body =
-                    NurbsBody::from_file(&path).map_err(|e| v.bad(&key("nurbs.file"), naming(&path, e.to_string())))?;
+                let body = NurbsBody::from_file(&path)
+                    .and_then(|b| b.check_closed().map(|()| b))
+                    .map_err(|e| v.bad(&key("nurbs.file"), naming(&path, e.to_string())))?;
                 Obstacle::Nurbs(Arc::new(body))
             }
         },

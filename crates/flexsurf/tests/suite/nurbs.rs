@@ -706,3 +706,39 @@ fn trimesh_obj_parsing_and_errors() {
     assert!(TriMeshBody::from_obj("/nonexistent.obj").unwrap_err().to_string().contains("cannot read"));
     assert!(m.distance(Vec3::new(f64::NAN, 0.0, 0.0)).0.is_nan());
 }
+
+/// A body of NURBS patches with a free edge (a single square patch, or the mannequin with a patch left out) was
+/// taken as an obstacle, though beyond that edge its signed distance takes the edge's normal; a scene now refuses
+/// it, naming the patch and the side, while the shipped bodies (the mannequins, whose torso and limb ends fold
+/// over onto themselves and whose legs' and arms' open rims lie inside the torso) pass, also scaled and moved.
+#[test]
+fn regression_a_nurbs_body_with_a_free_edge_was_taken_as_a_solid() {
+    let parts = |b: &NurbsBody| -> Vec<(String, NurbsPatch)> {
+        let name = |k: usize| b.parts()[b.part_of(k).unwrap()].name.clone();
+        b.patches().iter().enumerate().map(|(k, p)| (name(k), p.clone())).collect()
+    };
+    for body in [mannequin::generate(), mannequin::generate_upper()] {
+        body.check_closed().unwrap();
+        body.transformed(2.0, Vec3::new(1.0, 0.0, -0.5)).unwrap().check_closed().unwrap();
+        // A torso patch left out: a hole in a closed part.
+        let holed: Vec<_> = parts(&body).into_iter().enumerate().filter(|(k, _)| *k != 9).map(|(_, p)| p).collect();
+        let e = NurbsBody::new("holed", holed).unwrap().check_closed().unwrap_err();
+        assert!(matches!(e, NurbsError::Open { .. }), "{}: {e}", body.name());
+    }
+    let shipped = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../bodies");
+    for file in ["mannequin.toml", "mannequin_upper.toml"] {
+        NurbsBody::from_file(shipped.join(file)).unwrap().check_closed().unwrap();
+    }
+    // A scene with a single square patch as its obstacle.
+    let dir = std::env::temp_dir().join(format!("flexsurf-open-body-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let body = "[[patch]]\ndegree = [1, 1]\nknots_u = [0.0, 0.0, 1.0, 1.0]\nknots_v = [0.0, 0.0, 1.0, 1.0]\n\
+                points = [[-1, -1, 0], [-1, 1, 0], [1, -1, 0], [1, 1, 0]]\n";
+    std::fs::write(dir.join("square.toml"), body).unwrap();
+    let scene = "[sheet]\nsize = [0.5, 0.5]\nnodes = [5, 5]\ncenter = [0.0, 0.0, 0.1]\n[time]\ndt = 0.01\nsteps = 2\n\
+                 [[obstacle]]\nnurbs = { file = \"square.toml\" }\n";
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let e = flexsurf::scene::load(&dir.join("scene.toml")).unwrap_err().to_string();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(e.contains("obstacle[0].nurbs.file") && e.contains("not closed: the side u = min of patch 0"), "{e}");
+}

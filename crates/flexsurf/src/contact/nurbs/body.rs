@@ -40,6 +40,17 @@ impl NurbsBody {
         Ok(Self::from_nonempty(name, patches))
     }
 
+    /// `Err(NurbsError::Open)` naming the first side of a patch where the body does not close up (it does not
+    /// bound a solid, as an obstacle must): a side that no other patch continues, that does not fold back onto
+    /// itself, is not collapsed to a point and is not inside another part (`closed.rs`). Open surfaces are
+    /// valid bodies for queries; scenes refuse them as obstacles.
+    pub fn check_closed(&self) -> Result<(), NurbsError> {
+        match super::closed::open_side(self) {
+            Some((patch, side)) => Err(NurbsError::Open { patch, side: super::closed::SIDES[side] }),
+            None => Ok(()),
+        }
+    }
+
     /// [`NurbsBody::new`] for a list known to be non-empty.
     pub(crate) fn from_nonempty(name: impl Into<String>, patches: Vec<(String, NurbsPatch)>) -> Self {
         let mut parts: Vec<Part> = Vec::new();

@@ -133,6 +133,19 @@ pub enum NurbsError {
     /// A body without patches.
     #[error("the body has no patches")]
     Empty,
+    /// A patch's boundary that meets no other boundary, does not fold onto itself and is not inside another part:
+    /// the body does not bound a solid.
+    #[error(
+        "the body is not closed: the side {side} of patch {patch} (0-based, in file order) meets no other patch's \
+         boundary, does not fold onto itself, is not collapsed to a point and is not inside another part; an \
+         obstacle body must bound a solid"
+    )]
+    Open {
+        /// Patch number (0-based).
+        patch: usize,
+        /// Which side (`u = min`, `u = max`, `v = min`, `v = max`).
+        side: &'static str,
+    },
     /// A scale factor that is not positive and finite, or an offset that is not finite.
     #[error("transform: scale {scale} must be positive and finite and the offset finite")]
     Transform {

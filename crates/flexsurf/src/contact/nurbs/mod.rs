@@ -49,6 +49,7 @@
 
 mod basis;
 mod body;
+mod closed;
 mod error;
 // The body file format (TOML) is the application's.
 #[cfg(feature = "app")]
