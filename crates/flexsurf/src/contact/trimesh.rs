@@ -82,7 +82,11 @@ pub enum TriMeshError {
         index: usize,
     },
     /// A triangle refers to a missing vertex; written 1-based, as an OBJ file numbers them.
-    #[error("triangle {} refers to vertex {} (1-based), but there are {vertices} vertices", .triangle + 1, u64::from(*.index) + 1)]
+    #[error(
+        "triangle {} refers to vertex {} (1-based), but there are {vertices} vertices",
+        .triangle + 1,
+        u64::from(*.index) + 1
+    )]
     IndexOutOfRange {
         /// Triangle number (0-based).
         triangle: usize,

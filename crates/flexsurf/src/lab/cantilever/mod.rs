@@ -196,10 +196,10 @@ pub fn cantilever_with_hang(
     if off.is_nan() || off.abs() > BENDING_LENGTH_TOLERANCE {
         let (angle, at) = (at_peirce.0, peirce);
         return Err(LabError::Input(format!(
-            "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate {at:.3e} m \
-             (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of {trials} trials, where 41.5° is sought: the fabric's \
-             constants do not describe a strip that bends under its weight as a bench strip does (its tensile \
-             stiffness or its units?)",
+            "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate \
+             {at:.3e} m (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of {trials} trials, where 41.5° \
+             is sought: the fabric's constants do not describe a strip that bends under its weight as a bench strip \
+             does (its tensile stiffness or its units?)",
             off + PEIRCE_ANGLE
         )));
     }
