@@ -8,7 +8,7 @@ mod simulation;
 
 use convert::{dict_to_table, to_py, toml_to_py};
 use flexsurf::integrate::Method;
-use flexsurf::lab::cantilever::{cantilever as run_cantilever, Direction, Strip, MAX_LENGTH};
+use flexsurf::lab::cantilever::{cantilever as run_cantilever, length_problem, Direction, Strip};
 use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
 use flexsurf::lab::kes::kes as run_kes;
 use flexsurf::material::{Calibration, Fabric};
@@ -367,10 +367,8 @@ fn cantilever<'py>(
         "bias" => Direction::Bias,
         _ => return Err(PyValueError::new_err(format!("direction: {direction:?} must be warp, weft or bias"))),
     };
-    if let Some(l) = overhang.filter(|&l| !(l.is_finite() && l > 0.0 && l <= MAX_LENGTH)) {
-        return Err(PyValueError::new_err(format!(
-            "overhang: {l} m must be a positive length of at most {MAX_LENGTH} m"
-        )));
+    if let Some(p) = overhang.and_then(length_problem) {
+        return Err(PyValueError::new_err(format!("overhang: {p}")));
     }
     let strip = Strip { direction, width };
     let report = py.detach(|| run_cantilever(&fabric, cal, strip, overhang)).map_err(sim_err)?;

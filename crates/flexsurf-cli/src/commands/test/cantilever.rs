@@ -5,7 +5,7 @@ use super::FabricArgs;
 use crate::commands::shared::print_json;
 use anyhow::{bail, Context, Result};
 use flexsurf::io::render;
-use flexsurf::lab::cantilever::{cantilever_with_hang, CantileverReport, Direction, Hang, Strip, MAX_LENGTH};
+use flexsurf::lab::cantilever::{cantilever_with_hang, length_problem, CantileverReport, Direction, Hang, Strip};
 use flexsurf::math::Vec3;
 use flexsurf::surface::mesh::TriMesh;
 use std::path::{Path, PathBuf};
@@ -37,21 +37,16 @@ pub fn execute(args: &CantileverArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let (direction, width) = (args.direction, args.width);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cantilever"));
-    for &l in &args.overhang {
-        // The library's bound (issue 11: `--overhang 1e308` printed "chord angle NaN deg"), checked here for every
-        // overhang of a sweep before any runs, in the flag's name.
-        if !(l.is_finite() && l > 0.0 && l <= MAX_LENGTH) {
-            bail!("--overhang: {l} m must be a positive length of at most {MAX_LENGTH} m");
-        }
+    // The library's bound, checked here for every overhang of a sweep before any runs, in the flag's name.
+    if let Some(p) = args.overhang.iter().find_map(|&l| length_problem(l)) {
+        bail!("--overhang: {p}");
     }
     if args.overhang.len() > 1 {
         return sweep(args, &fabric, &name, calibration, out);
     }
     let overhang = args.overhang.first().copied();
-    if let Some(b) = width {
-        if !(b.is_finite() && b > 0.0 && b <= MAX_LENGTH) {
-            bail!("--width: {b} m must be a positive length of at most {MAX_LENGTH} m");
-        }
+    if let Some(p) = width.and_then(length_problem) {
+        bail!("--width: {p}");
     }
     let strip = Strip { direction, width: width.unwrap_or(Strip::WIDTH) };
     let (r, hang) = cantilever_with_hang(&fabric, calibration, strip, overhang)

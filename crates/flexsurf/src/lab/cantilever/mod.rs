@@ -164,6 +164,15 @@ pub fn cantilever(
 /// The longest strip width or overhang the test takes (m).
 pub const MAX_LENGTH: f64 = 10.0;
 
+/// What is wrong with a strip width or overhang `l` (m) for the test (`None`: nothing), for callers to put after
+/// the argument's name. A bench strip is centimetres wide and long; beyond [`MAX_LENGTH`] the elastica's
+/// arithmetic overflows (issue 11: an overhang of 1e308 m printed "chord angle NaN deg") and the static solve of
+/// a strip kilometres long runs out of iterations.
+pub fn length_problem(l: f64) -> Option<String> {
+    let bench = l.is_finite() && l > 0.0 && l <= MAX_LENGTH;
+    (!bench).then(|| format!("{l} m must be a positive length of at most {MAX_LENGTH} m"))
+}
+
 /// As [`cantilever`], with the strip as it hangs at the reported overhang (for pictures and meshes).
 pub fn cantilever_with_hang(
     fabric: &Fabric,
@@ -171,17 +180,11 @@ pub fn cantilever_with_hang(
     strip: Strip,
     overhang: Option<f64>,
 ) -> Result<(CantileverReport, Hang), LabError> {
-    // A bench strip is centimetres wide and long; beyond 10 m the elastica's arithmetic overflows (issue 11) and
-    // the static solve of a strip kilometres long runs out of iterations.
-    let bench = |l: f64| l.is_finite() && l > 0.0 && l <= MAX_LENGTH;
-    if !bench(strip.width) {
-        return Err(LabError::Input(format!(
-            "strip width {} m must be a positive length of at most {MAX_LENGTH} m",
-            strip.width
-        )));
+    if let Some(p) = length_problem(strip.width) {
+        return Err(LabError::Input(format!("strip width {p}")));
     }
-    if let Some(l) = overhang.filter(|&l| !bench(l)) {
-        return Err(LabError::Input(format!("overhang {l} m must be a positive length of at most {MAX_LENGTH} m")));
+    if let Some(p) = overhang.and_then(length_problem) {
+        return Err(LabError::Input(format!("overhang {p}")));
     }
     let s = Stiffness::calibrate(fabric, calibration)?;
     let w = fabric.density * G;
