@@ -169,11 +169,10 @@ def _run_ray(
         raise ImportError('backend="ray" needs Ray: pip install "./python[ray]" (or pip install ray)') from e
     started = False
     if not ray.is_initialized():
-        if address is not None:
-            _reachable(address)
         if address is None:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         else:
+            _reachable(address)
             ray.init(address=address, log_to_driver=False)
         started = True
     try:
