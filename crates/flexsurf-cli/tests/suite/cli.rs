@@ -72,7 +72,14 @@ fn cantilever_command() {
         assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");
         assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     }
-    for (opt, val) in [("--level", "3"), ("--specimens", "0"), ("--specimens", "11")] {
+    for (opt, val) in [
+        ("--level", "3"),
+        ("--specimens", "0"),
+        ("--specimens", "11"),
+        ("--folds", "73"),
+        ("--folds", "18446744073709551615"),
+        ("--rest-speed", "0"),
+    ] {
         let (code, _, stderr) = flexsurf(&["test", "cusick", opt, val]);
         assert_ne!(code, 0);
         assert!(stderr.contains(opt) && !stderr.contains("panicked"), "{stderr}");

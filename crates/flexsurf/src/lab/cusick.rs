@@ -236,6 +236,23 @@ impl Default for Settle {
 }
 
 impl Settle {
+    /// What is wrong with these settings on a grid of `angular` nodes around, naming the setting
+    /// (`rest_speed` or `folds`); `None` where they can be run. A start of `folds` folds needs at least two nodes
+    /// a fold around the hem (more folds alias to fewer on the grid, so the start would not be the one asked for).
+    pub fn problem(&self, angular: usize) -> Option<(&'static str, String)> {
+        let speed = self.rest_speed;
+        if !(speed.is_finite() && speed > 0.0) {
+            return Some(("rest_speed", format!("{speed} m/s must be positive")));
+        }
+        match self.folds {
+            Some(q) if q == 0 || q > angular / 2 => Some((
+                "folds",
+                format!("{q} must be between 1 and {} (half the grid's {angular} nodes around)", angular / 2),
+            )),
+            _ => None,
+        }
+    }
+
     /// The default settling, or without the static solve (`static_solve` false): the relaxation's end is then
     /// the reported shape, so it runs on to [`RELAXED_REST_SPEED`].
     pub fn with_static_solve(static_solve: bool) -> Self {
@@ -284,6 +301,9 @@ pub fn cusick_settled(
 ) -> Result<Drape, LabError> {
     let ring = annulus(specimen, grid)?;
     let PolarGrid { radial, angular, .. } = grid;
+    if let Some((setting, problem)) = settle.problem(angular) {
+        return Err(LabError::Input(format!("cusick: settle.{setting}: {problem}")));
+    }
     let s = Stiffness::calibrate(fabric, calibration)?;
     let (model, start) = clamped_specimen(fabric, s, &ring, [radial + 2, angular], (index, settle.folds))?;
     let (mut x, mut steps) = relax(fabric, &model, start, settle)?;

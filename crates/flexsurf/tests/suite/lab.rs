@@ -68,12 +68,8 @@ fn cantilever_gives_back_the_bending_rigidity() {
     assert!((r.chord_angle_deg - 26.4).abs() < 0.2, "{r:?}");
 }
 
-/// The 45° bias of the (strongly anisotropic) paper fabric. Its bending couples to twist (the compliance
-/// `S'16 = (1/K1 − 1/K2)/√2` is nearly as large as `S'11`): a free narrow strip bends with the rigidity
-/// `1/S'11`; the clamp holds twist and cross curvature over a length of about the width, so a strip of finite
-/// width is stiffer, and a wide plate would show `D'11`. Checked: the standard 2 cm strip's bending length lies
-/// between the two bounds; for a fabric with isotropic bending the bias is the warp (narrow strips against the
-/// Kirchhoff rod: below).
+/// Python's `cantilever(overhang=1e6)` ran 300 static iterations before failing where the command line refused
+/// it: the library now refuses lengths beyond its 10 m bound (and non-finite ones), naming the length.
 #[test]
 fn regression_a_cantilever_kilometres_long_ran_its_static_solve_out() {
     use flexsurf::lab::cantilever::{cantilever, Direction, Strip};
@@ -109,6 +105,37 @@ fn regression_a_strip_hanging_straight_down_sent_the_bending_length_to_infinity(
         !e.contains("inf") && (e.contains("did not converge") || e.contains("bending length was not found")),
         "{e}"
     );
+}
+
+/// The 45° bias of the (strongly anisotropic) paper fabric. Its bending couples to twist (the compliance
+/// `S'16 = (1/K1 − 1/K2)/√2` is nearly as large as `S'11`): a free narrow strip bends with the rigidity
+/// `1/S'11`; the clamp holds twist and cross curvature over a length of about the width, so a strip of finite
+/// width is stiffer, and a wide plate would show `D'11`. Checked: the standard 2 cm strip's bending length lies
+/// between the two bounds; for a fabric with isotropic bending the bias is the warp (narrow strips against the
+/// Kirchhoff rod: below).
+/// `flexsurf test cusick --folds 1000000` ran a start of 1,000,000 folds sampled by the grid's 144 nodes around
+/// (aliased to another, unasked-for start) without a word, and `--folds 18446744073709551615` squared the count
+/// in `usize` (a panic in a debug build). A start's folds must be between 1 and half the nodes around, checked
+/// by the library before anything is built; the largest such count still runs.
+#[test]
+fn regression_a_cusick_start_with_more_folds_than_the_grid_holds_was_run_aliased() {
+    use flexsurf::lab::cusick::{cusick_settled, PolarGrid, Settle};
+    let f = Fabric::paper_cotton();
+    let grid = PolarGrid::uniform(2, 16);
+    let quick = Settle { max_steps: 3, equilibrium: None, ..Settle::default() };
+    for (folds, speed, what) in [
+        (Some(9), 1e-2, "settle.folds: 9 must be between 1 and 8 (half the grid's 16 nodes around)"),
+        (Some(0), 1e-2, "settle.folds: 0 must be between 1 and 8"),
+        (Some(usize::MAX), 1e-2, "settle.folds: 18446744073709551615 must be"),
+        (None, f64::NAN, "settle.rest_speed: NaN m/s must be positive"),
+        (None, -1.0, "settle.rest_speed: -1 m/s must be positive"),
+    ] {
+        let settle = Settle { folds, rest_speed: speed, ..quick };
+        let e = cusick_settled(&f, Calibration::Kes, 0.3, grid, 0, &settle).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains(what)), "{e:?}");
+    }
+    let settle = Settle { folds: Some(8), ..quick };
+    assert!(cusick_settled(&f, Calibration::Kes, 0.3, grid, 0, &settle).is_ok());
 }
 
 #[test]

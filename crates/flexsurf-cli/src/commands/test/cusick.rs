@@ -124,7 +124,7 @@ fn settle(args: &CusickArgs) -> Settle {
 /// `flexsurf test cusick`.
 pub fn execute(args: &CusickArgs) -> Result<()> {
     let &CusickArgs { specimen, specimens, .. } = args;
-    let rest_speed = settle(args).rest_speed;
+    let settle = settle(args);
     let out = args.out.as_deref().unwrap_or(Path::new("out/cusick"));
     if !(specimen.is_finite() && specimen > DISC) {
         bail!("--specimen: {specimen} m must be larger than the {DISC} m support disc");
@@ -132,10 +132,12 @@ pub fn execute(args: &CusickArgs) -> Result<()> {
     if !(1..=10).contains(&specimens) {
         bail!("--specimens: {specimens} must be between 1 and 10");
     }
-    if !(rest_speed.is_finite() && rest_speed > 0.0) {
-        bail!("--rest-speed: {rest_speed} m/s must be positive");
-    }
     let grids = grids(args)?;
+    for &(_, grid) in &grids {
+        if let Some((setting, problem)) = settle.problem(grid.angular) {
+            bail!("--{}: {problem}", setting.replace('_', "-"));
+        }
+    }
     // The specimens of a level are draped at once: their memory together, before any is built.
     for &(level, grid) in &grids {
         let flag = if level.is_some() { "--level" } else { "--grid" };
