@@ -69,7 +69,10 @@ fn print_report(p: &FitProblem, r: &FitReport, file: &Path) {
     }
     println!("{:<22} {:>13} {:>13} {:>11} {:>9}", "target (SI)", "measured", "model", "sigma", "(m−y)/σ");
     for t in &r.residuals {
-        println!("{:<22} {:>13.6e} {:>13.6e} {:>11.3e} {:>9.3}", t.target, t.measured, t.model, t.sigma, t.normalised);
+        let r = t.normalised;
+        // A misfit of many sigmas in exponent form, not as hundreds of digits.
+        let r = if r.abs() < 1e5 { format!("{r:.3}") } else { format!("{r:.3e}") };
+        println!("{:<22} {:>13.6e} {:>13.6e} {:>11.3e} {r:>9}", t.target, t.measured, t.model, t.sigma);
     }
     if let Some(c) = r.cusick_nodes {
         let verdict = if c.measured == c.model { "agrees" } else { "differs: the fold pattern is not explained" };

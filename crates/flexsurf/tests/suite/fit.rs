@@ -278,6 +278,36 @@ fn fit_file_errors_name_the_file_and_the_key() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A fit file's target of `value = 1e300` with `sigma = 0.1` (a unit slip, or a stray exponent) ran: its χ² was
+/// infinite from the start, the fit stopped at the iteration limit where it began, and the report gave the
+/// model's value as 0 (rebuilt from a residual of -1e301 sigmas) and printed that residual with 300 digits. A
+/// target's sigma must now be at least 1e-12 of its value, for plain targets and every point of a curve, named
+/// by the file and the key; the library's own check says the same for problems built by hand.
+#[test]
+fn regression_a_target_of_1e300_was_fitted_and_reported_with_a_model_of_zero() {
+    use flexsurf::lab::fit::input::problem_from_toml;
+    let dir = flexsurf::testing::scratch("fit", "precision");
+    let file = dir.join("fit.toml");
+    let materials = flexsurf::testing::repo().join("materials").display().to_string();
+    let good = format!(
+        "material = \"{materials}/woven-medium.toml\"\nunits = \"kes\"\n[free.shear]\n\
+         [[target]]\nquantity = \"kes.shear\"\nvalue = 2.0\nsigma = 0.1\n"
+    );
+    assert!(problem_from_toml(&good, &file).is_ok());
+    let m = problem_from_toml(&good.replace("value = 2.0", "value = 1e300"), &file).unwrap_err().to_string();
+    assert!(m.contains("fit.toml") && m.contains("target[0].sigma") && m.contains("below 1e-12"), "{m}");
+    std::fs::write(dir.join("shear.csv"), "1.0, 2.0\n2.0, 1e300\n").unwrap();
+    let curve =
+        good.replace("quantity = \"kes.shear\"\nvalue = 2.0", "quantity = \"kes_curve.shear\"\nfile = \"shear.csv\"");
+    let m = problem_from_toml(&curve, &file).unwrap_err().to_string();
+    assert!(m.contains("target[0].sigma") && m.contains("(2.0, 1e300)") && m.contains("shear.csv"), "{m}");
+    let mut p = problem_from_toml(&good, &file).unwrap();
+    p.targets[0].value = 1e300;
+    let m = flexsurf::lab::fit::fit(&p).unwrap_err().to_string();
+    assert!(m.contains("kes.shear") && m.contains("below 1e-12"), "{m}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The hem drape coefficient's adjoint sensitivities against central differences of static solves continued from
 /// the drape (the same fold pattern), on a small drape meter.
 #[test]

@@ -204,8 +204,8 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
             return Err(bad(format!("target[{i}].quantity"), format!("unknown quantity `{}`", t.quantity)));
         };
         let sigma = t.sigma.ok_or_else(|| bad(format!("target[{i}].sigma"), "missing".into()))?;
-        if !(sigma.is_finite() && sigma > 0.0) {
-            return Err(bad(format!("target[{i}].sigma"), "must be a positive number".into()));
+        if let Some(problem) = super::sigma_problem(0.0, sigma) {
+            return Err(bad(format!("target[{i}].sigma"), problem));
         }
         if q == Quantity::Shape {
             let Some(rel) = &t.file else {
@@ -232,6 +232,9 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
         if !(value.is_finite() && value > 0.0) {
             return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
         }
+        if let Some(problem) = super::sigma_problem(value, sigma) {
+            return Err(bad(format!("target[{i}].sigma"), problem));
+        }
         targets.push(Target { quantity: q, value: conv(value), sigma: conv(sigma) });
     }
     Ok((targets, (scan, align), nodes))
@@ -255,10 +258,15 @@ fn curve_targets(t: &TargetSpec, i: usize, kind: &str, u: FitUnits, file: &Path)
         return Err(bad("file", "a curve target names its file of `measure, resultant` per line".into()));
     };
     let sigma = t.sigma.ok_or_else(|| bad("sigma", "missing".into()))?;
-    if !(sigma.is_finite() && sigma > 0.0) {
-        return Err(bad("sigma", "must be a positive number".into()));
+    if let Some(problem) = super::sigma_problem(0.0, sigma) {
+        return Err(bad("sigma", problem));
     }
     let points = read_curve(&crate::scene::material::relative_to(file, rel)).map_err(|m| bad("file", m))?;
+    for &(x, y) in &points {
+        if let Some(problem) = super::sigma_problem(y, sigma) {
+            return Err(bad("sigma", format!("at the point ({x:?}, {y:?}) of {}: {problem}", rel.display())));
+        }
+    }
     let targets: Vec<Target> = points
         .iter()
         .filter(|(x, _)| *x != 0.0)

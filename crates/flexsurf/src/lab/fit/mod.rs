@@ -170,8 +170,24 @@ pub struct Alignment {
     pub standard_errors: [f64; PARAMETERS],
 }
 
+/// The most a target's value may be in units of its uncertainty: no measurement is known to a relative 1e-12, and
+/// beyond it the normalised residual `(model − value)/sigma` keeps no digits of the model (a value of 1e300 with a
+/// sigma of 0.1 reported its model as 0 and a χ² of infinity).
+pub const MAX_PRECISION: f64 = 1e12;
+
+/// What is wrong with a target's `sigma` for its `value` (`None` when it can be fitted): it must be positive and
+/// at least the value's magnitude over [`MAX_PRECISION`].
+pub fn sigma_problem(value: f64, sigma: f64) -> Option<String> {
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Some("must be a positive number".into());
+    }
+    (value.abs() > MAX_PRECISION * sigma).then(|| {
+        format!("{sigma:?} is below 1e-12 of the value {value:?} (no measurement is that precise: a unit slip?)")
+    })
+}
+
 /// Checks the problem: free constants distinct with `0 < lower ≤ upper`, targets with finite values and positive
-/// uncertainties.
+/// uncertainties ([`sigma_problem`]).
 pub fn check(p: &FitProblem) -> Result<(), LabError> {
     let bad = |m: String| Err(LabError::Input(format!("fit: {m}")));
     if p.free.is_empty() {
@@ -195,8 +211,11 @@ pub fn check(p: &FitProblem) -> Result<(), LabError> {
         return bad("a shape target needs the scan's points, and a fit takes one shape".into());
     }
     for t in &p.targets {
-        if !(t.value.is_finite() && t.sigma.is_finite() && t.sigma > 0.0) {
-            return bad(format!("target `{}`: its value must be finite and its sigma positive", t.quantity.name()));
+        if !t.value.is_finite() {
+            return bad(format!("target `{}`: its value must be finite", t.quantity.name()));
+        }
+        if let Some(problem) = sigma_problem(t.value, t.sigma) {
+            return bad(format!("target `{}`: its sigma {problem}", t.quantity.name()));
         }
     }
     Ok(())
