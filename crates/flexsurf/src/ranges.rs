@@ -256,11 +256,20 @@ pub const FRAMES: usize = 1_000_000;
 pub const SEWING_STEPS: usize = 100_000;
 
 /// `value` with its unit (`0.01 s`, `0.3`).
-fn with_unit(value: impl std::fmt::Display, unit: &str) -> String {
+pub fn with_unit(value: impl std::fmt::Display, unit: &str) -> String {
     if unit.is_empty() {
         format!("{value}")
     } else {
         format!("{value} {unit}")
+    }
+}
+
+/// `x` as written, in exponent form where plain digits would run long (`-1`, `0.01`, `20000`, `1e-300`).
+pub fn plain(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
@@ -279,7 +288,7 @@ impl Range {
     /// The value with its unit and a space, to open a message; nothing unless `echo`.
     fn quote(&self, value: f64, echo: bool) -> String {
         if echo {
-            format!("{} ", with_unit(value, self.unit))
+            format!("{} ", with_unit(plain(value), self.unit))
         } else {
             String::new()
         }

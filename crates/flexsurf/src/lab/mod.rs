@@ -41,4 +41,12 @@ pub enum LabError {
         /// Why.
         cause: crate::integrate::StepError,
     },
+    /// A fit's evaluation of its targets failed at the free constants it names.
+    #[error("at {at}: {cause}")]
+    FitAt {
+        /// The free constants, `key = value unit` (SI), comma-separated.
+        at: String,
+        /// Why.
+        cause: Box<LabError>,
+    },
 }

@@ -308,6 +308,31 @@ fn regression_a_target_of_1e300_was_fitted_and_reported_with_a_model_of_zero() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A fit's bounds of `lower = 1e-300, upper = 1e300` were accepted, and the fit then failed deep in a virtual
+/// test ("cantilever: static solve failed ... the force scale is not finite") without saying at which constants.
+/// Bounds must now lie within the range a material file accepts (docs/scenes.md, "Validation ranges"), named by
+/// the file and the key, and an evaluation that fails names the free constants it was made at.
+#[test]
+fn regression_a_fit_ran_to_overflowing_constants_and_failed_without_saying_where() {
+    use flexsurf::lab::fit::input::problem_from_toml;
+    let file = flexsurf::testing::repo().join("examples/fit/fit.toml");
+    let fit = |free: &str, bounds: &str| {
+        format!(
+            "material = \"../../materials/woven-medium.toml\"\nunits = \"kes\"\n[free.{free}]\n{bounds}\n\
+             [[target]]\nquantity = \"bending_length.warp\"\nvalue = 2.0\nsigma = 0.1\n"
+        )
+    };
+    let m = problem_from_toml(&fit("bending_warp", "lower = 1e-300\nupper = 1e300"), &file).unwrap_err().to_string();
+    assert!(m.contains("`free.bending_warp`") && m.contains("lower bound 9.80665"), "{m}");
+    assert!(m.contains("e-305 N·m is outside the accepted range 1e-15 to 1e6 N·m"), "{m}");
+    let m = problem_from_toml(&fit("shear", "lower = 2\nupper = 2"), &file).unwrap_err().to_string();
+    assert!(m.contains("`free.shear.start`: the start 124 N/m lies outside the bounds 112 N/m to 112 N/m"), "{m}");
+    // A tensile stiffness of 1e-5 gf/cm (in range, far below any fabric's): the strip cannot hang in equilibrium.
+    let p = problem_from_toml(&fit("tensile_warp", "start = 1e-5\nlower = 1e-5\nupper = 1e-5"), &file).unwrap();
+    let m = flexsurf::lab::fit::fit(&p).unwrap_err().to_string();
+    assert!(m.starts_with("at tensile_warp = 9.81e-6 N/m: cantilever: "), "{m}");
+}
+
 /// The hem drape coefficient's adjoint sensitivities against central differences of static solves continued from
 /// the drape (the same fold pattern), on a small drape meter.
 #[test]

@@ -51,6 +51,32 @@ impl Constant {
         }
     }
 
+    /// Its entry in the scene format's range table: the hard bounds a material file's value must keep.
+    pub fn range(self) -> &'static crate::ranges::Range {
+        use crate::ranges;
+        match self {
+            Constant::Density => &ranges::DENSITY,
+            Constant::TensileWarp => &ranges::TENSILE_WARP,
+            Constant::TensileWeft => &ranges::TENSILE_WEFT,
+            Constant::Shear => &ranges::SHEAR,
+            Constant::BendingWarp => &ranges::BENDING_WARP,
+            Constant::BendingWeft => &ranges::BENDING_WEFT,
+            Constant::Twist => &ranges::TWIST,
+        }
+    }
+
+    /// What is wrong with the bounds `lower` to `upper` (SI) of this constant in a fit (`None`: nothing): finite,
+    /// `0 < lower ≤ upper`, and within the range a material file accepts (a fit beyond it would evaluate
+    /// fabrics whose forces overflow).
+    pub fn bounds_problem(self, lower: f64, upper: f64) -> Option<String> {
+        if !(lower.is_finite() && upper.is_finite() && lower > 0.0 && lower <= upper) {
+            return Some("bounds must be finite with 0 < lower ≤ upper".into());
+        }
+        let range = self.range();
+        let problem = |which: &str, v: f64| range.problem(v, true).map(|p| format!("{which} bound {p}"));
+        problem("lower", lower).or_else(|| problem("upper", upper))
+    }
+
     /// The constant named `key`.
     pub fn from_key(key: &str) -> Option<Constant> {
         Constant::ALL.into_iter().find(|c| c.key() == key)

@@ -357,6 +357,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
             bad(format!("free.{key}"), "not a constant a fit can free (density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist)".into())
         })?;
         let si = |v: f64| constant_si(c, spec.units, v);
+        let si_value = |v: f64| crate::ranges::with_unit(crate::ranges::short(v), c.range().unit);
         if let Some(s) = f.start {
             if !(s.is_finite() && s > 0.0) {
                 return Err(bad(format!("free.{key}.start"), "must be a positive number".into()));
@@ -368,11 +369,19 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         };
         let lower = f.lower.map_or(start / 100.0, si);
         let upper = f.upper.map_or(start * 100.0, si);
-        if !(lower.is_finite() && upper.is_finite() && lower > 0.0 && lower <= upper) {
-            return Err(bad(format!("free.{key}"), "bounds must be finite with 0 < lower ≤ upper".into()));
+        if let Some(problem) = c.bounds_problem(lower, upper) {
+            return Err(bad(format!("free.{key}"), problem));
         }
         if !(lower..=upper).contains(&start) {
-            return Err(bad(format!("free.{key}.start"), "the start lies outside the bounds".into()));
+            return Err(bad(
+                format!("free.{key}.start"),
+                format!(
+                    "the start {} lies outside the bounds {} to {}",
+                    si_value(start),
+                    si_value(lower),
+                    si_value(upper)
+                ),
+            ));
         }
         free.push(Free { constant: c, lower, upper });
     }

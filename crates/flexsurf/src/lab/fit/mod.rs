@@ -201,8 +201,8 @@ pub fn check(p: &FitProblem) -> Result<(), LabError> {
         if p.free[..i].iter().any(|g| g.constant == f.constant) {
             return bad(format!("`{key}` is free twice"));
         }
-        if !(f.lower.is_finite() && f.upper.is_finite() && f.lower > 0.0 && f.lower <= f.upper) {
-            return bad(format!("`{key}`: bounds {} to {} must be finite with 0 < lower ≤ upper", f.lower, f.upper));
+        if let Some(problem) = f.constant.bounds_problem(f.lower, f.upper) {
+            return bad(format!("`{key}`: bounds {} to {}: {problem}", f.lower, f.upper));
         }
         calib::jacobian(&p.fabric, f.constant, p.calibration)?;
     }
@@ -252,7 +252,8 @@ fn residuals_at(
     let extra = if placement.is_some() { PARAMETERS } else { 0 };
     let f = with_theta(&p.fabric, &p.free, &theta[..n]);
     let consts: Vec<Constant> = p.free.iter().map(|f| f.constant).collect();
-    let (values, rows) = evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, warm)?;
+    let (values, rows) =
+        evaluate(&f, p.calibration, &consts, &p.targets, &p.instrument, warm).map_err(|e| at(p, &f, e))?;
     let scale = |row: &[f64], sigma: f64| -> Vec<f64> {
         let mut r: Vec<f64> = row.iter().zip(theta).map(|(d, th)| d * th.exp() / sigma).collect();
         r.resize(n + extra, 0.0);
@@ -269,7 +270,8 @@ fn residuals_at(
         let pose = &theta[n..];
         let placed = placement.map(|pl| pl.placed(pose, &p.scan));
         let scan = placed.as_deref().unwrap_or(&p.scan);
-        let sr = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, warm, scan)?;
+        let sr = targets::shape_residuals(&f, p.calibration, &consts, &p.instrument, warm, scan)
+            .map_err(|e| at(p, &f, e))?;
         r.extend(sr.values.iter().map(|v| v / t.sigma));
         for (row, &(i, g)) in sr.rows.iter().zip(&sr.scan_terms) {
             let mut row = scale(row, t.sigma);
@@ -282,6 +284,18 @@ fn residuals_at(
         }
     }
     Ok((r, j))
+}
+
+/// `cause` of a failed evaluation of the fabric `f`, with the values of `p`'s free constants there.
+fn at(p: &FitProblem, f: &Fabric, cause: LabError) -> LabError {
+    let value = |c: Constant| {
+        c.get(f).map_or_else(
+            || "Huber's rule".into(),
+            |v| crate::ranges::with_unit(crate::ranges::short(v), c.range().unit),
+        )
+    };
+    let at: Vec<String> = p.free.iter().map(|g| format!("{} = {}", g.constant.key(), value(g.constant))).collect();
+    LabError::FitAt { at: at.join(", "), cause: Box::new(cause) }
 }
 
 /// Fits the free constants of `p` to its targets (and the scan's placement, [`Align::Rigid`]).
