@@ -107,6 +107,43 @@ fn regression_a_strip_hanging_straight_down_sent_the_bending_length_to_infinity(
     );
 }
 
+/// `flexsurf test cantilever --overhang 0.08` on the silk-like polyester (5.9 times its `(K/w)^(1/3)`) reported
+/// a heavy elastica of 23.9° beside the plate's 83.7°, and from 0.109 m the plate's static solve, started from
+/// that elastica, failed: shooting from the clamp on θ'(0) by the sign of θ'(1) stopped on strips that loop once
+/// `q = w L³ / K` exceeds about 100 (19.6° at `q` = 200). The elastica is now shot from the tip and checked
+/// against its large-`q` asymptote, `90° − √(2/q)` rad (the clamp's boundary layer: `K θ'' = −w L cos θ` gives a
+/// horizontal reach of `√(2K/(wL))`); the plate follows it to 46 times `(K/w)^(1/3)`, beyond which the test
+/// refuses the overhang; the uncoupled rod is the elastica, and the coupled rod gives NaN, not a looping root.
+#[test]
+fn regression_the_heavy_elastica_looped_at_long_overhangs() {
+    use flexsurf::lab::cantilever::{cantilever, elastica_chord_deg, Direction, Strip, MAX_Q};
+    let mut last = 0.0;
+    for q in [1.0, 20.0, 100.0, 200.0, 500.0, 1e3, 1e4, 1e5] {
+        let chord = elastica_chord_deg(q);
+        assert!(chord > last && chord < 90.0, "q = {q}: {chord}° after {last}°");
+        last = chord;
+    }
+    let asymptote = |q: f64| 90.0 - (2.0 / q).sqrt().to_degrees();
+    assert!((elastica_chord_deg(1e4) - asymptote(1e4)).abs() < 0.02, "{}", elastica_chord_deg(1e4));
+    assert!((elastica_chord_deg(1e5) - asymptote(1e5)).abs() < 0.002, "{}", elastica_chord_deg(1e5));
+    let f = flexsurf::scene::material::load_material_file(
+        &flexsurf::testing::repo().join("materials/silk-like-polyester.toml"),
+    )
+    .unwrap()
+    .fabric;
+    let c0 = (f.bending_warp / (f.density * flexsurf::lab::cantilever::G)).cbrt();
+    for ratio in [5.9, 8.0, 30.0] {
+        let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), Some(ratio * c0)).unwrap();
+        assert!((r.chord_angle_deg - r.elastica_deg).abs() < 0.15, "{ratio}: {r:?}");
+        assert_eq!(r.rod_chord_deg, r.elastica_deg, "{ratio}: the uncoupled rod is the elastica");
+    }
+    let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Bias), Some(3.0 * c0)).unwrap();
+    assert!(r.rod_chord_deg.is_nan() || (0.0..=90.0).contains(&r.rod_chord_deg), "{r:?}");
+    let far = 1.01 * MAX_Q.cbrt() * c0;
+    let e = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), Some(far)).unwrap_err().to_string();
+    assert!(e.contains("the test takes up to 46"), "{e}");
+}
+
 /// The 45° bias of the (strongly anisotropic) paper fabric. Its bending couples to twist (the compliance
 /// `S'16 = (1/K1 − 1/K2)/√2` is nearly as large as `S'11`): a free narrow strip bends with the rigidity
 /// `1/S'11`; the clamp holds twist and cross curvature over a length of about the width, so a strip of finite

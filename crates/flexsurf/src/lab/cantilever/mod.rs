@@ -22,7 +22,7 @@ mod rigidity;
 mod rk4;
 mod rod;
 
-pub use elastica::{elastica_chord_deg, Elastica};
+pub use elastica::{elastica_chord_deg, Elastica, MAX_Q};
 pub use hang::Hang;
 pub use rigidity::{plate_rigidity, strip_rigidity, strip_stiffness};
 pub use rod::rod_chord_deg;
@@ -145,7 +145,9 @@ pub struct CantileverReport {
     /// width shows (see [`plate_rigidity`]); along warp or weft the same as `input_rigidity`.
     pub plate_rigidity: f64,
     /// The chord angle (degrees) at this overhang of the narrow-strip, large-deflection reference: the
-    /// bend–twist coupled Kirchhoff rod ([`rod_chord_deg`]); along warp or weft it is the planar elastica's.
+    /// bend–twist coupled Kirchhoff rod ([`rod_chord_deg`]); along warp or weft it is the planar elastica's. NaN
+    /// (`null` in JSON) where the coupled rod's shooting finds no hanging strip (bias overhangs from about 3 times
+    /// `(K/w)^{1/3}`).
     pub rod_chord_deg: f64,
     /// The bending length (m) of that rod: half the overhang at which it hangs at 41.5°.
     pub rod_bending_length: f64,
@@ -190,6 +192,15 @@ pub fn cantilever_with_hang(
     let w = fabric.density * G;
     let k = strip_rigidity(fabric, strip.direction)?;
     let peirce = 2.0 * (k / w).cbrt();
+    if let Some(l) = overhang.filter(|l| w * l.powi(3) / k > MAX_Q) {
+        return Err(LabError::Input(format!(
+            "overhang {l} m is {:.0} times the strip's (K/w)^(1/3) = {:.3e} m: the test takes up to {:.0} (q = w L³ / K \
+             at most {MAX_Q:e}), where the strip already hangs within 0.3° of the vertical",
+            l / (0.5 * peirce),
+            0.5 * peirce,
+            MAX_Q.cbrt()
+        )));
+    }
     // Bending length: secant iteration on ln L for θ(L) = 41.5°, from the Peirce estimate.
     let at_peirce = solve_pair(fabric, &s, strip, peirce)?;
     let trials = BENDING_LENGTH_TRIALS;

@@ -24,9 +24,15 @@ fn dot(x: V, y: V) -> f64 {
 /// `c` is the plate's bending stiffness on `(κ11, κ22, 2κ12)` in the strip's axes (N·m), `w` the weight per area
 /// (N/m²), `l` the overhang (m). Returns the chord angle (degrees below horizontal, in the vertical plane of the
 /// strip) by RK4 on frame, position and moment (1000 steps) and Newton shooting on the three components of the
-/// clamp moment. Without coupling (`c` diagonal) it is the planar heavy elastica.
+/// clamp moment. Without coupling (`c` diagonal) it is the planar heavy elastica, and is solved as one. NaN where
+/// the shooting finds no strip that hangs (with coupling, from about 3 times `(K/w)^{1/3}` on).
 pub fn rod_chord_deg(c: &Mat3, w: f64, l: f64) -> f64 {
     let a = moment_stiffness(c);
+    if a[0][1] == 0.0 && a[1][0] == 0.0 {
+        // Without coupling the rod bends in its plane: the planar elastica, whose shooting from the tip holds at
+        // any overhang (this one, from the clamp, gave NaN from about 4.4 times (K/w)^(1/3) on).
+        return super::elastica_chord_deg(w * l.powi(3) / a[0][0]);
+    }
     // Start: the planar cantilever's clamp moment w L²/2 about +y (bending down), Newton on m(L) = 0.
     let mut m0: V = [0.0, 0.5 * w * l * l, 0.0];
     for _ in 0..30 {
@@ -50,8 +56,15 @@ pub fn rod_chord_deg(c: &Mat3, w: f64, l: f64) -> f64 {
             m0[j] += det3(&with_column(&jac, j, [-ml[0], -ml[1], -ml[2]])) / dj;
         }
     }
-    let (_, tip) = shoot(&a, w, l, m0);
-    (-tip[2]).atan2(tip[0]).to_degrees()
+    let (ml, tip) = shoot(&a, w, l, m0);
+    let chord = (-tip[2]).atan2(tip[0]).to_degrees();
+    // A strip hanging under its weight ends below the ledge and ahead of it: a root beyond that is a looping one
+    // (the shooting from the clamp finds those once the coupled strip hangs past about 60°), and no reference.
+    if dot(ml, ml).sqrt() < 1e-9 * w * l * l && (0.0..=90.0).contains(&chord) {
+        chord
+    } else {
+        f64::NAN
+    }
 }
 
 /// The rod's moment–curvature matrix per unit width from the plate stiffness `c`: `K_r` condensed over κ22,
