@@ -333,6 +333,34 @@ fn regression_a_fit_ran_to_overflowing_constants_and_failed_without_saying_where
     assert!(m.starts_with("at tensile_warp = 9.81e-6 N/m: cantilever: "), "{m}");
 }
 
+/// A fit file's `columns` took up to 100,000 node columns: from 500 the cantilever's static solves failed at the
+/// fabric's own constants, at 700 the fine strip (1,398 columns, cells of 36 µm) folded at the clamp and hung at
+/// 89.9° beside the coarse strip's 72.95° without a word, and 100,000 ran for minutes. The file now takes 4 to
+/// 300 columns, and the cantilever refuses a coarse and fine pair more than 2° apart, naming both angles.
+#[test]
+fn regression_a_fit_s_cantilever_of_700_columns_folded_at_the_clamp_unseen() {
+    use flexsurf::lab::cantilever::{hang_pair, Direction, Strip};
+    use flexsurf::lab::fit::input::problem_from_toml;
+    let file = flexsurf::testing::repo().join("examples/fit/fit.toml");
+    let fit = |columns: usize| {
+        format!(
+            "material = \"../../materials/woven-medium.toml\"\nunits = \"kes\"\ncolumns = {columns}\n\
+             [free.bending_warp]\n[[target]]\nquantity = \"bending_length.warp\"\nvalue = 1.6\nsigma = 0.02\n"
+        )
+    };
+    assert!(problem_from_toml(&fit(300), &file).is_ok());
+    let m = problem_from_toml(&fit(301), &file).unwrap_err().to_string();
+    assert!(m.contains("`columns`") && m.contains("must be 4 to 300 node columns"), "{m}");
+    let f =
+        flexsurf::scene::material::load_material_file(&flexsurf::testing::repo().join("materials/woven-medium.toml"))
+            .unwrap()
+            .fabric;
+    let s = flexsurf::material::Stiffness::calibrate(&f, flexsurf::material::Calibration::Kes).unwrap();
+    let e = hang_pair(&f, &s, Strip::new(Direction::Warp), 0.05, (700, 1398)).err().map(|e| e.to_string());
+    let e = e.unwrap_or_default();
+    assert!(e.contains("the strips of 700 and 1398 node columns hang at") && e.contains("apart (at most 2°)"), "{e}");
+}
+
 /// The hem drape coefficient's adjoint sensitivities against central differences of static solves continued from
 /// the drape (the same fold pattern), on a small drape meter.
 #[test]
