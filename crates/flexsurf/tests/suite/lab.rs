@@ -112,7 +112,7 @@ fn regression_a_strip_hanging_straight_down_sent_the_bending_length_to_infinity(
 /// that elastica, failed: shooting from the clamp on θ'(0) by the sign of θ'(1) stopped on strips that loop once
 /// `q = w L³ / K` exceeds about 100 (19.6° at `q` = 200). The elastica is now shot from the tip and checked
 /// against its large-`q` asymptote, `90° − √(2/q)` rad (the clamp's boundary layer: `K θ'' = −w L cos θ` gives a
-/// horizontal reach of `√(2K/(wL))`); the plate follows it to 46 times `(K/w)^(1/3)`, beyond which the test
+/// horizontal reach of `√(2K/(wL))`); the plate follows it to 10 times `(K/w)^(1/3)`, beyond which the test
 /// refuses the overhang; the uncoupled rod is the elastica, and the coupled rod gives NaN, not a looping root.
 #[test]
 fn regression_the_heavy_elastica_looped_at_long_overhangs() {
@@ -132,16 +132,16 @@ fn regression_the_heavy_elastica_looped_at_long_overhangs() {
     .unwrap()
     .fabric;
     let c0 = (f.bending_warp / (f.density * flexsurf::lab::cantilever::G)).cbrt();
-    for ratio in [5.9, 8.0, 30.0] {
+    for ratio in [5.9, 8.0, 10.0] {
         let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), Some(ratio * c0)).unwrap();
-        assert!((r.chord_angle_deg - r.elastica_deg).abs() < 0.15, "{ratio}: {r:?}");
+        assert!((r.chord_angle_deg - r.elastica_deg).abs() < 0.05, "{ratio}: {r:?}");
         assert_eq!(r.rod_chord_deg, r.elastica_deg, "{ratio}: the uncoupled rod is the elastica");
     }
     let r = cantilever(&f, Calibration::Kes, Strip::new(Direction::Bias), Some(3.0 * c0)).unwrap();
     assert!(r.rod_chord_deg.is_nan() || (0.0..=90.0).contains(&r.rod_chord_deg), "{r:?}");
     let far = 1.01 * MAX_Q.cbrt() * c0;
     let e = cantilever(&f, Calibration::Kes, Strip::new(Direction::Warp), Some(far)).unwrap_err().to_string();
-    assert!(e.contains("the test takes up to 46"), "{e}");
+    assert!(e.contains("the test takes up to 10 (q = w L³ / K at most 1000)"), "{e}");
 }
 
 /// The 45° bias of the (strongly anisotropic) paper fabric. Its bending couples to twist (the compliance
