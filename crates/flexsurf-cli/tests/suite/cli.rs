@@ -215,7 +215,8 @@ fn view_serve_answers_on_the_loopback_interface() {
 }
 
 /// Issue 22: `density = 70` (g/m² in the kg/m² key) was "ok"; `check` and `run` print a warning on stderr that
-/// names the key, the value and the usual range in both unit systems, and still answer.
+/// names the key, the value and the usual range in both unit systems, and still answer; a virtual test's material
+/// file's constants are warned about as well.
 #[test]
 fn check_and_run_warn_about_a_unit_slip() {
     let dir = flexsurf::testing::scratch("cli", "unit-slip");
@@ -236,6 +237,16 @@ fn check_and_run_warn_about_a_unit_slip() {
         assert!(stderr.contains("70 kg/m²") && stderr.contains("mg/cm²"), "{stderr}");
         assert!(!stdout.contains("warning"), "{stdout}");
     }
+    // The virtual tests say it too (they dropped the material file's warnings before).
+    let material = dir.join("heavy-material.toml");
+    let text = "units = \"si\"\ndensity = 70\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\n\
+                bending_warp = 1e-5\nbending_weft = 1e-5\n";
+    std::fs::write(&material, text).unwrap();
+    let kes = dir.join("kes");
+    let (code, _, stderr) =
+        flexsurf(&["test", "kes", "--material", material.to_str().unwrap(), "--out", kes.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("warning: ") && stderr.contains("`density`") && stderr.contains("mg/cm²"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

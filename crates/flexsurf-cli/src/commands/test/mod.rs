@@ -56,6 +56,8 @@ impl FabricArgs {
         Ok(match &self.material {
             Some(path) => {
                 let m = flexsurf::scene::material::load_material_file(path)?;
+                // Constants outside the usual range of fabrics (a unit slip, most often), as a run says them.
+                super::shared::print_warnings(&m.warnings);
                 (m.fabric, m.laws, m.name)
             }
             None => (Fabric::paper_cotton(), Laws::default(), "paper-cotton".to_string()),
