@@ -24,6 +24,7 @@ pub struct FitArgs {
 /// `flexsurf fit`.
 pub fn execute(args: &FitArgs) -> Result<()> {
     let problem = flexsurf::lab::fit::input::load_fit_file(&args.file)?;
+    super::shared::print_warnings(&problem.warnings);
     let report = fit(&problem).with_context(|| format!("fitting {}", args.file.display()))?;
     let out = args.out.clone().unwrap_or_else(|| Path::new("out/fit").join("fit.json"));
     let value = serde_json::json!({ "fit": args.file.display().to_string(), "problem": problem, "report": report });

@@ -215,8 +215,8 @@ fn view_serve_answers_on_the_loopback_interface() {
 }
 
 /// Issue 22: `density = 70` (g/m² in the kg/m² key) was "ok"; `check` and `run` print a warning on stderr that
-/// names the key, the value and the usual range in both unit systems, and still answer; a virtual test's material
-/// file's constants are warned about as well.
+/// names the key, the value and the usual range in both unit systems, and still answer; a virtual test's and a
+/// fit's material file's constants are warned about as well.
 #[test]
 fn check_and_run_warn_about_a_unit_slip() {
     let dir = flexsurf::testing::scratch("cli", "unit-slip");
@@ -247,6 +247,15 @@ fn check_and_run_warn_about_a_unit_slip() {
         flexsurf(&["test", "kes", "--material", material.to_str().unwrap(), "--out", kes.to_str().unwrap()]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("warning: ") && stderr.contains("`density`") && stderr.contains("mg/cm²"), "{stderr}");
+    // And a fit that starts from it.
+    let fit = dir.join("fit.toml");
+    let text = "material = \"heavy-material.toml\"\n[free.density]\n[[target]]\nquantity = \"kes.weight\"\n\
+                value = 25.0\nsigma = 0.5\n";
+    std::fs::write(&fit, text).unwrap();
+    let report = dir.join("fit.json");
+    let (code, _, stderr) = flexsurf(&["fit", fit.to_str().unwrap(), "--out", report.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("warning: ") && stderr.contains("`density`"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -169,6 +169,7 @@ fn problem_of(truth: &Fabric, quantities: &[Quantity], noise: [f64; 4], rel_sigm
         scan: Vec::new(),
         align: flexsurf::lab::fit::Align::None,
         cusick_nodes: None,
+        warnings: Vec::new(),
     }
 }
 

@@ -362,7 +362,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
     if !m.laws.is_empty() {
         return Err(bad("material".into(), "the material has nonlinear laws; a fit takes a linear material".into()));
     }
-    let mut fabric = m.fabric;
+    let (mut fabric, m_warnings) = (m.fabric, m.warnings);
     let mut free = Vec::new();
     for (key, f) in &spec.free {
         let c = Constant::from_key(key).ok_or_else(|| {
@@ -379,8 +379,10 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         let Some(start) = c.get(&fabric) else {
             return Err(bad(format!("free.{key}"), "the material leaves twist to Huber's rule; give `start`".into()));
         };
-        let lower = f.lower.map_or(start / 100.0, si);
-        let upper = f.upper.map_or(start * 100.0, si);
+        // Unless given, a factor 100 either side of the start, within the range a material file accepts.
+        let (low, high) = c.range().bounds;
+        let lower = f.lower.map_or((start / 100.0).max(low), si);
+        let upper = f.upper.map_or((start * 100.0).min(high), si);
         if let Some(problem) = c.bounds_problem(lower, upper) {
             return Err(bad(format!("free.{key}"), problem));
         }
@@ -408,6 +410,7 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         scan,
         align,
         cusick_nodes,
+        warnings: m_warnings,
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
     Ok(problem)

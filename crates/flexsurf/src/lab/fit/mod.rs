@@ -55,6 +55,9 @@ pub struct FitProblem {
     /// A measured Cusick node count, checked after the fit against the drape of the fitted constants (not a
     /// least-squares target: an integer has no derivative; see [`NodeCheck`]).
     pub cusick_nodes: Option<usize>,
+    /// The material file's warnings (constants outside the usual range of fabrics), for front ends to print.
+    #[serde(skip)]
+    pub warnings: Vec<crate::scene::SceneWarning>,
 }
 
 /// The Cusick node count after a fit: the measured count against the fitted constants' drape. A count is an
