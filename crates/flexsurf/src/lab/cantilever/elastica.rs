@@ -5,8 +5,8 @@
 use super::rk4::rk4;
 use std::f64::consts::FRAC_PI_2;
 
-/// The smallest angle from the vertical at the tip the shooting tries (rad): a strip of `q` up to [`MAX_Q`] hangs
-/// at a larger one (about `e^{−2√q/3}`) for `q` up to 1e6.
+/// The smallest angle from the vertical at the tip the shooting tries (rad): a strip of `q` up to 1e6 hangs at a
+/// larger one (about `e^{−2√q/3}`).
 const MIN_TIP: f64 = 1e-300;
 
 /// The largest `q = w L³ / K` of the cantilever test: an overhang of 10 times `(K/w)^{1/3}`, where the strip hangs
@@ -18,7 +18,8 @@ pub const MAX_Q: f64 = 1e3;
 
 /// The inextensible heavy elastica with `q = w L³ / K`, in units of the overhang `L`: `θ'' = −q (1 − σ) cos θ`
 /// on `σ ∈ [0, 1]`, `θ(0) = 0`, `θ'(1) = 0` (θ measured downwards), solved by shooting from the tip on its angle
-/// (RK4, [`Elastica::STEPS`] steps, bisection: [`Elastica::new`]). Positions `(x, −z)` along the arc are kept at every step.
+/// (RK4, [`Elastica::STEPS`] steps, bisection: [`Elastica::new`]). Positions `(x, −z)` along the arc are kept at
+/// every step.
 #[derive(Debug, Clone)]
 pub struct Elastica {
     /// `(x, drop)` at `σ = i / STEPS`, `i = 0..=STEPS`.

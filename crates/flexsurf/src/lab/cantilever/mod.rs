@@ -194,9 +194,9 @@ pub fn cantilever_with_hang(
     let peirce = 2.0 * (k / w).cbrt();
     if let Some(l) = overhang.filter(|l| w * l.powi(3) / k > MAX_Q) {
         return Err(LabError::Input(format!(
-            "overhang {l} m is {:.0} times the strip's (K/w)^(1/3) = {:.3e} m: the test takes up to {:.0} (q = w L³ / K \
-             at most {MAX_Q}), where the strip hangs within 2.7° of the vertical and its clamp's bending layer \
-             spans two of the test's cells",
+            "overhang {l} m is {:.0} times the strip's (K/w)^(1/3) = {:.3e} m: the test takes up to {:.0} \
+             (q = w L³ / K at most {MAX_Q}), where the strip hangs within 2.7° of the vertical and its clamp's \
+             bending layer spans two of the test's cells",
             l / (0.5 * peirce),
             0.5 * peirce,
             MAX_Q.cbrt()

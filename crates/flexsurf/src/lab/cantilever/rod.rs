@@ -59,7 +59,8 @@ pub fn rod_chord_deg(c: &Mat3, w: f64, l: f64) -> f64 {
     let (ml, tip) = shoot(&a, w, l, m0);
     let chord = (-tip[2]).atan2(tip[0]).to_degrees();
     // A strip hanging under its weight ends below the ledge and ahead of it: a root beyond that is a looping one
-    // (the shooting from the clamp finds those once the coupled strip hangs past about 60°), and no reference.
+    // (at 3 times (K/w)^(1/3), where the coupled strip hangs at about 68°, this shooting gave −37° and 17°), and
+    // no reference.
     if dot(ml, ml).sqrt() < 1e-9 * w * l * l && (0.0..=90.0).contains(&chord) {
         chord
     } else {

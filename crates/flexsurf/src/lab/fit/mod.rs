@@ -185,12 +185,13 @@ pub fn sigma_problem(value: f64, sigma: f64) -> Option<String> {
         return Some("must be a positive number".into());
     }
     (value.abs() > MAX_PRECISION * sigma).then(|| {
-        format!("{sigma:?} is below 1e-12 of the value {value:?} (no measurement is that precise: a unit slip?)")
+        let least = 1.0 / MAX_PRECISION;
+        format!("{sigma:?} is below {least:e} of the value {value:?} (no measurement is that precise: a unit slip?)")
     })
 }
 
-/// Checks the problem: free constants distinct with `0 < lower ≤ upper`, targets with finite values and positive
-/// uncertainties ([`sigma_problem`]).
+/// Checks the problem: free constants distinct with `0 < lower ≤ upper` within the range a material file accepts
+/// ([`Constant::bounds_problem`]), targets with finite values and positive uncertainties ([`sigma_problem`]).
 pub fn check(p: &FitProblem) -> Result<(), LabError> {
     let bad = |m: String| Err(LabError::Input(format!("fit: {m}")));
     if p.free.is_empty() {
