@@ -68,6 +68,22 @@ fn cantilever_gives_back_the_bending_rigidity() {
     assert!((r.chord_angle_deg - 26.4).abs() < 0.2, "{r:?}");
 }
 
+/// `flexsurf test cantilever --material materials/woven-stiff.toml --width 0.5` failed saying the fabric's
+/// constants did not describe a bench strip ("its tensile stiffness or its units?"): the strip, 11 times as wide as
+/// the Peirce estimate and 3 nodes across, folded across and hung at 88°. The message now says the width is the
+/// cause; the standard 2.5 cm strip of the same fabric gives its bending length.
+#[test]
+fn regression_a_strip_wider_than_it_hangs_blamed_the_fabric_s_units() {
+    use flexsurf::lab::cantilever::{cantilever, Direction, Strip};
+    let path = flexsurf::testing::repo().join("materials/woven-stiff.toml");
+    let f = flexsurf::scene::material::load_material_file(&path).unwrap().fabric;
+    let wide = Strip { width: 0.5, ..Strip::new(Direction::Warp) };
+    let e = cantilever(&f, Calibration::Kes, wide, None).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("times as wide as that estimate") && !e.contains("units?"), "{e}");
+    let standard = Strip { width: 0.025, ..wide };
+    assert!(cantilever(&f, Calibration::Kes, standard, None).is_ok());
+}
+
 /// Python's `cantilever(overhang=1e6)` ran 300 static iterations before failing where the command line refused
 /// it: the library now refuses lengths beyond its 10 m bound (and non-finite ones), naming the length.
 #[test]

@@ -209,14 +209,7 @@ pub fn cantilever_with_hang(
         extrapolated(fabric, &s, strip, l).map(|r| r.0 - PEIRCE_ANGLE)
     })?;
     if off.is_nan() || off.abs() > BENDING_LENGTH_TOLERANCE {
-        let (angle, at) = (at_peirce.0, peirce);
-        return Err(LabError::Input(format!(
-            "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate \
-             {at:.3e} m (2 (K/w)^(1/3)) and {:.1}° at {l_peirce:.3e} m, the last of {trials} trials, where 41.5° \
-             is sought: the fabric's constants do not describe a strip that bends under its weight as a bench strip \
-             does (its tensile stiffness or its units?)",
-            off + PEIRCE_ANGLE
-        )));
+        return Err(not_found(strip.width, (peirce, at_peirce.0), (l_peirce, off + PEIRCE_ANGLE)));
     }
     let c = 0.5 * l_peirce;
     let l = overhang.unwrap_or(peirce);
@@ -239,6 +232,28 @@ pub fn cantilever_with_hang(
         rod_bending_length: 0.5 * rod_peirce_length(&rod, w, peirce),
     };
     Ok((report, Hang { overhang: l, width: strip.width, columns, elastica }))
+}
+
+/// The error of a bending-length search that did not reach 41.5°: the strip's `width`, the chord angle at the
+/// Peirce estimate `(at, angle)` and at the search's last overhang `(last, angle)`.
+fn not_found(width: f64, (at, angle): (f64, f64), (last, last_angle): (f64, f64)) -> LabError {
+    // A strip many times wider than it hangs long (3 nodes across) can fold across instead of bending along.
+    let why = if width > at {
+        format!(
+            "the strip, {width:.3e} m wide, is {:.0} times as wide as that estimate and can fold across (a narrower \
+             one, as the standard's 2.5 cm)",
+            width / at
+        )
+    } else {
+        "the fabric's constants do not describe a strip that bends under its weight as a bench strip does (its \
+         tensile stiffness or its units?)"
+            .into()
+    };
+    LabError::Input(format!(
+        "the strip's bending length was not found: its chord angle is {angle:.1}° at the Peirce estimate {at:.3e} m \
+         (2 (K/w)^(1/3)) and {last_angle:.1}° at {last:.3e} m, the last of {BENDING_LENGTH_TRIALS} trials, where \
+         41.5° is sought: {why}"
+    ))
 }
 
 /// The grid-extrapolated chord angle (degrees) of `strip` with overhang `l`, without the search for the
