@@ -240,8 +240,8 @@ fn not_found(width: f64, (at, angle): (f64, f64), (last, last_angle): (f64, f64)
     // A strip many times wider than it hangs long (3 nodes across) can fold across instead of bending along.
     let why = if width > at {
         format!(
-            "the strip, {width:.3e} m wide, is {:.0} times as wide as that estimate and can fold across (a narrower \
-             one, as the standard's 2.5 cm)",
+            "the strip, {width:.3e} m wide, is {:.0} times as wide as that estimate and can fold across: test a \
+             narrower one, as the standard's 2.5 cm",
             width / at
         )
     } else {
