@@ -37,7 +37,7 @@
 use super::targets::{Instrument, KesValue, Quantity, Target};
 use super::{Align, Constant, FitProblem, Free};
 use crate::lab::cantilever::Direction;
-use crate::material::{units, Calibration};
+use crate::material::{units, Calibration, Fabric};
 use crate::math::Vec3;
 use crate::scene::material::load_material_file;
 use crate::scene::SceneError;
@@ -327,6 +327,45 @@ pub fn load_fit_file(path: &Path) -> Result<FitProblem, SceneError> {
     problem_from_toml(&text, path)
 }
 
+/// The free constant `key` of a fit file (`f`: its start and bounds in `units`), its start set in `fabric`.
+fn free_constant(
+    key: &str,
+    f: &FreeSpec,
+    units: FitUnits,
+    fabric: &mut Fabric,
+    file: &Path,
+) -> Result<Free, SceneError> {
+    let bad = |key: String, message: String| SceneError::invalid(file, key, message);
+    let c = Constant::from_key(key).ok_or_else(|| {
+        bad(format!("free.{key}"), "not a constant a fit can free (density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist)".into())
+    })?;
+    let si = |v: f64| constant_si(c, units, v);
+    let si_value = |v: f64| crate::ranges::with_unit(crate::ranges::short(v), c.range().unit);
+    if let Some(s) = f.start {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(bad(format!("free.{key}.start"), "must be a positive number".into()));
+        }
+        c.set(fabric, si(s));
+    }
+    let Some(start) = c.get(fabric) else {
+        return Err(bad(format!("free.{key}"), "the material leaves twist to Huber's rule; give `start`".into()));
+    };
+    // Unless given, a factor 100 either side of the start, within the range a material file accepts.
+    let (low, high) = c.range().bounds;
+    let lower = f.lower.map_or((start / 100.0).max(low), si);
+    let upper = f.upper.map_or((start * 100.0).min(high), si);
+    if let Some(problem) = c.bounds_problem(lower, upper) {
+        return Err(bad(format!("free.{key}"), problem));
+    }
+    if !(lower..=upper).contains(&start) {
+        return Err(bad(
+            format!("free.{key}.start"),
+            format!("the start {} lies outside the bounds {} to {}", si_value(start), si_value(lower), si_value(upper)),
+        ));
+    }
+    Ok(Free { constant: c, lower, upper })
+}
+
 /// The most node columns of a fit's coarse cantilever strip: the fit of `examples/fit/woven-medium.toml`'s
 /// bending length takes 2.7 s at 300 and 9.5 s at 450, and at 500 its static solve fails at the start (the
 /// fine strip's cells 0.2 mm long on a 2 cm strip); at 66, the test's own, the extrapolated chord angle agrees with
@@ -363,42 +402,11 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
         return Err(bad("material".into(), "the material has nonlinear laws; a fit takes a linear material".into()));
     }
     let (mut fabric, m_warnings) = (m.fabric, m.warnings);
-    let mut free = Vec::new();
-    for (key, f) in &spec.free {
-        let c = Constant::from_key(key).ok_or_else(|| {
-            bad(format!("free.{key}"), "not a constant a fit can free (density, tensile_warp, tensile_weft, shear, bending_warp, bending_weft, twist)".into())
-        })?;
-        let si = |v: f64| constant_si(c, spec.units, v);
-        let si_value = |v: f64| crate::ranges::with_unit(crate::ranges::short(v), c.range().unit);
-        if let Some(s) = f.start {
-            if !(s.is_finite() && s > 0.0) {
-                return Err(bad(format!("free.{key}.start"), "must be a positive number".into()));
-            }
-            c.set(&mut fabric, si(s));
-        }
-        let Some(start) = c.get(&fabric) else {
-            return Err(bad(format!("free.{key}"), "the material leaves twist to Huber's rule; give `start`".into()));
-        };
-        // Unless given, a factor 100 either side of the start, within the range a material file accepts.
-        let (low, high) = c.range().bounds;
-        let lower = f.lower.map_or((start / 100.0).max(low), si);
-        let upper = f.upper.map_or((start * 100.0).min(high), si);
-        if let Some(problem) = c.bounds_problem(lower, upper) {
-            return Err(bad(format!("free.{key}"), problem));
-        }
-        if !(lower..=upper).contains(&start) {
-            return Err(bad(
-                format!("free.{key}.start"),
-                format!(
-                    "the start {} lies outside the bounds {} to {}",
-                    si_value(start),
-                    si_value(lower),
-                    si_value(upper)
-                ),
-            ));
-        }
-        free.push(Free { constant: c, lower, upper });
-    }
+    let free = spec
+        .free
+        .iter()
+        .map(|(key, f)| free_constant(key, f, spec.units, &mut fabric, file))
+        .collect::<Result<_, _>>()?;
     let (targets, (scan, align), cusick_nodes) = targets_of(&spec, file)?;
     let problem = FitProblem {
         fabric,
