@@ -381,3 +381,45 @@ fn a_contact_too_soft_to_hold_the_cloth_is_a_warning() {
     let e = run_scene(&with_stiffness(20.0), &scratch("softer_contact"), |_| {}).unwrap_err().to_string();
     assert!(e.contains("inside an obstacle") && e.contains("raise [contact] stiffness"), "{e}");
 }
+
+/// A damaged `animation.glb` whose cloth held a NaN was drawn by `flexsurf view` (the page and the GIF) without a
+/// word; a damaged VTK frame of a run in progress, likewise. Both are now refused, naming the file.
+#[test]
+fn regression_a_damaged_animation_with_a_nan_was_drawn_silently() {
+    let d = scratch("nan");
+    short_ball_drop(&d);
+    let glb = d.join("animation.glb");
+    let mut bytes = std::fs::read(&glb).unwrap();
+    // The cloth's base position accessor, found through the document's own JSON chunk.
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+    let cloth = doc["extras"]["flexsurf"]["cloth_node"].as_u64().unwrap() as usize;
+    let mesh = doc["nodes"][cloth]["mesh"].as_u64().unwrap() as usize;
+    let acc =
+        &doc["accessors"][doc["meshes"][mesh]["primitives"][0]["attributes"]["POSITION"].as_u64().unwrap() as usize];
+    let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+    let at =
+        28 + json_len + (view["byteOffset"].as_u64().unwrap_or(0) + acc["byteOffset"].as_u64().unwrap_or(0)) as usize;
+    assert!(viewer::write_view(&d).is_ok(), "the undamaged run is viewed");
+    bytes[at + 4 * 7..at + 4 * 8].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&glb, &bytes).unwrap();
+    for e in [viewer::write_view(&d).unwrap_err(), viewer::movie::write_gif(&d, 10.0, (160, 120)).unwrap_err()] {
+        let msg = e.to_string();
+        assert!(msg.contains("animation.glb") && msg.contains("not finite"), "{msg}");
+    }
+    // ---- a run in progress: its VTK frame with a NaN point.
+    std::fs::remove_file(&glb).unwrap();
+    let frame = d.join("vtk/frame_00030.vtu");
+    let mut vtk = vtkio::Vtk::import(&frame).unwrap();
+    if let vtkio::model::DataSet::UnstructuredGrid { pieces, .. } = &mut vtk.data {
+        let mut piece = pieces[0].clone().into_loaded_piece_data(None).unwrap();
+        let mut points = piece.points.into_vec::<f32>().unwrap();
+        points[5] = f32::INFINITY;
+        piece.points = points.into();
+        pieces[0] = vtkio::model::Piece::Inline(Box::new(piece));
+    }
+    vtk.export(&frame).unwrap();
+    let msg = viewer::write_view(&d).unwrap_err().to_string();
+    assert!(msg.contains("frame_00030.vtu") && msg.contains("point 1 is not finite"), "{msg}");
+    std::fs::remove_dir_all(&d).unwrap();
+}

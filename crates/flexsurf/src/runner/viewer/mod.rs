@@ -144,7 +144,8 @@ fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
     let read = read_limited(&glb_path, MAX_ANIMATION_BYTES);
     let (glb, in_progress) = match read {
         Ok(b) => {
-            check_glb(&glb_path, &b)?;
+            // Read whole, so that a damaged file is refused here rather than drawn wrong in the browser.
+            movie::glb_run_from(&glb_path, &b)?;
             (b, false)
         }
         // A run in progress: the frames of its VTK series so far.

@@ -58,15 +58,18 @@ impl<'a> GlbDoc<'a> {
         let i = acc.as_u64().ok_or_else(|| invalid(path, "an accessor index is not a number"))? as usize;
         let a = &doc["accessors"][i];
         let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
-        let n = match a["type"].as_str() {
+        let components: u64 = match a["type"].as_str() {
             Some("SCALAR") => 1,
             Some("VEC2") => 2,
             Some("VEC3") => 3,
             _ => return Err(invalid(path, format!("accessor {i}: unsupported type"))),
-        } * a["count"].as_u64().unwrap_or(0) as usize;
-        let at = (v["byteOffset"].as_u64().unwrap_or(0) + a["byteOffset"].as_u64().unwrap_or(0)) as usize;
-        let raw =
-            self.bin.get(at..at + 4 * n).ok_or_else(|| invalid(path, format!("accessor {i} runs past the buffer")))?;
+        };
+        let past = || invalid(path, format!("accessor {i} runs past the buffer"));
+        let offset = |x: &Value| x["byteOffset"].as_u64().unwrap_or(0);
+        let at = offset(v).checked_add(offset(a)).ok_or_else(past)?;
+        let end = a["count"].as_u64().unwrap_or(0).checked_mul(4 * components).and_then(|b| b.checked_add(at));
+        let range = usize::try_from(at).ok().zip(end.and_then(|e| usize::try_from(e).ok())).ok_or_else(past)?;
+        let raw = self.bin.get(range.0..range.1).ok_or_else(past)?;
         Ok(raw.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
     }
 
@@ -98,6 +101,35 @@ fn vec3s(v: Vec<f32>) -> Vec<Vec3> {
     v.chunks_exact(3).map(|c| Vec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect()
 }
 
+/// An error naming `what` where a position or normal of `mesh` is not finite: flexsurf writes none, so the
+/// file was damaged, and a picture drawn from it would be silently wrong.
+fn finite(path: &Path, what: &str, mesh: &TriMesh) -> Result<(), ViewError> {
+    let bad = |v: &[Vec3]| v.iter().position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()));
+    if let Some(k) = bad(&mesh.positions) {
+        return Err(invalid(path, format!("{what}: vertex {k}'s position is not finite (the file is damaged)")));
+    }
+    if let Some(k) = bad(&mesh.normals) {
+        return Err(invalid(path, format!("{what}: vertex {k}'s normal is not finite (the file is damaged)")));
+    }
+    Ok(())
+}
+
+/// An error where any value of a float accessor (positions, normals, the colouring fields, texture
+/// coordinates, the animation's times and weights) is not finite.
+fn finite_floats(g: &GlbDoc<'_>) -> Result<(), ViewError> {
+    const FLOAT: u64 = 5126;
+    let accessors = g.doc["accessors"].as_array().map_or(0, Vec::len);
+    for i in 0..accessors {
+        if g.doc["accessors"][i]["componentType"].as_u64() != Some(FLOAT) {
+            continue;
+        }
+        if let Some(k) = g.floats(&Value::from(i))?.iter().position(|x| !x.is_finite()) {
+            return Err(invalid(g.path, format!("accessor {i}: value {k} is not finite (the file is damaged)")));
+        }
+    }
+    Ok(())
+}
+
 /// The cloth at each frame: the base mesh plus that frame's morph target (added in single precision, as a
 /// glTF viewer does), at the frame's time.
 fn cloth_frames(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(f64, TriMesh)>, ViewError> {
@@ -126,7 +158,9 @@ fn cloth_frames(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(f64, TriMesh)>
             p.iter_mut().zip(&dp).for_each(|(a, d)| *a += d);
             n.iter_mut().zip(&dn).for_each(|(a, d)| *a += d);
         }
-        out.push((t, TriMesh { positions: vec3s(p), normals: vec3s(n), triangles: triangles.clone() }));
+        let mesh = TriMesh { positions: vec3s(p), normals: vec3s(n), triangles: triangles.clone() };
+        finite(g.path, &format!("the cloth at frame {k}"), &mesh)?;
+        out.push((t, mesh));
     }
     Ok(out)
 }
@@ -140,6 +174,7 @@ fn obstacles(g: &GlbDoc<'_>, cloth_node: usize) -> Result<Vec<(TriMesh, bool)>, 
         }
         let mesh = g.mesh(g.primitive(node))?;
         mesh.validate().map_err(|e| invalid(g.path, format!("obstacle node {i}: {e}")))?;
+        finite(g.path, &format!("obstacle node {i}"), &mesh)?;
         out.push((mesh, node["name"].as_str().is_some_and(|s| s.ends_with("_plane"))));
     }
     Ok(out)
@@ -155,11 +190,17 @@ pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
         }
         Err(e) => return Err(e),
     };
-    super::check_glb(&path, &bytes)?;
-    let g = GlbDoc::parse(&path, &bytes)?;
+    glb_run_from(&path, &bytes)
+}
+
+/// The run in the `animation.glb` `bytes` read from `path`, checked: its structure, its indices and that every
+/// position and normal is finite.
+pub fn glb_run_from(path: &Path, bytes: &[u8]) -> Result<GlbRun, ViewError> {
+    super::check_glb(path, bytes)?;
+    let g = GlbDoc::parse(path, bytes)?;
     let ext = &g.doc["extras"]["flexsurf"];
-    let cloth_node =
-        ext["cloth_node"].as_u64().ok_or_else(|| invalid(&path, "no extras.flexsurf.cloth_node"))? as usize;
+    let cloth_node = ext["cloth_node"].as_u64().ok_or_else(|| invalid(path, "no extras.flexsurf.cloth_node"))? as usize;
+    finite_floats(&g)?;
     let frames = cloth_frames(&g, cloth_node)?;
     let obstacles = obstacles(&g, cloth_node)?;
     let info = &ext["info"];

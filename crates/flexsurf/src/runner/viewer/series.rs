@@ -101,8 +101,17 @@ pub fn glb_from_series(dir: &Path, info: &serde_json::Value) -> Result<(Vec<u8>,
             if v.len() != comps * n {
                 return Err(invalid(&path, format!("point data {name:?} has {} values for {n} points", v.len())));
             }
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(invalid(
+                    &path,
+                    format!("point data {name:?}: value {i} is not finite (the file is damaged)"),
+                ));
+            }
             Ok(v)
         };
+        if let Some(i) = positions.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+            return Err(invalid(&path, format!("point {i} is not finite (the file is damaged)")));
+        }
         let t = triangles(&path, &p)?;
         if k == 0 {
             let w = field("uv", 2)?;
