@@ -14,6 +14,7 @@ use super::pattern::BuiltPanel;
 use crate::integrate::{StepError, StepParams, Stepper};
 use crate::math::Vec3;
 use crate::model::{Model, ModelBuilder, ModelError, Spring};
+use crate::potential::elastic::ModelKind;
 use crate::potential::sewing::Sewing;
 use crate::seam::{Seam, SeamSide};
 use std::time::Instant;
@@ -128,7 +129,10 @@ pub fn sew(
 }
 
 /// The open model of the sewing phase: gravity off, the sewing springs added; with a gradual closing the
-/// builder's self-contact with the pairs about to be joined taken as one node, else no self-contact.
+/// builder's self-contact with the pairs about to be joined taken as one node, else no self-contact. It is the
+/// paper's model whatever the run's: the sewing builds the garment's start, which then does not depend on the
+/// model a run compares, and it needs Newton's corrections, which a force that is not the gradient of an energy
+/// (Terzopoulos's) does not get: sewn with it, the four-gore skirt's seams pulled the cloth through itself.
 fn open_model(
     builder: &ModelBuilder,
     pairs: Vec<(usize, usize)>,
@@ -137,6 +141,7 @@ fn open_model(
 ) -> Result<Model, ModelError> {
     let mut open = builder.clone();
     open.gravity = Vec3::ZERO;
+    open.kind = ModelKind::Tfs;
     let sewing = match params.closing {
         Some(_) => {
             open.self_contact_joined = pairs.clone();

@@ -153,8 +153,12 @@ impl SceneSpec {
                 let velocities = initial::velocities(&initial, &model.mass, model.pinned(), &condition);
                 // A sewn garment starts without the accelerations of its joined state (the join leaves the
                 // cells at the seams out of balance): `start_unaccelerated`.
-                let start = if sewing.is_some() { integrate::start_unaccelerated } else { integrate::start };
-                start(&model, initial, velocities, p.dt).map_err(|e| v.bad("initial", e.to_string()))?
+                match sewing {
+                    Some(_) => integrate::start_unaccelerated(&model, initial, velocities, p.dt)
+                        .map_err(|e| v.bad("pattern", sewn_start_problem(&e)))?,
+                    None => integrate::start(&model, initial, velocities, p.dt)
+                        .map_err(|e| v.bad("initial", e.to_string()))?,
+                }
             }
         };
         Ok(Scene {
@@ -326,6 +330,19 @@ fn panels_model(
         spec.material = *material;
     }
     Some(model)
+}
+
+/// Why a sewn garment cannot start: the sewing phase (self-contact is off while it runs) left it passing
+/// through itself, which no setting of `initial` can mend.
+fn sewn_start_problem(e: &integrate::StepError) -> String {
+    match e {
+        integrate::StepError::Intersecting { edge_from, edge_to, triangle } => format!(
+            "the sewn garment passes through itself: the edge from {edge_from} to {edge_to} crosses the triangle of \
+             {triangle}; the sewing phase (which runs without self-contact) pulled the cloth through itself: place \
+             the panels so that no panel lies between the two edges of a seam"
+        ),
+        e => format!("the sewn garment cannot start: {e}"),
+    }
 }
 
 /// Sews the pattern's garment from the panel nodes' placed positions `initial` on the open model `model`: on

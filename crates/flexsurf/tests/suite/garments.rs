@@ -391,6 +391,24 @@ fn the_straight_skirt_sews_closed_on_the_mannequin() {
     }
 }
 
+/// The straight skirt with the Terzopoulos–Fleischer comparison model: its sewing phase ran that model, whose
+/// steps take no Newton corrections, and pulled the cloth through itself ("`initial`: the initial shape passes
+/// through itself"). The sewing now runs the paper's model whatever the run's, so the garment's start is the
+/// same for both models, bit for bit; and the scene warns, naming `model.kind`, that the comparison model is
+/// not made for a sewn garment.
+#[test]
+fn regression_the_comparison_model_sewed_the_skirt_through_itself() {
+    let path = repo().join("scenes/straight_skirt.toml");
+    let mut spec = flexsurf::scene::SceneSpec::load(&path).unwrap();
+    spec.model.kind = flexsurf::potential::elastic::ModelKind::Terzopoulos;
+    let scene = spec.build(&path).unwrap_or_else(|e| panic!("{e}"));
+    let warned = scene.warnings.iter().map(ToString::to_string).find(|w| w.contains("model.kind"));
+    assert!(warned.as_ref().is_some_and(|w| w.contains("sewn garment")), "{:?}", scene.warnings);
+    let paper = flexsurf::scene::load(&path).unwrap();
+    assert!(paper.warnings.iter().all(|w| !w.to_string().contains("model.kind")));
+    assert_eq!(scene.state.x, paper.state.x, "the sewn start depends on the run's model");
+}
+
 /// Two rectangles of 0.3 × 0.6 m placed flat 4 cm apart are pulled together by the sewing phase: the seam
 /// closes below the phase's gap, and, the sewing forces being equal and opposite (and damping proportional to
 /// mass), the centre of mass of the open panels stays where it was (to rounding); the joined model has the
