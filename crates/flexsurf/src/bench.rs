@@ -88,15 +88,21 @@ pub fn ball_drop(n: usize) -> Result<Scene, SceneError> {
     scene(n, Workload::Drop)
 }
 
-/// The scene of `workload` with `n × n` nodes.
+/// The scene of `workload` with `n × n` nodes, whatever memory it needs.
 pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
+    scene_within(n, workload, u64::MAX)
+}
+
+/// As [`scene`], refused where the estimated memory of its model, step matrix and solver exceeds `max_memory`
+/// bytes (the error names `sheet.nodes` and the estimate's parts).
+pub fn scene_within(n: usize, workload: Workload, max_memory: u64) -> Result<Scene, SceneError> {
     if matches!(workload, Workload::Pile | Workload::PileAlone) {
-        return pile(n, workload == Workload::Pile);
+        return pile_within(n, workload == Workload::Pile, max_memory);
     }
     if workload == Workload::Hanging {
         let text = HANGING_TOML.replace("{n}", &n.to_string()).replace("{last}", &n.saturating_sub(1).to_string());
         let file = Path::new("hanging.toml");
-        return SceneSpec::from_toml(&text, file)?.build_with(file, &crate::scene::Limits { max_memory: u64::MAX });
+        return SceneSpec::from_toml(&text, file)?.build_with(file, &limits(max_memory));
     }
     let file = Path::new("scenes/ball_drop.toml");
     let mut spec = SceneSpec::from_toml(BALL_DROP_TOML, file)?;
@@ -113,12 +119,16 @@ pub fn scene(n: usize, workload: Workload) -> Result<Scene, SceneError> {
         spec.gravity = [0.0; 3];
         spec.initial.angular_velocity = [1.0, -0.5, 2.0];
     }
-    // The benchmark writes no frames and measures its own peak memory: no limit from the scene's budget.
-    spec.build_with(file, &crate::scene::Limits { max_memory: u64::MAX })
+    spec.build_with(file, &limits(max_memory))
 }
 
 /// The pile of `scenes/pile.toml` with `n × n` nodes, with or without its self-contact.
 pub fn pile(n: usize, self_contact: bool) -> Result<Scene, SceneError> {
+    pile_within(n, self_contact, u64::MAX)
+}
+
+/// As [`pile`] within `max_memory` bytes ([`scene_within`]).
+fn pile_within(n: usize, self_contact: bool, max_memory: u64) -> Result<Scene, SceneError> {
     let file = Path::new("scenes/pile.toml");
     let mut spec = SceneSpec::from_toml(PILE_TOML, file)?;
     if let Some(sheet) = spec.sheet.as_mut().map(crate::scene::Sheets::first_mut) {
@@ -131,7 +141,13 @@ pub fn pile(n: usize, self_contact: bool) -> Result<Scene, SceneError> {
     if !self_contact {
         spec.self_contact = None;
     }
-    spec.build_with(file, &crate::scene::Limits { max_memory: u64::MAX })
+    spec.build_with(file, &limits(max_memory))
+}
+
+/// A benchmark's limits: the largest estimated memory of its model, step matrix and solver (it keeps no frames
+/// or pictures).
+fn limits(max_memory: u64) -> crate::scene::Limits {
+    crate::scene::Limits { max_memory, outputs: false }
 }
 
 /// One benchmark measurement.
@@ -175,11 +191,24 @@ pub struct BenchRow {
 
 /// Runs `steps` steps of the `n × n` `workload` (from its initial state) with `solver` and times them.
 pub fn run(n: usize, steps: usize, workload: Workload, solver: SolverKind) -> Result<BenchRow, BenchError> {
+    run_within(n, steps, workload, solver, u64::MAX)
+}
+
+/// As [`run`], refused before anything large is allocated where the scene's estimated memory exceeds
+/// `max_memory` bytes ([`scene_within`]): `flexsurf bench --sizes 5000` asked for 25 million nodes and was
+/// stopped only by the machine's memory.
+pub fn run_within(
+    n: usize,
+    steps: usize,
+    workload: Workload,
+    solver: SolverKind,
+    max_memory: u64,
+) -> Result<BenchRow, BenchError> {
     if !(1..=crate::ranges::STEPS).contains(&steps) {
         return Err(BenchError::Steps(steps));
     }
     reset_peak_memory();
-    let scene = scene(n, workload)?;
+    let scene = scene_within(n, workload, max_memory)?;
     let mut state = scene.state.clone();
     let params = StepParams { solver, ..scene.step_params() };
     let mut stepper = Stepper::new(&scene.model, &params)?;

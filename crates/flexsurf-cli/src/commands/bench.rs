@@ -36,6 +36,9 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// The estimate leaves out frames and pictures, which a benchmark does not keep.
+    #[command(flatten)]
+    limits: super::run::LimitArgs,
 }
 
 /// Most threads `--threads` may ask for (each is an operating-system thread of the pool, started at once).
@@ -45,7 +48,8 @@ const MAX_REPEAT: usize = 1000;
 
 /// `flexsurf bench`.
 pub fn execute(args: &BenchArgs) -> Result<()> {
-    let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json } = args;
+    let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json, ref limits } = args;
+    let max_memory = limits.limits().max_memory;
     if let Some(s) = steps.filter(|s| !(1..=flexsurf::ranges::STEPS).contains(s)) {
         anyhow::bail!("--steps: {s} must be between 1 and {}", flexsurf::ranges::STEPS);
     }
@@ -84,7 +88,10 @@ pub fn execute(args: &BenchArgs) -> Result<()> {
         });
         let mut runs = Vec::new();
         for _ in 0..repeat {
-            runs.push(bench::run(n, steps, workload, solver).with_context(|| format!("{workload:?} {n}x{n}"))?);
+            runs.push(
+                bench::run_within(n, steps, workload, solver, max_memory)
+                    .with_context(|| format!("{workload:?} {n}x{n}"))?,
+            );
         }
         runs.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));
         let row = runs[runs.len() / 2];

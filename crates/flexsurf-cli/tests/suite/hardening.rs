@@ -117,6 +117,34 @@ fn regression_bench_step_and_thread_counts_aborted_or_stalled() {
     assert!(e.to_string().contains("0 steps"), "{e}");
 }
 
+/// `flexsurf bench --sizes 5000` (25 million nodes, within the side's cap of 10,000) built the scene without a
+/// memory budget and grew until the machine's memory ran out (6.8 GB in 9 s, aborted on allocation under an 8 GB
+/// limit); a size is now refused before it is built where its estimated model, step matrix and solver exceed
+/// `--max-memory` (4 GiB by default, as for a run; frames and pictures are left out, which a benchmark does not
+/// keep), naming the estimate and the option, and `--max-memory` lets it through.
+#[test]
+fn regression_bench_of_a_huge_size_ran_out_of_memory() {
+    let cases = [
+        (vec!["--sizes", "5000"], "200.2 GiB"),
+        (vec!["--sizes", "1001"], "8.0 GiB"),
+        (vec!["--sizes", "321", "--max-memory", "100M"], "limit of 100.0 MiB"),
+        (vec!["--workload", "pile", "--sizes", "2000"], "32.0 GiB"),
+    ];
+    refused(&["bench", "--steps", "1", "--repeat", "1"], &cases, "(raise it with --max-memory)");
+    let (code, out, err) = flexsurf(&["bench", "--sizes", "21", "--steps", "1", "--repeat", "1", "--max-memory", "1G"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("21x21"), "{out}");
+    let e = flexsurf::bench::run_within(
+        5000,
+        1,
+        flexsurf::bench::Workload::Drop,
+        flexsurf::integrate::linsolve::SolverKind::Auto,
+        4 << 30,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("`sheet.nodes`") && !e.to_string().contains("frames"), "{e}");
+}
+
 /// `flexsurf bench --sizes 0` (or 2, or 100000) was refused in the words of the embedded scene
 /// (`scenes/ball_drop.toml: sheet.nodes: direction u1 has 0 nodes`), not of the option the user gave.
 #[test]

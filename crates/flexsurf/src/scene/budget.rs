@@ -13,6 +13,9 @@ use super::SceneError;
 pub struct Limits {
     /// Largest estimated memory of a run (bytes).
     pub max_memory: u64,
+    /// Whether the run keeps frames and pictures (a run does; a benchmark, which times the steps alone, keeps
+    /// none, and its estimate leaves them out).
+    pub outputs: bool,
 }
 
 /// The default memory limit: 4 GiB (`--max-memory` raises or lowers it).
@@ -20,7 +23,7 @@ pub const DEFAULT_MAX_MEMORY: u64 = 4 << 30;
 
 impl Default for Limits {
     fn default() -> Self {
-        Self { max_memory: DEFAULT_MAX_MEMORY }
+        Self { max_memory: DEFAULT_MAX_MEMORY, outputs: true }
     }
 }
 
@@ -128,6 +131,9 @@ pub(crate) fn check_sizes(
     // The animation's frames stay in memory until the run ends (the steps at its cadence and the frames').
     let kept = (steps / animation + steps / every + 2) as u64;
     e.frames = e.frames.saturating_add(kept.saturating_mul(vertices).saturating_mul(ANIMATION_BYTES_PER_VERTEX));
+    if !limits.outputs {
+        (e.frames, e.pictures) = (0, 0);
+    }
     if e.total() > limits.max_memory {
         return Err(v.bad(
             key,
@@ -168,15 +174,18 @@ impl Estimate {
             .saturating_add(self.pictures)
     }
 
+    /// The parts, the frames and pictures only where a run keeps them.
     fn breakdown(&self) -> String {
-        format!(
-            "model {}, step matrix {}, factor or multigrid {}, frames {}, pictures {}",
+        let parts = format!(
+            "model {}, step matrix {}, factor or multigrid {}",
             human(self.model),
             human(self.matrix),
-            human(self.factor),
-            human(self.frames),
-            human(self.pictures)
-        )
+            human(self.factor)
+        );
+        if self.frames == 0 && self.pictures == 0 {
+            return parts;
+        }
+        format!("{parts}, frames {}, pictures {}", human(self.frames), human(self.pictures))
     }
 }
 

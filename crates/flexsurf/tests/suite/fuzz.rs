@@ -307,7 +307,7 @@ impl Findings {
 /// referenced file under its name beside the fixed scene that references it (`material.toml` and
 /// `material-scene.toml`, …).
 fn check_one(dir: &Path, role: Role, input: &[u8], run: bool) -> Result<bool, String> {
-    let limits = Limits { max_memory: 256 << 20 };
+    let limits = Limits { max_memory: 256 << 20, ..Limits::default() };
     let (file, scene, scene_name) = match role {
         Role::Scene => ("scene.toml", "", "scene.toml"),
         Role::Material => ("material.toml", MATERIAL_SCENE, "material-scene.toml"),

@@ -73,11 +73,14 @@ fn regression_node_count_asked_for_a_2_tb_allocation() {
     assert!(e.contains("`sheet.nodes`") && e.contains("estimated") && e.contains("--max-memory"), "{e}");
     let path = d.join("scene.toml");
     std::fs::write(&path, SMALL.replace("nodes = [5, 5]", "nodes = [300, 300]")).unwrap();
-    let e = scene::load_with(&path, &Limits { max_memory: 1 << 20 }).unwrap_err().to_string();
+    let e = scene::load_with(&path, &Limits { max_memory: 1 << 20, ..Limits::default() }).unwrap_err().to_string();
     assert!(e.contains("more than the limit of 1.0 MiB"), "{e}");
     assert!(scene::load_with(&path, &Limits::default()).is_ok());
     std::fs::write(&path, SMALL.replace("nodes = [5, 5]", "nodes = [4294967296, 21]")).unwrap();
-    assert!(scene::load_with(&path, &Limits { max_memory: u64::MAX }).is_err(), "the node cap holds regardless");
+    assert!(
+        scene::load_with(&path, &Limits { max_memory: u64::MAX, ..Limits::default() }).is_err(),
+        "the node cap holds regardless"
+    );
 }
 
 #[test]
@@ -543,7 +546,7 @@ fn regression_check_max_memory_1t_on_a_2000_grid_took_11_gb_and_84_s() {
         .replace("nodes = [5, 5]", "nodes = [2000, 2000]");
     std::fs::write(&path, text).unwrap();
     let t = std::time::Instant::now();
-    let r = scene::check_with(&path, &Limits { max_memory: 1 << 40 }).unwrap();
+    let r = scene::check_with(&path, &Limits { max_memory: 1 << 40, ..Limits::default() }).unwrap();
     assert_eq!(r.nodes, [2000, 2000]);
     // The estimate (bytes per node: model 1500, matrix 50 blocks of 72) is at least 4e6 · 5100 = 20.4 GB.
     assert!(r.estimate.total() >= 4_000_000 * 5100, "{:?}", r.estimate);
