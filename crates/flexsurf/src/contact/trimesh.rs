@@ -155,6 +155,10 @@ pub(crate) fn parse_obj(text: &str, file: &str) -> Result<(Vec<Vec3>, Vec<[u32; 
                     let t = tokens.next().ok_or_else(|| syntax("a vertex needs x y z".to_string()))?;
                     // The message names the field, not its text: a file's contents are never echoed.
                     *x = t.parse().map_err(|_| syntax(format!("coordinate {} is not a number", axis + 1)))?;
+                    // `inf` and `nan` parse as numbers, and no finite shape has them.
+                    if !f64::is_finite(*x) {
+                        return Err(syntax(format!("coordinate {} is not finite", axis + 1)));
+                    }
                 }
                 vertices.push(Vec3::from_array(c));
             }

@@ -78,6 +78,17 @@ pub enum StepError {
         /// Distance of the sheet's centre from the nearest obstacle (m).
         distance: f64,
     },
+    /// The initial positions stretch an edge beyond what a step accepts ([`Bounds::max_strain`]).
+    #[error(
+        "the initial positions stretch an edge by {strain:.3e} % where a step accepts {bound:.0} %: check them (a \
+         frame of another sheet, or a damaged file?)"
+    )]
+    Stretched {
+        /// The largest edge strain, in per cent.
+        strain: f64,
+        /// The bound, in per cent.
+        bound: f64,
+    },
     /// The initial shape passes through itself (self-contact cannot start from it).
     #[error(
         "the initial shape passes through itself: the edge from {edge_from} to {edge_to} crosses the triangle of \
@@ -1142,6 +1153,7 @@ impl Stepper {
 pub fn start(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -> Result<State, StepError> {
     let n = x.len();
     not_crossing(model, &x)?;
+    within_strain(model, &x, dt)?;
     let fixed = model.pinned();
     let mut grad = vec![Vec3::ZERO; n];
     model.potential.evaluate(&x, &mut crate::energy::Sink::grad(&mut grad));
@@ -1195,6 +1207,19 @@ pub fn start_unaccelerated(model: &Model, x: Vec<Vec3>, v: Vec<Vec3>, dt: f64) -
     }
     let still = vec![Vec3::ZERO; x.len()];
     Ok(State::start(x, v, &still, dt))
+}
+
+/// An error where an edge at `x` is stretched beyond the strain a step accepts ([`Bounds::for_model`]): such a
+/// start (a node of a damaged frame file 1e10 m away) failed its first step's factorisation ("not positive
+/// definite") instead of naming the start.
+fn within_strain(model: &Model, x: &[Vec3], dt: f64) -> Result<(), StepError> {
+    let bound = Bounds::for_model(model, dt).max_strain;
+    let strain = model.max_strain(x);
+    // A NaN strain (a non-finite position) is left to the finiteness check, after the forces.
+    if strain.is_nan() || strain <= bound {
+        return Ok(());
+    }
+    Err(StepError::Stretched { strain: 100.0 * strain, bound: 100.0 * bound })
 }
 
 /// An error naming the first edge of `x` through a triangle, when the model has self-contact.

@@ -429,6 +429,55 @@ fn initial_velocities_and_positions_from_a_frame() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A damaged frame as `initial.positions`: a node's coordinate 1e10 failed the first step's factorisation ("not
+/// positive definite ... in a time step a position or coefficient is not finite"), and `inf` or `nan` between the
+/// nodes was read as a number and ignored. The start now names the stretch and the reader the coordinate.
+#[test]
+fn regression_a_damaged_frame_as_initial_positions_failed_the_factorisation() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let path = root.join("ball_drop.toml");
+    let base = std::fs::read_to_string(&path).unwrap().replace("nodes = [21, 21]", "nodes = [6, 6]");
+    let spec = |text: &str, at: &std::path::Path| flexsurf::scene::SceneSpec::from_toml(text, at).unwrap();
+    let dir = std::env::temp_dir().join(format!("flexsurf-damaged-frame-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = spec(&base, &path).build(&path).unwrap();
+    flexsurf::runner::run_scene(&scene, &dir, |_| {}).unwrap();
+    let frame = std::fs::read_to_string(dir.join("frames/frame_00000.obj")).unwrap();
+    // Vertex lines in order: node (1, 1) of the 6 × 6 grid with 4 subdivisions (21 a row) is vertex 4 + 21·4.
+    let damaged = |vertex: usize, z: &str| {
+        let mut seen = 0;
+        let lines: Vec<String> = frame
+            .lines()
+            .map(|l| {
+                if !l.starts_with("v ") {
+                    return l.to_string();
+                }
+                seen += 1;
+                if seen - 1 != vertex {
+                    return l.to_string();
+                }
+                let p: Vec<&str> = l.split_whitespace().collect();
+                format!("v {} {} {z}", p[1], p[2])
+            })
+            .collect();
+        let file = dir.join(format!("damaged-{vertex}-{z}.obj"));
+        std::fs::write(&file, lines.join("\n")).unwrap();
+        let scene_file = dir.join("from_frame.toml");
+        let text = format!("{base}\n[initial]\npositions = \"{}\"\n", file.display());
+        spec(&text, &scene_file).build(&scene_file).unwrap_err().to_string()
+    };
+    let far = damaged(4 + 21 * 4, "1e10");
+    assert!(
+        far.contains("`initial`") && far.contains("stretch an edge by 5.000e12 %") && far.contains("100 %"),
+        "{far}"
+    );
+    for z in ["inf", "-inf", "nan"] {
+        let e = damaged(1, z);
+        assert!(e.contains("initial.positions") && e.contains(":3: coordinate 3 is not finite"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_sheet_that_misses_every_obstacle_stops_with_the_cause() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
