@@ -56,7 +56,7 @@ impl Bounds {
     /// edge strain of 1. Neither depends on gravity: a sheet of any speed a simulation can resolve is accepted
     /// under any gravity (a 0.5 m/s sheet at |g| = 1e-6 m/s², which the former `100 √(|g| L)` refused), while a
     /// diverging step, whose speeds grow geometrically, reaches the bound within a few steps (if its strain or a
-    /// non-finite value does not stop it first). The cotton demo sheet: 10 × 377 m/s.
+    /// non-finite value does not stop it first). The cotton demo sheet: 10 × 535 m/s.
     pub fn for_model(model: &Model, dt: f64) -> Self {
         let f = &model.fabric;
         let wave = (f.tensile_warp.max(f.tensile_weft) / f.density).sqrt();
