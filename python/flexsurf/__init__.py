@@ -4,7 +4,8 @@ The simulator is the Rust library of this repository, compiled into ``flexsurf._
 the Python side (``run``'s result, sweeps). See ``docs/python.md``.
 
 - :class:`Scene` — a scene read from TOML (:meth:`Scene.from_toml`) or a dict with the same keys
-  (:meth:`Scene.from_dict`), checked by the library; errors raise :class:`SceneError` naming the key.
+  (:meth:`Scene.from_dict`), checked by the library; errors raise :class:`SceneError` naming the key, and
+  unusual values (a unit slip) are issued as :class:`FlexsurfWarning` (``Scene.warnings`` lists them).
 - :class:`Simulation` — step a scene, read positions and velocities as ``(M, N, 3)`` arrays, move pinned nodes
   and spring targets between steps.
 - :func:`run` — run a scene as ``flexsurf run`` does; the summary as a dict and the frames as arrays (an output
@@ -17,6 +18,7 @@ the Python side (``run``'s result, sweeps). See ``docs/python.md``.
 
 from ._flexsurf import (
     FlexsurfError,
+    FlexsurfWarning,
     FolderError,
     Material,
     Scene,
@@ -35,6 +37,7 @@ from ._sweep import sweep
 
 __all__ = [
     "FlexsurfError",
+    "FlexsurfWarning",
     "FolderError",
     "Material",
     "RunResult",

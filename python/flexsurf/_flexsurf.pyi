@@ -28,6 +28,10 @@ class FolderError(FlexsurfError):
     """An output folder that cannot be used as it is: another run's outputs (pass ``overwrite=True``), files
     flexsurf did not write, a symbolic link inside it, or another run writing into it now."""
 
+class FlexsurfWarning(UserWarning):
+    """A value outside the usual range of fabrics (most often a unit slip) or a setting that will not work well;
+    the message names the file and the key, as the command line's warnings do."""
+
 class Scene:
     """A built scene: model, initial state and run settings, read and checked by the library."""
 
@@ -39,6 +43,9 @@ class Scene:
         """Checks and builds a scene given as a dict with the TOML's keys; ``file`` is the path it stands for."""
     @property
     def name(self) -> str: ...
+    @property
+    def warnings(self) -> list[str]:
+        """The scene's warnings (each issued as a :class:`FlexsurfWarning` when it was read)."""
     @property
     def file(self) -> str: ...
     @property

@@ -107,7 +107,9 @@ def test_bad_arguments_raise_and_do_not_crash(pinned_drop):
 
 def test_divergence_raises_simulation_error(small_drop):
     d = flexsurf.with_overrides(small_drop, {"integrator.kind": "lagged", "time.dt": 0.01})
-    sim = flexsurf.Simulation(flexsurf.Scene.from_dict(d))
+    # Fifty times the lagged scheme's stability limit, which the scene says (test_trust.py).
+    with pytest.warns(flexsurf.FlexsurfWarning, match="stability limit"):
+        sim = flexsurf.Simulation(flexsurf.Scene.from_dict(d))
     with pytest.raises(flexsurf.SimulationError, match="diverged"):
         sim.step(200)
     assert np.all(np.isfinite(sim.positions))

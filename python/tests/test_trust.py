@@ -179,3 +179,30 @@ def test_a_scene_argument_of_the_wrong_type_says_what_it_may_be():
         flexsurf.run(12)
     with pytest.raises(TypeError, match=r"scene: expected a path to a TOML scene, a dict of its keys or one of .*'kes'"):
         flexsurf.sweep(12, [{}])
+
+
+def test_a_unit_slip_warns_from_python_as_on_the_command_line(small_drop, tmp_path):
+    """A scene, material or fit file checked from Python said nothing of a value the command line warns of
+    (``density = 70``: g/m² typed into the kg/m² key); each is now a ``FlexsurfWarning`` naming the key."""
+    import warnings
+
+    heavy = {**small_drop, "material": {"preset": "paper-cotton", "density": 70}}
+    with pytest.warns(flexsurf.FlexsurfWarning, match=r"`material\.density`.*7000 mg/cm²"):
+        scene = flexsurf.Scene.from_dict(heavy)
+    assert len(scene.warnings) == 1 and "material.density" in scene.warnings[0]
+    assert issubclass(flexsurf.FlexsurfWarning, UserWarning)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert flexsurf.Scene.from_dict(small_drop).warnings == []
+    with pytest.warns(flexsurf.FlexsurfWarning, match="density"):
+        flexsurf.Material(preset="paper-cotton", density=70)
+    path = tmp_path / "heavy.toml"
+    path.write_text(
+        "density = 70\ntensile_warp = 1000\ntensile_weft = 1000\nshear = 10\nbending_warp = 1e-5\nbending_weft = 1e-5\n"
+    )
+    with pytest.warns(flexsurf.FlexsurfWarning, match="heavy.toml"):
+        flexsurf.Material.from_file(path)
+    # The lagged scheme above its stability limit, as `flexsurf check` says.
+    lagged = {**small_drop, "integrator": {"kind": "lagged"}}
+    with pytest.warns(flexsurf.FlexsurfWarning, match=r"`time\.dt`.*stability limit"):
+        flexsurf.Scene.from_dict(lagged)

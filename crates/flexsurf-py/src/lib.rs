@@ -40,6 +40,26 @@ create_exception!(
 
 create_exception!(
     _flexsurf,
+    FlexsurfWarning,
+    pyo3::exceptions::PyUserWarning,
+    "A value outside the usual range of fabrics (most often a unit slip: `density = 70` typed in g/m²) or a setting \
+     that will not work well (the lagged scheme above its stability limit); the message names the file and the key, \
+     as the command line's warnings do."
+);
+
+/// Issues each of `warnings` (a scene's, a material file's or a fit file's) as a [`FlexsurfWarning`], as the
+/// command line prints them: a scene checked from Python said nothing of a unit slip.
+fn warn_all(py: Python<'_>, warnings: &[flexsurf::scene::SceneWarning]) -> PyResult<()> {
+    let category = py.get_type::<FlexsurfWarning>();
+    for w in warnings {
+        let message = std::ffi::CString::new(w.to_string().replace('\0', " "))?;
+        PyErr::warn(py, &category, &message, 2)?;
+    }
+    Ok(())
+}
+
+create_exception!(
+    _flexsurf,
     FolderError,
     FlexsurfError,
     "An output folder that cannot be used as it is: another run's outputs (pass `overwrite=True`), files flexsurf \
@@ -102,6 +122,7 @@ impl PyScene {
     #[staticmethod]
     fn from_toml(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let scene = flexsurf::scene::load(&path).map_err(|e| scene_err(py, &e))?;
+        warn_all(py, &scene.warnings)?;
         Ok(Self { scene: Arc::new(scene) })
     }
 
@@ -116,6 +137,7 @@ impl PyScene {
         let text = toml::to_string(&table).map_err(|e| SceneError::new_err(format!("{}: {e}", file.display())))?;
         let spec = SceneSpec::from_toml(&text, &file).map_err(|e| scene_err(py, &e))?;
         let scene = spec.build(&file).map_err(|e| scene_err(py, &e))?;
+        warn_all(py, &scene.warnings)?;
         Ok(Self { scene: Arc::new(scene) })
     }
 
@@ -123,6 +145,13 @@ impl PyScene {
     #[getter]
     fn name(&self) -> String {
         self.scene.name.clone()
+    }
+
+    /// The scene's warnings (each also issued as a `FlexsurfWarning` when the scene was read), as the command
+    /// line prints them: the file, the dotted key and what is unusual.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.scene.warnings.iter().map(ToString::to_string).collect()
     }
 
     /// The file the scene was read from (or stands for).
@@ -261,6 +290,7 @@ impl PyMaterial {
         let file = Path::new("<material>");
         let text = toml::to_string(&table).map_err(|e| SceneError::new_err(format!("<material>: {e}")))?;
         let material = material_from_toml(&text, file).map_err(|e| scene_err(py, &e))?;
+        warn_all(py, &material.warnings)?;
         Ok(Self { material })
     }
 
@@ -268,6 +298,7 @@ impl PyMaterial {
     #[staticmethod]
     fn from_file(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let material = load_material_file(&path).map_err(|e| scene_err(py, &e))?;
+        warn_all(py, &material.warnings)?;
         Ok(Self { material })
     }
 
@@ -421,6 +452,7 @@ fn fit<'py>(py: Python<'py>, problem: &Bound<'py, PyAny>, file: Option<PathBuf>)
             .map_err(|_| pyo3::exceptions::PyTypeError::new_err("problem: expected a fit file's path or a dict"))?;
         load_fit_file(&path).map_err(|e| scene_err(py, &e))?
     };
+    warn_all(py, &p.warnings)?;
     let report = py.detach(|| flexsurf::lab::fit::fit(&p)).map_err(sim_err)?;
     let d = PyDict::new(py);
     d.set_item("problem", to_py(py, &p)?)?;
@@ -436,6 +468,7 @@ fn _flexsurf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add("FolderError", py.get_type::<FolderError>())?;
+    m.add("FlexsurfWarning", py.get_type::<FlexsurfWarning>())?;
     m.add_class::<PyScene>()?;
     m.add_class::<PyMaterial>()?;
     m.add_class::<simulation::PySimulation>()?;
