@@ -169,9 +169,44 @@ impl ExtraBlocks {
         true
     }
 
+    /// Takes `next`'s pairs and blocks; the generation moves on only where the pairs differ (a solver that
+    /// analysed the structure analyses it again only then).
+    pub fn replace(&mut self, next: ExtraBlocks) {
+        if next.pairs == self.pairs {
+            self.blocks = next.blocks;
+            return;
+        }
+        let generation = self.generation + 1;
+        *self = next;
+        self.generation = generation;
+    }
+
     /// True when there are no extra pairs.
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
+    }
+
+    /// The pairs in slot order with their blocks, as a checkpoint keeps them: which pairs a matrix holds, in
+    /// which order, and which of them the last assembly left at zero depend on the run so far, and they decide
+    /// the next steps' rounding (the products' order of summation, the factor's ordering, the next prune).
+    pub fn saved(&self) -> ExtraSaved {
+        ExtraSaved { pairs: self.pairs.clone(), blocks: self.blocks.iter().map(Mat3::to_cols_array).collect() }
+    }
+
+    /// The blocks of a [`ExtraBlocks::saved`] on a matrix of `nodes` nodes; an error where the saved pairs do
+    /// not fit it (a node out of range, a pair not ordered or twice, counts that differ).
+    pub fn from_saved(saved: &ExtraSaved, nodes: usize) -> Result<Self, String> {
+        if saved.pairs.len() != saved.blocks.len() {
+            return Err(format!("{} extra pairs but {} blocks", saved.pairs.len(), saved.blocks.len()));
+        }
+        let mut extra = Self::default();
+        for (&(i, j), b) in saved.pairs.iter().zip(&saved.blocks) {
+            if i >= j || j >= nodes || extra.slots.contains_key(&(i, j)) {
+                return Err(format!("the extra pair ({i}, {j}) does not fit a matrix of {nodes} nodes"));
+            }
+            extra.add(i, j, Mat3::from_cols_array(b));
+        }
+        Ok(extra)
     }
 
     /// `y += A_extra x` (symmetric product).
@@ -181,6 +216,15 @@ impl ExtraBlocks {
             y[j] += m.transpose() * x[i];
         }
     }
+}
+
+/// [`ExtraBlocks`] as a checkpoint holds them.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ExtraSaved {
+    /// The pairs `(i, j)`, `i < j`, in slot order.
+    pub pairs: Vec<(usize, usize)>,
+    /// Their blocks, column by column.
+    pub blocks: Vec<[f64; 9]>,
 }
 
 /// Symmetric matrix stored as upper `3×3` node blocks on a [`BlockPattern`], plus the step's [`ExtraBlocks`].

@@ -26,7 +26,7 @@ impl Stepper {
     /// What the linear solver carries between steps (the iterative solvers' starting guess, the automatic
     /// choice's picks), so a resumed run makes the same solves.
     pub fn solver_warm(&self) -> SolverWarm {
-        SolverWarm { guess: self.guess.clone(), picks: self.solver.picks() }
+        SolverWarm { guess: self.guess.clone(), picks: self.solver.picks(), extra: self.ws.matrix.extra.saved() }
     }
 
     /// Restores a [`Stepper::solver_warm`].
@@ -38,6 +38,7 @@ impl Stepper {
                 self.guess.len()
             ));
         }
+        self.ws.matrix.extra = crate::sparse::ExtraBlocks::from_saved(&warm.extra, self.guess.len())?;
         self.guess.copy_from_slice(&warm.guess);
         self.solver.set_picks(warm.picks);
         Ok(())

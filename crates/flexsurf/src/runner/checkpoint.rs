@@ -1,7 +1,8 @@
 //! Checkpoints: `checkpoint.bin` in the output folder holds everything a run needs to go on exactly as if it
 //! had not stopped: the whole [`State`] (serialised generically, so fields added to it are included), the
 //! stepper's warm state (the contact term's closest-point cache and active set, [`WarmState`], the linear
-//! solver's starting guess and kept factor, [`SolverWarm`]) and counters, the run's statistics so far, and the
+//! solver's starting guess, the automatic choice's picks and the step matrix's pairs between faces,
+//! [`SolverWarm`]) and counters, the run's statistics so far, and the
 //! state of every output by its name ([`super::outputs::Output::save`]: the frames written, the length of
 //! `energy.csv`, the positions of the steps pictured, the animation's frames…). A resumed run restores all
 //! this (`energy.csv` truncated to its length at the checkpoint) and continues; its outputs are byte-identical
@@ -30,7 +31,7 @@ use std::path::{Path, PathBuf};
 pub const CHECKPOINT: &str = "checkpoint.bin";
 const MAGIC: &[u8] = b"flexsurf-checkpoint\n";
 /// The checkpoint format version; bumped whenever [`Checkpoint`] or anything in it changes shape.
-pub const VERSION: u32 = 10;
+pub const VERSION: u32 = 11;
 /// The largest checkpoint read (bytes).
 const MAX_BYTES: u64 = 16 << 30;
 
@@ -45,7 +46,7 @@ pub struct Checkpoint {
     pub warm: WarmState,
     /// The stepper's per-stage counters.
     pub counters: CountersSaved,
-    /// The linear solver's warm state (starting guess, kept factor).
+    /// The linear solver's warm state (starting guess, picks, the step matrix's pairs between faces).
     pub solver: SolverWarm,
     /// The run's statistics so far.
     pub stats: StatsSaved,

@@ -50,7 +50,7 @@ use super::{BlockSolver, LinearError, Reduced, Reuse, SolveStats, SolverKind};
 use crate::grid::{Grid, Topology};
 use crate::math::{skew, Mat3, Vec3};
 use crate::model::Panel;
-use crate::sparse::{BlockMatrix, BlockPattern};
+use crate::sparse::{BlockMatrix, BlockPattern, ExtraBlocks};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -629,12 +629,13 @@ impl Level {
 
     /// `A = Pᵀ A_fine P` in place: the pattern's blocks by the recipe, then the fine extra blocks (pairs between
     /// faces), each into the coarse block of its parents' pair, an extra block of this level where the coarse
-    /// pattern does not couple them (the level's extra pairs kept from refill to refill as the step matrix keeps
-    /// its own, so the coarsest factorisation is analysed again only when they change).
+    /// pattern does not couple them. The level's extra pairs are made afresh from the fine matrix's at each
+    /// refill (the coarsest factorisation is analysed again only when they change, [`ExtraBlocks::replace`]):
+    /// kept from refill to refill, as they were, they depended on the run's history beyond the step matrix,
+    /// and a resumed run on multigrid ended its frames in other last bits than the uninterrupted run.
     fn galerkin(&mut self, fine: &BlockMatrix) {
         self.galerkin_pattern(fine);
-        self.a.extra.prune();
-        self.a.extra.blocks.fill(Mat3::ZERO);
+        let mut extra = ExtraBlocks::default();
         let p = |k: usize| self.p_start[k] as usize..self.p_start[k + 1] as usize;
         for (&(i, j), m) in fine.extra.pairs().iter().zip(&fine.extra.blocks) {
             for ei in p(i) {
@@ -645,11 +646,12 @@ impl Level {
                     match self.pattern.get(ci, cj) {
                         Some(id) if ci == cj => self.a.blocks[id] += b + b.transpose(),
                         Some(id) => self.a.blocks[id] += if ci < cj { b } else { b.transpose() },
-                        None => self.a.extra.add(ci, cj, b),
+                        None => extra.add(ci, cj, b),
                     }
                 }
             }
         }
+        self.a.extra.replace(extra);
     }
 
     /// The pattern's part of [`Level::galerkin`].
