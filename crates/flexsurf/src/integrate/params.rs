@@ -58,8 +58,7 @@ impl Bounds {
     /// diverging step, whose speeds grow geometrically, reaches the bound within a few steps (if its strain or a
     /// non-finite value does not stop it first). The cotton demo sheet: 10 × 535 m/s.
     pub fn for_model(model: &Model, dt: f64) -> Self {
-        let f = &model.fabric;
-        let wave = (f.tensile_warp.max(f.tensile_weft) / f.density).sqrt();
+        let wave = model.fabric.wave_speed();
         let per_step = model.length_scale() / dt;
         let v = if wave.is_finite() { wave.max(per_step) } else { per_step };
         Self { max_speed: 10.0 * v, max_strain: 1.0 }

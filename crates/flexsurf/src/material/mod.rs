@@ -83,6 +83,12 @@ impl Fabric {
         }
     }
 
+    /// The membrane's wave speed `√(max(A₁₁, A₂₂)/ρ)` (m/s): the speed bound of a step and the lagged scheme's
+    /// stability limit `h/c` follow from it.
+    pub fn wave_speed(&self) -> f64 {
+        (self.tensile_warp.max(self.tensile_weft) / self.density).sqrt()
+    }
+
     /// The ranges a fabric read from a scene or material file must be in (docs/scenes.md, "Validation
     /// ranges"), checked after [`Fabric::validate`]: beyond them no fabric or physical sheet lies, and the
     /// calibration and the model's arithmetic over- or underflow (issue 11: density 1e-308 was accepted). Not part

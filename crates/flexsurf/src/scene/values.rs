@@ -219,7 +219,7 @@ impl SceneSpec {
             return;
         }
         let h = body.grids().iter().map(|(g, _)| g.spacing(0).min(g.spacing(1))).fold(f64::INFINITY, f64::min);
-        let c = (fabric.tensile_warp.max(fabric.tensile_weft) / fabric.density).sqrt();
+        let c = fabric.wave_speed();
         let limit = h / c;
         if !(limit.is_finite() && dt > limit) {
             return;

@@ -212,21 +212,32 @@ fn body_contact_matches_finite_differences() {
 /// step 32.)
 #[test]
 fn the_shipped_tablecloth_never_has_the_table_through_it() {
-    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let path = repo.join("scenes/table.toml");
-    let scene = flexsurf::scene::SceneSpec::load(&path).unwrap().build(&path).unwrap();
+    let (scene, state) = tablecloth(flexsurf::scene::IntegratorKind::Linearized, 50);
     let model = &scene.model;
     assert!(model.potential.find::<BodyContact>().is_some(), "the scene should switch the table's features on");
-    let table = TriMeshBody::from_obj(repo.join("bodies/table.obj")).unwrap().to_mesh();
-    let body = (table.positions, table.triangles);
-    let (mut state, mut stepper) = (scene.state.clone(), Stepper::new(model, &scene.step_params()).unwrap());
-    for step in 1..=50 {
-        stepper.step(model, &mut state).unwrap();
-        assert_eq!(crossing(model, &body, &state.x), None, "step {step}: the cloth and the table intersect");
-    }
     let offset = model.potential.find::<PenaltyContact>().unwrap().params().offset;
     let middle = state.x[model.nodes() / 2].z;
     assert!((0.75..0.75 + offset).contains(&middle), "the cloth's middle is at {middle}");
+}
+
+/// `scenes/table.toml` with the integrator `kind`, stepped `steps` times: no step fails, and on every step no
+/// two triangles of the cloth and the table (the body as read from its OBJ file) intersect. The scene and the
+/// last state.
+fn tablecloth(kind: flexsurf::scene::IntegratorKind, steps: usize) -> (flexsurf::scene::Scene, flexsurf::state::State) {
+    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let path = repo.join("scenes/table.toml");
+    let mut spec = flexsurf::scene::SceneSpec::load(&path).unwrap();
+    spec.integrator.kind = kind;
+    let scene = spec.build(&path).unwrap();
+    let model = &scene.model;
+    let table = TriMeshBody::from_obj(repo.join("bodies/table.obj")).unwrap().to_mesh();
+    let body = (table.positions, table.triangles);
+    let (mut state, mut stepper) = (scene.state.clone(), Stepper::new(model, &scene.step_params()).unwrap());
+    for step in 1..=steps {
+        stepper.step(model, &mut state).unwrap_or_else(|e| panic!("step {step}: {e}"));
+        assert_eq!(crossing(model, &body, &state.x), None, "step {step}: the cloth and the table intersect");
+    }
+    (scene, state)
 }
 
 /// The shipped tablecloth with BDF2: at `[contact] stiffness = 1e5` N/m³ (as shipped then) the flap hanging over a
@@ -236,19 +247,7 @@ fn the_shipped_tablecloth_never_has_the_table_through_it() {
 /// it. The scene now ships 3e5 (both schemes run its 200 steps): its first 40 steps with BDF2, no crossing.
 #[test]
 fn regression_the_shipped_tablecloth_failed_with_bdf2() {
-    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let path = repo.join("scenes/table.toml");
-    let mut spec = flexsurf::scene::SceneSpec::load(&path).unwrap();
-    spec.integrator.kind = flexsurf::scene::IntegratorKind::Bdf2;
-    let scene = spec.build(&path).unwrap();
-    let model = &scene.model;
-    let table = TriMeshBody::from_obj(repo.join("bodies/table.obj")).unwrap().to_mesh();
-    let body = (table.positions, table.triangles);
-    let (mut state, mut stepper) = (scene.state.clone(), Stepper::new(model, &scene.step_params()).unwrap());
-    for step in 1..=40 {
-        stepper.step(model, &mut state).unwrap_or_else(|e| panic!("step {step}: {e}"));
-        assert_eq!(crossing(model, &body, &state.x), None, "step {step}: the cloth and the table intersect");
-    }
+    tablecloth(flexsurf::scene::IntegratorKind::Bdf2, 40);
 }
 
 /// Two wedges (the [`blade`]'s cross-section) lying along x at y = ±0.025, ridges at z = 0, from x = −0.5 to 1.5.

@@ -144,8 +144,7 @@ fn page(dir: &Path, live: Option<&str>) -> Result<String, ViewError> {
     let read = read_limited(&glb_path, MAX_ANIMATION_BYTES);
     let (glb, in_progress) = match read {
         Ok(b) => {
-            // Read whole, so that a damaged file is refused here rather than drawn wrong in the browser.
-            movie::glb_run_from(&glb_path, &b)?;
+            movie::check_glb_values(&glb_path, &b)?;
             (b, false)
         }
         // A run in progress: the frames of its VTK series so far.

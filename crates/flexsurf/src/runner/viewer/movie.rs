@@ -101,8 +101,9 @@ fn vec3s(v: Vec<f32>) -> Vec<Vec3> {
     v.chunks_exact(3).map(|c| Vec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))).collect()
 }
 
-/// An error naming `what` where a position or normal of `mesh` is not finite: flexsurf writes none, so the
-/// file was damaged, and a picture drawn from it would be silently wrong.
+/// An error naming `what` where a position or normal of `mesh` is not finite: a frame is the base plus its
+/// morph target summed in `f32`, which can overflow where both are finite ([`finite_floats`] checks the
+/// file's own values).
 fn finite(path: &Path, what: &str, mesh: &TriMesh) -> Result<(), ViewError> {
     let bad = |v: &[Vec3]| v.iter().position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()));
     if let Some(k) = bad(&mesh.positions) {
@@ -191,6 +192,14 @@ pub fn read_glb_run(dir: &Path) -> Result<GlbRun, ViewError> {
         Err(e) => return Err(e),
     };
     glb_run_from(&path, &bytes)
+}
+
+/// Checks the `animation.glb` `bytes` read from `path` as the viewer's page needs it, without building its
+/// frames: its structure, and every float value finite (flexsurf writes none that is not, so a file holding
+/// one was damaged, and the page would draw it silently wrong).
+pub fn check_glb_values(path: &Path, bytes: &[u8]) -> Result<(), ViewError> {
+    super::check_glb(path, bytes)?;
+    finite_floats(&GlbDoc::parse(path, bytes)?)
 }
 
 /// The run in the `animation.glb` `bytes` read from `path`, checked: its structure, its indices and that every
