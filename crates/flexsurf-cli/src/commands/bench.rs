@@ -50,9 +50,7 @@ const MAX_REPEAT: usize = 1000;
 pub fn execute(args: &BenchArgs) -> Result<()> {
     let &BenchArgs { ref sizes, steps, repeat, workload, solver, threads, json, ref limits } = args;
     let max_memory = limits.limits().max_memory;
-    if let Some(s) = steps.filter(|s| !(1..=flexsurf::ranges::STEPS).contains(s)) {
-        anyhow::bail!("--steps: {s} must be between 1 and {}", flexsurf::ranges::STEPS);
-    }
+    super::shared::check_steps_flag(steps)?;
     if !(1..=MAX_REPEAT).contains(&repeat) {
         anyhow::bail!("--repeat: {repeat} must be between 1 and {MAX_REPEAT}");
     }

@@ -46,6 +46,7 @@ pub fn execute(args: &DemoArgs) -> Result<()> {
         DemoScene::Ball => (BALL_DROP, Path::new("ball_drop.toml (embedded)"), "the ball drop", "out/demo"),
         DemoScene::Skirt => (SKIRT, Path::new("skirt.toml (embedded)"), "the skirt", "out/skirt"),
     };
+    super::shared::check_steps_flag(args.steps)?;
     let out = args.out.as_deref().unwrap_or(Path::new(default_out));
     let base = SceneSpec::from_toml(text, file)?;
     let mut runs = Vec::new();

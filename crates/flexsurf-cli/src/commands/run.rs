@@ -94,6 +94,7 @@ impl Overrides {
 pub fn execute(args: &RunArgs) -> Result<()> {
     let RunArgs { scene: scene_path, out, resume, overwrite, checkpoint_every, limits, overrides } = args;
     let Some(out) = out.as_ref().or(resume.as_ref()) else { anyhow::bail!("give --out DIR or --resume DIR") };
+    super::shared::check_steps_flag(overrides.steps)?;
     let limits = limits.limits();
     // The files read while building the scene, with their hashes, for the summary's provenance.
     let (built, inputs) = flexsurf::io::input::recording(|| -> Result<_> {

@@ -13,6 +13,17 @@ pub fn print_json(value: &serde_json::Value) -> Result<()> {
     Ok(())
 }
 
+/// Checks a `--steps` flag against the scene files' own range, in the flag's words (a scene's `time.steps` would
+/// blame a key the user did not write, or the demo's embedded file).
+pub fn check_steps_flag(steps: Option<usize>) -> Result<()> {
+    match steps {
+        Some(s) if !(1..=flexsurf::ranges::STEPS).contains(&s) => {
+            anyhow::bail!("--steps: {s} must be between 1 and {}", flexsurf::ranges::STEPS)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Runs one built scene into `out` with `options` and a progress bar.
 pub fn run_built(scene: &Scene, out: &Path, label: &str, options: &RunOptions) -> Result<RunOutput> {
     let bar = progress::bar(scene.steps, label);

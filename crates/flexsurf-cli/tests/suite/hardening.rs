@@ -157,6 +157,20 @@ fn regression_bench_sizes_were_refused_in_the_embedded_scene_s_words() {
     refused(&["bench"], &cases, "must be between 3 and 10000");
 }
 
+/// `flexsurf demo --steps 0` was refused as "ball_drop.toml (embedded): `time.steps`: must be at least 1", a file
+/// and a key the user never wrote, and `run --steps 0` blamed the scene file's `time.steps`; both now name the flag.
+#[test]
+fn regression_demo_steps_0_was_refused_in_the_embedded_scene_s_words() {
+    let scene = repo().join("scenes/ball_drop.toml");
+    let out = std::env::temp_dir().join(format!("flexsurf-steps-flag-{}", std::process::id()));
+    let out = out.to_str().unwrap();
+    for command in [vec!["demo", "--out", out], vec!["run", scene.to_str().unwrap(), "--out", out]] {
+        let cases = [(vec!["--steps", "0"], "--steps: 0"), (vec!["--steps", "2000000000"], "--steps: 2000000000")];
+        refused(&command, &cases, "must be between 1 and 1000000000");
+    }
+    assert!(!std::path::Path::new(out).exists(), "a refused run wrote {out}");
+}
+
 #[test]
 fn regression_cantilever_overhang_1e308_printed_nan() {
     let (code, _, err) = flexsurf(&["test", "cantilever", "--overhang", "1e308"]);
