@@ -92,13 +92,14 @@ class Simulation:
     @property
     def pinned(self) -> list[tuple[int, int]]: ...
     def move_pin(self, i: int, j: int, position: _Vec3) -> None:
-        """Moves pinned node ``(i, j)`` to ``position`` (m) before the next step."""
+        """Moves pinned node ``(i, j)`` to ``position`` (m, each coordinate within ±1e6) before the next step."""
     @property
     def spring_nodes(self) -> list[tuple[int, int]]: ...
     @property
     def spring_targets(self) -> npt.NDArray[np.float64]:
         """Spring targets (m), shape ``(S, 3)``."""
-    def set_spring_target(self, index: int, target: _Vec3) -> None: ...
+    def set_spring_target(self, index: int, target: _Vec3) -> None:
+        """Moves spring ``index``'s target to ``target`` (m, each coordinate within ±1e6) before the next step."""
     def energies(self) -> dict[str, float]:
         """``step``, ``time``, ``kinetic``, ``membrane``, ``bending``, ``potential``, ``contact`` (J)."""
     @property

@@ -105,6 +105,20 @@ def test_bad_arguments_raise_and_do_not_crash(pinned_drop):
     assert sim.step(2) == 2  # still usable
 
 
+@pytest.mark.parametrize("far", [1e300, -2e6])
+def test_regression_a_pin_moved_to_1e300_left_the_energies_nan(pinned_drop, far):
+    # move_pin(…, [1e300, 0, 0]) was accepted: the energies then read membrane = nan, and the next step failed
+    # as a factorisation. Scripted positions obey the scene's ±1e6 m coordinate bound.
+    sim = flexsurf.Simulation(pinned_drop)
+    sim.step(2)
+    with pytest.raises(ValueError, match=r"position: .* outside the accepted range ±1e6 m"):
+        sim.move_pin(0, 0, [far, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"target: .* outside the accepted range ±1e6 m"):
+        sim.set_spring_target(0, [0.0, 0.0, far])
+    assert all(math.isfinite(v) for v in sim.energies().values())
+    sim.move_pin(0, 0, [-1e6, 0.0, 0.0])  # the bound itself is a position
+    sim.set_spring_target(0, [0.0, 1e6, 0.0])
+
 def test_divergence_raises_simulation_error(small_drop):
     d = flexsurf.with_overrides(small_drop, {"integrator.kind": "lagged", "time.dt": 0.01})
     # Fifty times the lagged scheme's stability limit, which the scene says (test_trust.py).

@@ -8,6 +8,7 @@ use flexsurf::grid::Grid;
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
 use flexsurf::math::Vec3;
 use flexsurf::model::Model;
+use flexsurf::ranges;
 use flexsurf::state::State;
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
@@ -253,7 +254,7 @@ impl PySimulation {
     /// sheet sees it moving at `(position − previous)/Δt`.
     fn move_pin(&mut self, i: usize, j: usize, position: &Bound<'_, PyAny>) -> PyResult<()> {
         let k = self.node(i, j)?;
-        let p = vec3(position, "position")?;
+        let p = scripted(position, "position")?;
         self.model.move_pin(&mut self.state, k, p).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -273,7 +274,7 @@ impl PySimulation {
 
     /// Moves the target of spring `index` to `target` (m) before the next step.
     fn set_spring_target(&mut self, index: usize, target: &Bound<'_, PyAny>) -> PyResult<()> {
-        let t = vec3(target, "target")?;
+        let t = scripted(target, "target")?;
         self.model.set_spring_target(index, t).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -362,4 +363,14 @@ fn lower_first(e: &impl std::fmt::Display) -> String {
     let text = e.to_string();
     let mut chars = text.chars();
     chars.next().map_or_else(String::new, |c| c.to_lowercase().chain(chars).collect())
+}
+
+/// A position a script gives between steps, within the scene's coordinate bound (`move_pin(…, 1e300)` left the
+/// energies NaN).
+fn scripted(value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
+    let p = vec3(value, what)?;
+    match ranges::position_problem(p) {
+        Some(problem) => Err(PyValueError::new_err(format!("{what}: {problem}"))),
+        None => Ok(p),
+    }
 }

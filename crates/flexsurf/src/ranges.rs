@@ -255,6 +255,15 @@ pub const FRAMES: usize = 1_000_000;
 /// three hundred times the shipped garments' 300, and minutes of work on a fine pattern.
 pub const SEWING_STEPS: usize = 100_000;
 
+/// What is wrong with a position given between steps by a script (a moved pin, a spring's new target; `None`:
+/// nothing): the scene's coordinate bound, ±1e6 m, as for every position a scene file gives. Beyond it the
+/// squared lengths of the model's energies overflow to a NaN.
+pub fn position_problem(p: crate::math::Vec3) -> Option<String> {
+    let worst = [p.x, p.y, p.z].into_iter().find(|c| !c.is_finite() || c.abs() > COORDINATE.1)?;
+    let bound = with_unit(format!("±{:e}", COORDINATE.1), "m");
+    Some(format!("{} m is not finite or outside the accepted range {bound}", plain(worst)))
+}
+
 /// `value` with its unit (`0.01 s`, `0.3`).
 pub fn with_unit(value: impl std::fmt::Display, unit: &str) -> String {
     if unit.is_empty() {
