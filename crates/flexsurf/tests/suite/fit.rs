@@ -236,6 +236,24 @@ fn shear_is_not_identifiable_from_bending_lengths_alone() {
     }
 }
 
+/// A measured drape coefficient of 150 % (a slip: a shadow area, or a percentage typed twice) was fitted to a χ²
+/// of 6,832 without a word; a drape coefficient is the shadow's share of the specimen outside the disc, at most
+/// 100 %, and 100 itself (a specimen that does not drape) is a reading.
+#[test]
+fn regression_a_drape_coefficient_above_100_percent_was_fitted() {
+    use flexsurf::lab::fit::input::problem_from_toml;
+    let file = flexsurf::testing::repo().join("examples/fit/fit.toml");
+    let dc = |v: &str| {
+        format!(
+            "material = \"../../materials/woven-medium.toml\"\nunits = \"kes\"\n[free.shear]\n\
+             [[target]]\nquantity = \"cusick.dc\"\nvalue = {v}\nsigma = 1.0\n"
+        )
+    };
+    let e = problem_from_toml(&dc("150.0"), &file).unwrap_err().to_string();
+    assert!(e.contains("fit.toml") && e.contains("target[0].value") && e.contains("at most 100 %"), "{e}");
+    assert!(problem_from_toml(&dc("100.0"), &file).is_ok());
+}
+
 #[test]
 fn fit_file_errors_name_the_file_and_the_key() {
     use flexsurf::lab::fit::input::problem_from_toml;

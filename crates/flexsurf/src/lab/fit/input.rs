@@ -229,8 +229,8 @@ fn targets_of(spec: &FitSpec, file: &Path) -> Result<Targets, SceneError> {
             return Err(bad(format!("target[{i}].file"), "only a shape target names a file".into()));
         }
         let value = t.value.ok_or_else(|| bad(format!("target[{i}].value"), "missing".into()))?;
-        if !(value.is_finite() && value > 0.0) {
-            return Err(bad(format!("target[{i}].value"), "must be a positive number".into()));
+        if let Some(problem) = value_problem(q, value) {
+            return Err(bad(format!("target[{i}].value"), problem));
         }
         if let Some(problem) = super::sigma_problem(value, sigma) {
             return Err(bad(format!("target[{i}].sigma"), problem));
@@ -422,4 +422,19 @@ pub fn problem_from_toml(text: &str, file: &Path) -> Result<FitProblem, SceneErr
     };
     super::check(&problem).map_err(|e| bad("(top level)".into(), e.to_string()))?;
     Ok(problem)
+}
+
+/// What is wrong with a measured `value` of `q` (`None`: nothing): every quantity is positive, and a drape
+/// coefficient, the shadow's share of the overhang, is at most 100 % (a reading of 150 was fitted to a χ² of
+/// thousands without a word).
+fn value_problem(q: Quantity, value: f64) -> Option<String> {
+    if !(value.is_finite() && value > 0.0) {
+        Some("must be a positive number".into())
+    } else if q == Quantity::DrapeCoefficient && value > 100.0 {
+        Some(format!(
+            "{value} %: a drape coefficient is the shadow's share of the specimen outside the disc, at most 100 %"
+        ))
+    } else {
+        None
+    }
 }
