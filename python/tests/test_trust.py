@@ -202,6 +202,15 @@ def test_a_unit_slip_warns_from_python_as_on_the_command_line(small_drop, tmp_pa
     )
     with pytest.warns(flexsurf.FlexsurfWarning, match="heavy.toml"):
         flexsurf.Material.from_file(path)
+    # A fit's material warns too, and its result keeps the warning as data (as `fit.json` does).
+    fit_problem = {
+        "material": str(path),
+        "free": {"shear": {}},
+        "target": [{"quantity": "kes.shear", "value": 12.0, "sigma": 0.5}],
+    }
+    with pytest.warns(flexsurf.FlexsurfWarning, match="heavy.toml"):
+        result = flexsurf.fit(fit_problem)
+    assert len(result["problem"]["warnings"]) == 1 and "density" in result["problem"]["warnings"][0]
     # The lagged scheme above its stability limit, as `flexsurf check` says.
     lagged = {**small_drop, "integrator": {"kind": "lagged"}}
     with pytest.warns(flexsurf.FlexsurfWarning, match=r"`time\.dt`.*stability limit"):

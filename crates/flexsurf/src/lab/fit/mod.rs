@@ -55,9 +55,15 @@ pub struct FitProblem {
     /// A measured Cusick node count, checked after the fit against the drape of the fitted constants (not a
     /// least-squares target: an integer has no derivative; see [`NodeCheck`]).
     pub cusick_nodes: Option<usize>,
-    /// The material file's warnings (constants outside the usual range of fabrics), for front ends to print.
-    #[serde(skip)]
+    /// The material file's warnings (constants outside the usual range of fabrics), for front ends to print; the
+    /// report (`fit.json`, Python's `fit(...)["problem"]`) keeps them as the messages printed.
+    #[serde(serialize_with = "as_messages")]
     pub warnings: Vec<crate::scene::SceneWarning>,
+}
+
+/// Warnings as the messages a front end prints.
+fn as_messages<S: serde::Serializer>(w: &[crate::scene::SceneWarning], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(w.iter().map(ToString::to_string))
 }
 
 /// The Cusick node count after a fit: the measured count against the fitted constants' drape. A count is an
