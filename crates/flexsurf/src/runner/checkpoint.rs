@@ -14,6 +14,7 @@
 //! state holds non-finite values a text format cannot: the contact cache starts at −∞). A checkpoint of another
 //! version, with a wrong checksum, or of another run (its fingerprint) is refused with a message saying which.
 
+use super::manifest::Folder;
 use super::outputs::OutputState;
 use super::RunError;
 use crate::integrate::linsolve::SolverWarm;
@@ -208,8 +209,12 @@ pub fn write(out: &Path, ck: &Checkpoint) -> Result<(), RunError> {
 /// Reads the checkpoint in `out` and checks it belongs to the run `fingerprint`.
 pub fn read(out: &Path, fingerprint: &str) -> Result<Checkpoint, RunError> {
     let path = path_in(out);
-    let bytes = crate::io::input::read_bytes_limited(&path, MAX_BYTES)
-        .map_err(|e| bad(&path, format!("cannot read the checkpoint to resume from: {e}")))?;
+    let bytes = crate::io::input::read_bytes_limited(&path, MAX_BYTES).map_err(|e| {
+        // A missing checkpoint: say why by the folder's manifest (resuming a complete run was "No such file").
+        let why =
+            std::fs::symlink_metadata(&path).is_err().then(|| Folder::why_no_checkpoint(out, fingerprint)).flatten();
+        bad(&path, why.unwrap_or_else(|| format!("cannot read the checkpoint to resume from: {e}")))
+    })?;
     let ck = decode(&bytes).map_err(|e| bad(&path, format!("cannot resume from this checkpoint: {e}")))?;
     if ck.fingerprint != fingerprint {
         return Err(bad(

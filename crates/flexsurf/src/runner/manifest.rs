@@ -270,6 +270,26 @@ impl Folder {
         Ok(Some(m))
     }
 
+    /// Why the folder `root` has no checkpoint to resume the run `fingerprint` from, by its manifest: no run, a
+    /// run of other settings, a complete run, or one stopped before its first checkpoint (`None`: the manifest
+    /// cannot be read, and the checkpoint's own error says enough).
+    pub fn why_no_checkpoint(root: &Path, fingerprint: &str) -> Option<String> {
+        let m = Self::read_manifest(&root.join(MANIFEST)).ok()?;
+        Some(match m {
+            None => "there is no run to resume in this folder (it has no manifest.json)".into(),
+            Some(m) if m.fingerprint != fingerprint => {
+                "the folder holds a run of another scene or other settings, not this one's".into()
+            }
+            Some(m) if m.complete => {
+                format!("the run in this folder is complete: nothing to resume; {OVERWRITE_HINT} to run it again")
+            }
+            Some(_) => format!(
+                "the run in this folder ended before it wrote a checkpoint (it failed, or was killed): nothing to \
+                 resume from; {OVERWRITE_HINT} to start it again"
+            ),
+        })
+    }
+
     /// Refuses a folder holding files of the run of `m` (not to be overwritten); a stopped run of the same
     /// scene is to be resumed.
     fn refuse_present(root: &Path, m: &Manifest, fingerprint: &str) -> Result<(), RunError> {

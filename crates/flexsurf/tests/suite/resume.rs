@@ -137,3 +137,28 @@ fn regression_a_self_contact_run_resumed_in_other_last_bits() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// `--resume` of a folder whose run had completed said "checkpoint.bin: cannot read the checkpoint to resume
+/// from: No such file or directory", as it did for an empty folder and for a run killed before its first
+/// checkpoint; each now says which it is, by the folder's manifest, and the complete run's outputs are untouched.
+#[test]
+fn regression_resuming_a_complete_run_said_no_such_file() {
+    let s = scene("scenes/ball_drop.toml", 4, 2, Some([5, 5]));
+    let dir = scratch("complete");
+    let resume = RunOptions { resume: true, ..Default::default() };
+    let why = |dir: &Path| run_scene_with(&s, dir, &resume, |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(why(&dir).contains("there is no run to resume in this folder"), "{}", why(&dir));
+    run_scene_with(&s, &dir, &RunOptions::default(), |_| {}).unwrap();
+    let summary = std::fs::read(&dir.join("summary.json")).unwrap();
+    let e = why(&dir);
+    assert!(e.contains("is complete: nothing to resume") && e.contains("--overwrite"), "{e}");
+    assert_eq!(std::fs::read(&dir.join("summary.json")).unwrap(), summary);
+    let killed = scratch("killed");
+    let kill = std::panic::AssertUnwindSafe(|| run_scene_with(&s, &killed, &RunOptions::default(), |_| panic!()));
+    assert!(std::panic::catch_unwind(kill).is_err());
+    let e = why(&killed);
+    assert!(e.contains("ended before it wrote a checkpoint"), "{e}");
+    let other = scene("scenes/ball_drop.toml", 5, 1, Some([5, 5]));
+    let e = run_scene_with(&other, &dir, &resume, |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("a run of another scene or other settings"), "{e}");
+}
