@@ -47,7 +47,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 /// `flexsurf view`.
 pub fn execute(args: &ViewArgs) -> Result<()> {
     if !(args.fps.is_finite() && args.fps > 0.0 && args.fps <= 120.0) {
-        bail!("--fps: {} must be between 0 and 120 pictures per simulated second", args.fps);
+        bail!("--fps: {} must be more than 0 and at most 120 pictures per simulated second", args.fps);
     }
     let ffmpeg = args.mp4.then(|| Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success()));
     if ffmpeg == Some(false) {
