@@ -112,6 +112,8 @@ def sweep(
     import pandas as pd
 
     _check_workers(workers)
+    if parquet is not None:
+        parquet = _check_parquet(parquet)
     file: str | None = None
     if isinstance(scene, str) and scene in LAB_TESTS:
         task: str | dict = scene
@@ -132,7 +134,14 @@ def sweep(
         raise ValueError(f'backend: {backend!r} must be "process" or "ray"')
     table = pd.DataFrame(rows)
     if parquet is not None:
-        table.to_parquet(os.fspath(parquet), index=False)
+        # Atomically: a reader never sees half a table, and a failed write leaves the earlier file.
+        partial = f"{parquet}.{os.getpid()}.partial"
+        try:
+            table.to_parquet(partial, index=False)
+            os.replace(partial, parquet)
+        finally:
+            if os.path.exists(partial):
+                os.remove(partial)
     return table
 
 
@@ -198,6 +207,23 @@ def _reachable(address: str) -> None:
             f"address: no Ray cluster answers at {address!r} ({e}); start one (ray start --head) or leave address "
             "out for a local one"
         ) from e
+
+
+def _check_parquet(parquet: str | os.PathLike[str]) -> str:
+    """The Parquet path, checked before any case runs (a sweep of hours that found no Parquet engine, or no
+    folder to write into, only at its end raised and returned nothing)."""
+    import importlib.util
+
+    path = os.fspath(parquet)
+    if not any(importlib.util.find_spec(engine) for engine in ("pyarrow", "fastparquet")):
+        raise ImportError(
+            f'parquet: writing {path!r} needs pyarrow (pip install "./python[parquet]"); no case was run'
+        )
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder) or os.path.isdir(path):
+        what = "is a folder" if os.path.isdir(path) else f"has no folder {folder!r} to be written in"
+        raise FileNotFoundError(f"parquet: {path!r} {what}; no case was run")
+    return path
 
 
 def _check_workers(workers: Any) -> None:

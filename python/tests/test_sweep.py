@@ -46,6 +46,29 @@ def test_sweep_writes_parquet(small_drop, tmp_path):
     table = flexsurf.sweep(small_drop, {"contact.friction": [0.0, 0.5]}, backend="process", workers=2, parquet=path)
     back = pd.read_parquet(path)
     assert back["final.min_z"].tolist() == table["final.min_z"].tolist()
+    assert [p.name for p in tmp_path.iterdir()] == ["sweep.parquet"]  # written atomically, nothing left over
+
+
+def test_regression_a_sweep_without_a_parquet_engine_ran_every_case_first(small_drop, tmp_path, monkeypatch):
+    # Without pyarrow, or with no folder to write into, a sweep ran every case and only then raised, returning
+    # nothing: hours of results lost. Both are now refused before any case runs.
+    import importlib.util
+
+    import flexsurf._sweep as sweep_module
+
+    ran = []
+    monkeypatch.setattr(sweep_module, "_run_processes", lambda *a: ran.append(a) or [])
+    find_spec = importlib.util.find_spec
+    missing = ("pyarrow", "fastparquet")
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name in missing else find_spec(name, *a))
+    with pytest.raises(ImportError, match="needs pyarrow.*no case was run"):
+        flexsurf.sweep(small_drop, {"contact.friction": [0.0, 0.5]}, parquet=tmp_path / "sweep.parquet")
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: True if name == "pyarrow" else None)
+    with pytest.raises(FileNotFoundError, match="has no folder .* no case was run"):
+        flexsurf.sweep(small_drop, {"contact.friction": [0.0, 0.5]}, parquet=tmp_path / "none" / "sweep.parquet")
+    with pytest.raises(FileNotFoundError, match="is a folder"):
+        flexsurf.sweep(small_drop, {"contact.friction": [0.0, 0.5]}, parquet=tmp_path)
+    assert ran == []
 
 
 def test_failed_cases_are_rows_with_errors(small_drop):
