@@ -149,10 +149,10 @@ fn regression_resuming_a_complete_run_said_no_such_file() {
     let why = |dir: &Path| run_scene_with(&s, dir, &resume, |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
     assert!(why(&dir).contains("there is no run to resume in this folder"), "{}", why(&dir));
     run_scene_with(&s, &dir, &RunOptions::default(), |_| {}).unwrap();
-    let summary = std::fs::read(&dir.join("summary.json")).unwrap();
+    let summary = std::fs::read(dir.join("summary.json")).unwrap();
     let e = why(&dir);
     assert!(e.contains("is complete: nothing to resume") && e.contains("--overwrite"), "{e}");
-    assert_eq!(std::fs::read(&dir.join("summary.json")).unwrap(), summary);
+    assert_eq!(std::fs::read(dir.join("summary.json")).unwrap(), summary);
     let killed = scratch("killed");
     let kill = std::panic::AssertUnwindSafe(|| run_scene_with(&s, &killed, &RunOptions::default(), |_| panic!()));
     assert!(std::panic::catch_unwind(kill).is_err());
