@@ -1,7 +1,7 @@
 """Type stubs of the extension module ``flexsurf._flexsurf`` (compiled from ``crates/flexsurf-py``)."""
 
 import os
-from typing import Any, Mapping, Sequence, Union
+from typing import Any, Mapping, Sequence, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -50,7 +50,10 @@ class Scene:
     def file(self) -> str: ...
     @property
     def grid(self) -> tuple[int, int]:
-        """Nodes ``(M, N)``."""
+        """Nodes ``(M, N)`` of a scene of one sheet (raises ``ValueError`` for several sheets or panels)."""
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Shape of the position arrays: ``(M, N, 3)`` for one sheet, else ``(n, 3)`` over the model's nodes."""
     @property
     def dt(self) -> float: ...
     @property
@@ -75,12 +78,12 @@ class Simulation:
         """Takes ``n`` steps with the GIL released; returns the step count reached."""
     @property
     def positions(self) -> npt.NDArray[np.float64]:
-        """Node positions (m), shape ``(M, N, 3)``."""
+        """Node positions (m), shape ``Scene.shape``: ``(M, N, 3)`` for one sheet, else ``(n, 3)``."""
     def positions_into(self, out: npt.NDArray[np.float64]) -> None:
-        """Writes the positions into a C-contiguous ``(M, N, 3)`` float64 array."""
+        """Writes the positions into a C-contiguous float64 array of shape ``Scene.shape``."""
     @property
     def velocities(self) -> npt.NDArray[np.float64]:
-        """Node velocities (m/s), shape ``(M, N, 3)``."""
+        """Node velocities (m/s), shape ``Scene.shape``."""
     @property
     def grid(self) -> tuple[int, int]: ...
     @property
@@ -90,11 +93,17 @@ class Simulation:
     @property
     def dt(self) -> float: ...
     @property
-    def pinned(self) -> list[tuple[int, int]]: ...
+    def pinned(self) -> list[tuple[int, int]] | list[int]:
+        """Pinned nodes: ``(i, j)`` on one sheet, node numbers ``k`` otherwise."""
+    @overload
     def move_pin(self, i: int, j: int, position: _Vec3) -> None:
-        """Moves pinned node ``(i, j)`` to ``position`` (m, each coordinate within ±1e6) before the next step."""
+        """Moves pinned node ``(i, j)`` of one sheet's grid to ``position`` (m, each coordinate within ±1e6)."""
+    @overload
+    def move_pin(self, k: int, position: _Vec3) -> None:
+        """Moves pinned node ``k`` of any scene (the ``(n, 3)`` arrays' numbering) to ``position`` (m)."""
     @property
-    def spring_nodes(self) -> list[tuple[int, int]]: ...
+    def spring_nodes(self) -> list[tuple[int, int]] | list[int]:
+        """The springs' nodes: ``(i, j)`` on one sheet, node numbers ``k`` otherwise."""
     @property
     def spring_targets(self) -> npt.NDArray[np.float64]:
         """Spring targets (m), shape ``(S, 3)``."""

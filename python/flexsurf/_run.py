@@ -24,7 +24,8 @@ class RunResult:
     Attributes:
         summary: ``summary.json`` as a dict.
         steps: the output steps, shape ``(F,)``.
-        frames: the node positions at those steps (m), shape ``(F, M, N, 3)``.
+        frames: the node positions at those steps (m), shape ``(F, M, N, 3)`` for a scene of one sheet, else
+            ``(F, n, 3)`` over its nodes (``Scene.shape`` after ``F``).
         out: the output directory, or ``None`` when the files went to a removed temporary directory.
     """
 

@@ -165,3 +165,39 @@ def test_the_gil_is_released_while_stepping(small_drop):
     # With the GIL held the other thread would not tick at all during the call.
     assert len(during) >= 10, f"{len(during)} ticks in {t1 - t0:.2f} s"
     assert sim.step_count == 1 + n
+
+
+def test_regression_a_scene_of_several_sheets_could_not_be_run_from_python(root):
+    # Every scene of several sheets (two sheets, a pile, each sewn garment) raised "the Python bindings give
+    # (M, N, 3) arrays of a scene of one sheet (run it with flexsurf.run ...)", and flexsurf.run raised the same:
+    # none could be stepped, run or swept from Python. Their arrays are (n, 3) over the model's nodes.
+    d = flexsurf.scene_dict(root / "scenes" / "two_sheets.toml")
+    d["sheet"][0]["nodes"], d["sheet"][1]["nodes"] = [7, 7], [5, 5]
+    d["time"].update(steps=6, output_every=3)
+    d["pin"] = [{"sheet": 1, "nodes": [[0, 0]]}]
+    d["output"]["image_size"] = [96, 72]
+    scene = flexsurf.Scene.from_dict(d, file=root / "scenes" / "two_sheets.toml")
+    assert scene.shape == (74, 3)
+    with pytest.raises(ValueError, match="not one grid"):
+        scene.grid
+    sim = flexsurf.Simulation(scene)
+    assert sim.positions.shape == sim.velocities.shape == (74, 3)
+    assert sim.pinned == [49]  # the second sheet's first node, after the first sheet's 49
+    start = sim.positions[49].copy()
+    with pytest.raises(ValueError, match="not one grid"):
+        sim.move_pin(0, 0, start)
+    with pytest.raises(IndexError, match="outside the model's 74 nodes"):
+        sim.move_pin(74, start)
+    sim.move_pin(49, start + [0.0, 0.0, 0.01])
+    sim.step()
+    assert np.array_equal(sim.positions[49], start + [0.0, 0.0, 0.01])
+    sim.move_pin(49, start)
+    sim.step(5)
+    buf = np.empty((74, 3))
+    sim.positions_into(buf)
+    with pytest.raises(ValueError, match=r"must be \(74, 3\)"):
+        sim.positions_into(np.empty((73, 3)))
+    r = flexsurf.run(flexsurf.Scene.from_dict(d, file=root / "scenes" / "two_sheets.toml"))
+    assert r.frames.shape == (3, 74, 3) and list(r.steps) == [0, 3, 6]
+    assert np.array_equal(r.frames[0][:49], flexsurf.Simulation(scene).positions[:49])
+    assert np.isfinite(buf).all() and "nodes=74" in repr(sim)

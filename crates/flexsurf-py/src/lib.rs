@@ -4,6 +4,7 @@
 //! validated, and its errors name the key, exactly as a TOML file's are.
 
 mod convert;
+mod layout;
 mod simulation;
 
 use convert::{dict_to_table, to_py, toml_to_py};
@@ -15,7 +16,7 @@ use flexsurf::material::{Calibration, Fabric};
 use flexsurf::runner::{output_steps, run_scene_with, RunOptions};
 use flexsurf::scene::material::{load_material_file, material_from_toml, ResolvedMaterial};
 use flexsurf::scene::{SceneError as LibSceneError, SceneSpec};
-use numpy::ndarray::Array4;
+use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::IntoPyArray;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};
@@ -160,11 +161,19 @@ impl PyScene {
         self.scene.file.clone()
     }
 
-    /// Nodes `(M, N)`: the shape of the position arrays is `(M, N, 3)`.
+    /// Nodes `(M, N)` of a scene of one sheet (its position arrays are `(M, N, 3)`); a scene of several sheets
+    /// or panels has no grid (its arrays are `(n, 3)`: `shape`).
     #[getter]
     fn grid(&self) -> PyResult<(usize, usize)> {
         let g = simulation::one_sheet(&self.scene.model)?;
         Ok((g.m, g.n))
+    }
+
+    /// The shape of the scene's position arrays: `(M, N, 3)` over one sheet's grid, else `(n, 3)` over its
+    /// nodes (a node a seam joins once).
+    #[getter]
+    fn shape<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        pyo3::types::PyTuple::new(py, layout::Layout::of(&self.scene.model).shape())
     }
 
     /// Time step (s).
@@ -233,7 +242,8 @@ fn read_toml<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>>
 }
 
 /// Runs `scene` into `out` (the files of `flexsurf run`, bit for bit), with the GIL released. Returns the
-/// summary (a dict), the output steps and the node positions at those steps, shape `(F, M, N, 3)`. With
+/// summary (a dict), the output steps and the node positions at those steps, shape `(F, M, N, 3)` (one sheet)
+/// or `(F, n, 3)` (`Scene.shape` after `F`). With
 /// `overwrite`, the outputs of another run in `out` are removed first (exactly the files its manifest lists).
 #[pyfunction]
 #[pyo3(signature = (scene, out, overwrite = false))]
@@ -246,15 +256,14 @@ fn run_into<'py>(
     let sc = Arc::clone(&scene.scene);
     let steps =
         if matches!(sc.method(), Method::Static(_)) { vec![0, 1] } else { output_steps(sc.steps, sc.output_every) };
-    let grid = simulation::one_sheet(&sc.model)?;
-    let (m, n) = (grid.m, grid.n);
+    let layout = layout::Layout::of(&sc.model);
     let result = py.detach(|| {
-        let mut frames: Vec<f64> = Vec::with_capacity(steps.len() * m * n * 3);
+        let mut frames: Vec<f64> = Vec::with_capacity(steps.len() * layout.len() * 3);
         let mut kept = Vec::with_capacity(steps.len());
         let mut keep = |state: &flexsurf::state::State| {
             if steps.binary_search(&state.step).is_ok() && kept.last() != Some(&state.step) {
                 kept.push(state.step);
-                simulation::push_grid(&grid, &state.x, &mut frames);
+                layout.push(|k| state.x[k], &mut frames);
             }
         };
         keep(&sc.state);
@@ -263,7 +272,8 @@ fn run_into<'py>(
     });
     let (output, kept, frames) = result.map_err(|e| run_err(&e))?;
     let count = kept.len();
-    let frames = Array4::from_shape_vec((count, m, n, 3), frames).map_err(sim_err)?.into_pyarray(py).into_any();
+    let shape: Vec<usize> = std::iter::once(count).chain(layout.shape()).collect();
+    let frames = ArrayD::from_shape_vec(IxDyn(&shape), frames).map_err(sim_err)?.into_pyarray(py).into_any();
     Ok((to_py(py, &output.summary)?, kept, frames))
 }
 

@@ -1,8 +1,9 @@
 //! `Simulation`: a scene stepped from Python, one step or many at a time with the GIL released; positions and
-//! velocities as `(M, N, 3)` numpy arrays, pinned nodes and spring targets moved between steps, energies,
+//! velocities as numpy arrays (`(M, N, 3)` over one sheet's grid, `(n, 3)` over a garment's nodes: [`Layout`]), pinned nodes and spring targets moved between steps, energies,
 //! contacts and per-step timings.
 
 use crate::convert::vec3;
+use crate::layout::Layout;
 use crate::{sim_err, PyScene, SimulationError};
 use flexsurf::grid::Grid;
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
@@ -10,23 +11,13 @@ use flexsurf::math::Vec3;
 use flexsurf::model::Model;
 use flexsurf::ranges;
 use flexsurf::state::State;
-use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
-
-/// Appends the nodes of `x` in `(i, j)` row-major order (the `(M, N, 3)` layout) to `out`.
-pub fn push_grid(grid: &Grid, x: &[Vec3], out: &mut Vec<f64>) {
-    for i in 0..grid.m {
-        for j in 0..grid.n {
-            let p = x[grid.index(i, j)];
-            out.extend_from_slice(&[p.x, p.y, p.z]);
-        }
-    }
-}
 
 /// Per-step records kept for `timings`.
 #[derive(Default)]
@@ -60,8 +51,8 @@ const SIGNAL_CHECK: std::time::Duration = std::time::Duration::from_millis(50);
 #[pyclass(module = "flexsurf._flexsurf", name = "Simulation")]
 pub struct PySimulation {
     model: Model,
-    /// The scene's one sheet (the arrays are `(M, N, 3)` over it).
-    grid: Grid,
+    /// How the arrays lay the nodes out: `(M, N, 3)` over one sheet's grid, else `(n, 3)`.
+    layout: Layout,
     state: State,
     /// In a mutex only to make the class `Sync` (the stepper's scratch is `Send` only); never locked, as the
     /// class's own borrow flag already gives `step` exclusive access.
@@ -73,36 +64,35 @@ pub struct PySimulation {
     history: History,
 }
 
-/// The grid of a model of one sheet: the bindings' arrays are `(M, N, 3)` over one grid.
+/// The grid of a model of one sheet (`Scene.grid`, `Simulation.grid`, a node named `(i, j)`).
 pub(crate) fn one_sheet(model: &Model) -> PyResult<Grid> {
     model.sheet_grid().copied().ok_or_else(|| {
         PyValueError::new_err(format!(
-            "the scene has {} sheets; the Python bindings give (M, N, 3) arrays of a scene of one sheet \
-             (run it with flexsurf.run or the command line)",
-            model.panels.len()
+            "the scene has {} sheets (or panels joined at seams), not one grid: its arrays are (n, 3) over its \
+             {} nodes (Scene.shape), and a node is named by its number k",
+            model.panels.len(),
+            model.nodes()
         ))
     })
 }
 
 impl PySimulation {
+    /// Node `(i, j)` of a one-sheet scene's grid.
     fn node(&self, i: usize, j: usize) -> PyResult<usize> {
-        let g = &self.grid;
+        let g = one_sheet(&self.model)?;
         if i >= g.m || j >= g.n {
             return Err(PyIndexError::new_err(format!("node ({i}, {j}) is outside the {}x{} grid", g.m, g.n)));
         }
         Ok(g.index(i, j))
     }
 
-    fn grid_array<'py>(&self, py: Python<'py>, f: impl Fn(usize) -> Vec3) -> Bound<'py, PyArray3<f64>> {
-        let g = &self.grid;
-        let mut v = Vec::with_capacity(g.len() * 3);
-        for i in 0..g.m {
-            for j in 0..g.n {
-                let p = f(g.index(i, j));
-                v.extend_from_slice(&[p.x, p.y, p.z]);
-            }
+    /// Node `k` of the model's numbering.
+    fn numbered(&self, k: usize) -> PyResult<usize> {
+        let n = self.model.nodes();
+        if k >= n {
+            return Err(PyIndexError::new_err(format!("node {k} is outside the model's {n} nodes")));
         }
-        Array3::from_shape_vec((g.m, g.n, 3), v).expect("the grid has M·N nodes").into_pyarray(py)
+        Ok(k)
     }
 }
 
@@ -120,12 +110,12 @@ impl PySimulation {
                 ))
             }
         };
-        let grid = one_sheet(&sc.model)?;
+        let layout = Layout::of(&sc.model);
         let model = sc.model.clone();
         let stepper = Stepper::new(&model, &params).map_err(sim_err)?;
         Ok(Self {
             model,
-            grid,
+            layout,
             motions: sc.motions.clone(),
             state: sc.state.clone(),
             stepper: Mutex::new(stepper),
@@ -174,24 +164,19 @@ impl PySimulation {
         Ok(self.state.step)
     }
 
-    /// Node positions (m), a new `(M, N, 3)` array.
+    /// Node positions (m), a new array of the scene's shape (`(M, N, 3)` for one sheet, else `(n, 3)`).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let x = &self.state.x;
-        self.grid_array(py, |k| x[k])
+        self.layout.array(py, |k| x[k])
     }
 
-    /// Writes the node positions into `out`, a C-contiguous float64 array of shape `(M, N, 3)` (no allocation).
+    /// Writes the node positions into `out`, a C-contiguous float64 array of the scene's shape (no allocation).
     fn positions_into(&self, out: &Bound<'_, PyAny>) -> PyResult<()> {
-        let g = &self.grid;
-        let out = float64_grid(out, g)?;
-        if out.shape() != [g.m, g.n, 3] {
-            return Err(PyValueError::new_err(format!(
-                "out: shape {} must be ({}, {}, 3)",
-                tuple(out.shape()),
-                g.m,
-                g.n
-            )));
+        let shape = self.layout.shape();
+        let out = float64_array(out, &shape)?;
+        if out.shape() != shape.as_slice() {
+            return Err(PyValueError::new_err(format!("out: shape {} must be {}", tuple(out.shape()), tuple(&shape))));
         }
         if !out.is_c_contiguous() {
             return Err(PyValueError::new_err("out: must be C-contiguous"));
@@ -199,27 +184,25 @@ impl PySimulation {
         // numpy's reasons ("The given array is not writeable", "… is already borrowed") after the argument's name.
         let mut rw = out.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {}", lower_first(&e))))?;
         let slice = rw.as_slice_mut().map_err(|_| PyValueError::new_err("out: must be C-contiguous"))?;
-        for i in 0..g.m {
-            for j in 0..g.n {
-                let p = self.state.x[g.index(i, j)];
-                let o = 3 * (i * g.n + j);
-                slice[o..o + 3].copy_from_slice(&[p.x, p.y, p.z]);
-            }
+        for (place, o) in slice.chunks_exact_mut(3).enumerate() {
+            let p = self.state.x[self.layout.node(place)];
+            o.copy_from_slice(&[p.x, p.y, p.z]);
         }
         Ok(())
     }
 
-    /// Node velocities (m/s), the scheme's second-order estimate, a new `(M, N, 3)` array.
+    /// Node velocities (m/s), the scheme's second-order estimate, a new array of the scene's shape.
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let s = &self.state;
-        self.grid_array(py, |k| s.velocity(k))
+        self.layout.array(py, |k| s.velocity(k))
     }
 
-    /// Nodes `(M, N)`.
+    /// Nodes `(M, N)` of a one-sheet scene.
     #[getter]
-    fn grid(&self) -> (usize, usize) {
-        (self.grid.m, self.grid.n)
+    fn grid(&self) -> PyResult<(usize, usize)> {
+        let g = one_sheet(&self.model)?;
+        Ok((g.m, g.n))
     }
 
     /// Steps taken.
@@ -240,28 +223,32 @@ impl PySimulation {
         self.dt
     }
 
-    /// The pinned nodes as `(i, j)` pairs.
+    /// The pinned nodes, in the arrays' order: `(i, j)` pairs on one sheet, node numbers otherwise.
     #[getter]
-    fn pinned(&self) -> Vec<(usize, usize)> {
-        let g = &self.grid;
-        (0..g.m)
-            .flat_map(|i| (0..g.n).map(move |j| (i, j)))
-            .filter(|&(i, j)| self.model.pinned()[g.index(i, j)])
-            .collect()
+    fn pinned(&self, py: Python<'_>) -> PyResult<Vec<Py<PyAny>>> {
+        let pinned = self.model.pinned();
+        let nodes = (0..self.layout.len()).map(|p| self.layout.node(p)).filter(|&k| pinned[k]);
+        nodes.map(|k| self.layout.name(py, k)).collect()
     }
 
-    /// Moves pinned node `(i, j)` to `position` (m) before the next step: the step holds it there, and the
-    /// sheet sees it moving at `(position − previous)/Δt`.
-    fn move_pin(&mut self, i: usize, j: usize, position: &Bound<'_, PyAny>) -> PyResult<()> {
-        let k = self.node(i, j)?;
+    /// Moves a pinned node to `position` (m) before the next step: the step holds it there, and the sheet sees
+    /// it moving at `(position − previous)/Δt`. `move_pin(i, j, position)` names node `(i, j)` of a one-sheet
+    /// scene's grid, `move_pin(k, position)` node `k` of any scene (the `(n, 3)` arrays' numbering).
+    #[pyo3(signature = (first, second, third = None))]
+    fn move_pin(&mut self, first: usize, second: &Bound<'_, PyAny>, third: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let (k, position) = match third {
+            Some(position) => (self.node(first, second.extract()?)?, position),
+            None => (self.numbered(first)?, second),
+        };
         let p = scripted(position, "position")?;
         self.model.move_pin(&mut self.state, k, p).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
-    /// The springs as `(i, j)` nodes, in the order `set_spring_target` numbers them.
+    /// The springs' nodes (`(i, j)` on one sheet, node numbers otherwise), in the order `set_spring_target`
+    /// numbers them.
     #[getter]
-    fn spring_nodes(&self) -> Vec<(usize, usize)> {
-        self.model.springs().iter().map(|s| self.grid.coords(s.node)).collect()
+    fn spring_nodes(&self, py: Python<'_>) -> PyResult<Vec<Py<PyAny>>> {
+        self.model.springs().iter().map(|s| self.layout.name(py, s.node)).collect()
     }
 
     /// The spring targets (m), an `(S, 3)` array.
@@ -325,21 +312,25 @@ impl PySimulation {
     }
 
     fn __repr__(&self) -> String {
-        format!("Simulation(grid={}x{}, step={}, t={})", self.grid.m, self.grid.n, self.state.step, self.state.time)
+        let nodes = match self.layout {
+            Layout::Sheet(g) => format!("grid={}x{}", g.m, g.n),
+            Layout::Nodes(n) => format!("nodes={n}"),
+        };
+        format!("Simulation({nodes}, step={}, t={})", self.state.step, self.state.time)
     }
 }
 
-/// `out` as a three-dimensional float64 array, or a `TypeError` that says what it is instead and what
+/// `out` as a float64 array of `shape`'s dimensions, or a `TypeError` that says what it is instead and what
 /// [`PySimulation::positions_into`] needs (numpy's own cast error names neither the type nor the shape).
-fn float64_grid<'a, 'py>(out: &'a Bound<'py, PyAny>, g: &Grid) -> PyResult<&'a Bound<'py, PyArray3<f64>>> {
-    if let Ok(array) = out.cast::<PyArray3<f64>>() {
+fn float64_array<'a, 'py>(out: &'a Bound<'py, PyAny>, shape: &[usize]) -> PyResult<&'a Bound<'py, PyArrayDyn<f64>>> {
+    if let Some(array) = out.cast::<PyArrayDyn<f64>>().ok().filter(|a| a.ndim() == shape.len()) {
         return Ok(array);
     }
     let what = match out.cast::<numpy::PyUntypedArray>() {
         Ok(a) => format!("{} array of shape {}", article(&a.dtype().to_string()), tuple(a.shape())),
         Err(_) => article(&out.get_type().name().map_or_else(|_| "value".to_string(), |n| n.to_string())),
     };
-    Err(PyTypeError::new_err(format!("out: expected a float64 array of shape ({}, {}, 3), got {what}", g.m, g.n)))
+    Err(PyTypeError::new_err(format!("out: expected a float64 array of shape {}, got {what}", tuple(shape))))
 }
 
 /// `shape` as Python writes a tuple: `(7, 7, 3)`, `(147,)`.
