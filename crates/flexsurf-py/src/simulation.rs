@@ -1,6 +1,7 @@
 //! `Simulation`: a scene stepped from Python, one step or many at a time with the GIL released; positions and
-//! velocities as numpy arrays (`(M, N, 3)` over one sheet's grid, `(n, 3)` over a garment's nodes: [`Layout`]), pinned nodes and spring targets moved between steps, energies,
-//! contacts and per-step timings.
+//! velocities as numpy arrays (`(M, N, 3)` over one sheet's grid, `(n, 3)` over several sheets' or a garment's
+//! nodes: [`Layout`]), pinned nodes and spring targets moved between steps, energies, contacts and per-step
+//! timings.
 
 use crate::convert::vec3;
 use crate::layout::Layout;
