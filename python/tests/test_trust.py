@@ -57,6 +57,20 @@ def test_a_sweep_over_a_numpy_integer_array(small_drop):
     assert table["steps"].tolist() == [20, 40]
 
 
+def test_regression_a_numpy_array_could_not_stand_in_a_scene(small_drop):
+    # `gravity = np.array([0, 0, -9.81])` raised "a value of type ndarray cannot stand in a scene", while numpy
+    # scalars were accepted; arrays stand in as the lists they hold (integer arrays as integers).
+    lists = flexsurf.with_overrides(small_drop, {"gravity": [0.0, 0.0, -5.0], "sheet.nodes": [9, 9]})
+    as_lists = flexsurf.Simulation(flexsurf.Scene.from_dict(lists)).energies()["potential"]
+    d = flexsurf.with_overrides(small_drop, {"gravity": np.array([0.0, 0.0, -5.0]), "sheet.nodes": np.array([9, 9])})
+    d["pin"] = [{"nodes": np.array([[0, 0], [8, 0]])}]
+    scene = flexsurf.Scene.from_dict(d)
+    assert scene.grid == (9, 9) and flexsurf.Simulation(scene).energies()["potential"] == as_lists
+    assert flexsurf.Simulation(scene).pinned == [(0, 0), (8, 0)]
+    with pytest.raises(flexsurf.SceneError, match="sheet.nodes"):
+        flexsurf.Scene.from_dict(flexsurf.with_overrides(small_drop, {"sheet.nodes": np.array([9.0, 9.0])}))
+
+
 def test_sigint_during_a_long_step_raises_keyboard_interrupt(small_drop):
     sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))

@@ -78,6 +78,10 @@ fn to_toml(value: &Bound<'_, PyAny>, key: &str, depth: usize, budget: &mut Budge
         }
         return Ok(toml::Value::Array(items));
     }
+    // numpy arrays (`gravity = np.array([0, 0, -9.81])`, pins as an integer array) as the lists they hold.
+    if value.cast::<numpy::PyUntypedArray>().is_ok() {
+        return to_toml(&value.call_method0("tolist")?, key, depth, budget);
+    }
     // numpy scalars, pathlib paths and the like: by their float or string value.
     if let Ok(f) = value.extract::<f64>() {
         return Ok(toml::Value::Float(f));
