@@ -223,6 +223,8 @@ def _check_parquet(parquet: str | os.PathLike[str]) -> str:
     if not os.path.isdir(folder) or os.path.isdir(path):
         what = "is a folder" if os.path.isdir(path) else f"has no folder {folder!r} to be written in"
         raise FileNotFoundError(f"parquet: {path!r} {what}; no case was run")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(f"parquet: the folder {folder!r} cannot be written in; no case was run")
     return path
 
 
