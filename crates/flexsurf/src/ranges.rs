@@ -251,7 +251,7 @@ pub const NODES: usize = 100_000_000;
 /// Most frames a run writes (`time.steps / time.output_every`).
 pub const FRAMES: usize = 1_000_000;
 /// Most steps of a garment's sewing phase (`pattern.sewing_steps`). The phase runs while the scene is built, so
-/// `flexsurf check` and every front end's load take it: 100,000 steps is 1,000 s of sewing at Δt = 0.01 s, over
+/// `flexsurf check --build` and every front end's load take it: 100,000 steps is 1,000 s of sewing at Δt = 0.01 s, over
 /// three hundred times the shipped garments' 300, and minutes of work on a fine pattern.
 pub const SEWING_STEPS: usize = 100_000;
 

@@ -256,6 +256,35 @@ fn check_and_run_warn_about_a_unit_slip() {
     let (code, _, stderr) = flexsurf(&["fit", fit.to_str().unwrap(), "--out", report.to_str().unwrap()]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("warning: ") && stderr.contains("`density`"), "{stderr}");
+    // The report keeps the warning (it was only printed).
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let kept = json["problem"]["warnings"].as_array().map(|w| w.iter().filter_map(|m| m.as_str()).collect());
+    assert!(kept.is_some_and(|w: Vec<&str>| w.len() == 1 && w[0].contains("`density`")), "{json}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `flexsurf check` of a garment whose sewing phase pulls the cloth through itself said "ok" (it checks values
+/// without building the model), and only the run failed; `check --build` builds it as a run starts, sewing
+/// included, and fails as the run would, naming the file and `pattern`; a sound garment reports its sewing.
+#[test]
+fn regression_check_said_ok_of_a_garment_that_could_not_be_sewn() {
+    let dir = flexsurf::testing::scratch("cli", "check-build");
+    let repo = flexsurf::testing::repo();
+    let text = std::fs::read_to_string(repo.join("scenes/four_gore_skirt.toml")).unwrap();
+    let pattern = repo.join("garments/four_gore_skirt.toml").display().to_string();
+    let text = text.replace("../garments/four_gore_skirt.toml", &pattern);
+    let (good, bad) = (dir.join("skirt.toml"), dir.join("torn.toml"));
+    std::fs::write(&good, &text).unwrap();
+    let stiff = text.lines().map(|l| if l.starts_with("sewing_stiffness") { "sewing_stiffness = 1e9" } else { l });
+    std::fs::write(&bad, stiff.collect::<Vec<_>>().join("\n")).unwrap();
+    let (code, stdout, stderr) = flexsurf(&["check", bad.to_str().unwrap()]);
+    assert!(code == 0 && stdout.contains("ok"), "{stderr}");
+    let (code, _, stderr) = flexsurf(&["check", "--build", bad.to_str().unwrap()]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("torn.toml") && stderr.contains("`pattern`") && stderr.contains("passes through itself"));
+    let (code, stdout, stderr) = flexsurf(&["check", "--build", good.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("built — 800 nodes; pattern four_gore_skirt sewn in"), "{stdout}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
