@@ -251,8 +251,8 @@ pub const NODES: usize = 100_000_000;
 /// Most frames a run writes (`time.steps / time.output_every`).
 pub const FRAMES: usize = 1_000_000;
 /// Most steps of a garment's sewing phase (`pattern.sewing_steps`). The phase runs while the scene is built, so
-/// `flexsurf check --build` and every front end's load take it: 100,000 steps is 1,000 s of sewing at Δt = 0.01 s, over
-/// three hundred times the shipped garments' 300, and minutes of work on a fine pattern.
+/// `flexsurf check --build` and every front end's load take it: 100,000 steps is 1,000 s of sewing at
+/// Δt = 0.01 s, over three hundred times the shipped garments' 300, and minutes of work on a fine pattern.
 pub const SEWING_STEPS: usize = 100_000;
 
 /// What is wrong with a position given between steps by a script (a moved pin, a spring's new target; `None`:
