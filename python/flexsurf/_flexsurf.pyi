@@ -55,6 +55,10 @@ class Scene:
     def shape(self) -> tuple[int, ...]:
         """Shape of the position arrays: ``(M, N, 3)`` for one sheet, else ``(n, 3)`` over the model's nodes."""
     @property
+    def panels(self) -> list[dict[str, Any]]:
+        """Each sheet or panel: ``shape`` ``(M, N)``, ``nodes`` (``(M, N)`` int64, the node numbers of the
+        ``(n, 3)`` arrays) and, for a sewn garment, ``name``."""
+    @property
     def dt(self) -> float: ...
     @property
     def steps(self) -> int: ...

@@ -201,3 +201,17 @@ def test_regression_a_scene_of_several_sheets_could_not_be_run_from_python(root)
     assert r.frames.shape == (3, 74, 3) and list(r.steps) == [0, 3, 6]
     assert np.array_equal(r.frames[0][:49], flexsurf.Simulation(scene).positions[:49])
     assert np.isfinite(buf).all() and "nodes=74" in repr(sim)
+    # Each sheet's nodes in that numbering: its (M, N, 3) grid is positions[nodes].
+    first, second = scene.panels
+    assert first["shape"] == (7, 7) and second["shape"] == (5, 5) and second["nodes"][0, 0] == 49
+    assert np.array_equal(np.sort(np.concatenate([first["nodes"].ravel(), second["nodes"].ravel()])), np.arange(74))
+    assert sim.positions[second["nodes"]].shape == (5, 5, 3)
+
+
+def test_a_garment_s_panels_name_their_nodes(root):
+    scene = flexsurf.Scene.from_toml(root / "scenes" / "four_gore_skirt.toml")
+    panels = scene.panels
+    assert [p["name"] for p in panels] == ["front", "right", "back", "left"]
+    nodes = np.concatenate([p["nodes"].ravel() for p in panels])
+    # The seams join nodes of two panels: every node appears, some in two panels.
+    assert set(nodes.tolist()) == set(range(scene.shape[0])) and len(nodes) > scene.shape[0]

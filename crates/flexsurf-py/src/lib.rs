@@ -16,7 +16,7 @@ use flexsurf::material::{Calibration, Fabric};
 use flexsurf::runner::{output_steps, run_scene_with, RunOptions};
 use flexsurf::scene::material::{load_material_file, material_from_toml, ResolvedMaterial};
 use flexsurf::scene::{SceneError as LibSceneError, SceneSpec};
-use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::ndarray::{Array2, ArrayD, IxDyn};
 use numpy::IntoPyArray;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};
@@ -216,6 +216,30 @@ impl PyScene {
     #[getter]
     fn total_mass(&self) -> f64 {
         self.scene.model.total_mass()
+    }
+
+    /// The sheets or panels, in node order, each a dict: `shape` `(M, N)`, `nodes` (an `(M, N)` int64 array: the
+    /// node of `(i, j)` in the `(n, 3)` arrays' numbering, a node a seam joins appearing in both its panels) and,
+    /// for a sewn garment, the panel's `name`. `positions[panel["nodes"]]` is a panel's `(M, N, 3)` grid.
+    #[getter]
+    fn panels<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let names = self.scene.sewing.as_ref().map(|s| s.panels.clone()).unwrap_or_default();
+        let mut out = Vec::new();
+        for (k, p) in self.scene.model.panels.iter().enumerate() {
+            let g = p.grid;
+            let nodes: Vec<i64> = (0..g.m)
+                .flat_map(|i| (0..g.n).map(move |j| (i, j)))
+                .map(|(i, j)| p.nodes()[g.index(i, j)] as i64)
+                .collect();
+            let d = PyDict::new(py);
+            d.set_item("shape", (g.m, g.n))?;
+            d.set_item("nodes", Array2::from_shape_vec((g.m, g.n), nodes).map_err(sim_err)?.into_pyarray(py))?;
+            if let Some(name) = names.get(k) {
+                d.set_item("name", name)?;
+            }
+            out.push(d);
+        }
+        Ok(out)
     }
 
     fn __repr__(&self) -> String {
