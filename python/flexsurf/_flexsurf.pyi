@@ -142,7 +142,7 @@ def read_toml(path: _Path) -> dict[str, Any]:
 def run_into(
     scene: Scene, out: _Path, overwrite: bool = False
 ) -> tuple[dict[str, Any], list[int], npt.NDArray[np.float64]]:
-    """Runs ``scene`` into ``out``; the summary, the output steps and the frames ``(F, M, N, 3)``."""
+    """Runs ``scene`` into ``out``; the summary, the output steps and the frames ``(F,) + Scene.shape``."""
 
 def kes(material: _MaterialArg = None, calibration: str = "kes") -> dict[str, Any]: ...
 def cantilever(
