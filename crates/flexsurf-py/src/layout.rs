@@ -7,6 +7,7 @@ use flexsurf::math::Vec3;
 use flexsurf::model::Model;
 use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArrayDyn};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::IntoPyObjectExt;
 
@@ -23,6 +24,18 @@ impl Layout {
     /// The layout of `model`'s arrays.
     pub fn of(model: &Model) -> Self {
         model.sheet_grid().map_or(Layout::Nodes(model.nodes()), |g| Layout::Sheet(*g))
+    }
+
+    /// The one sheet's grid (`Scene.grid`, `Simulation.grid`, a node named `(i, j)`), or the error that says
+    /// a scene of several sheets has none.
+    pub fn grid(&self) -> PyResult<Grid> {
+        match self {
+            Layout::Sheet(g) => Ok(*g),
+            Layout::Nodes(n) => Err(PyValueError::new_err(format!(
+                "the scene has several sheets (or panels joined at seams), not one grid: its arrays are (n, 3) \
+                 over its {n} nodes (Scene.shape), and a node is named by its number k"
+            ))),
+        }
     }
 
     /// The shape of an array of vectors: `[M, N, 3]` or `[n, 3]`.

@@ -165,7 +165,7 @@ impl PyScene {
     /// or panels has no grid (its arrays are `(n, 3)`: `shape`).
     #[getter]
     fn grid(&self) -> PyResult<(usize, usize)> {
-        let g = simulation::one_sheet(&self.scene.model)?;
+        let g = layout::Layout::of(&self.scene.model).grid()?;
         Ok((g.m, g.n))
     }
 

@@ -6,7 +6,6 @@
 use crate::convert::vec3;
 use crate::layout::Layout;
 use crate::{sim_err, PyScene, SimulationError};
-use flexsurf::grid::Grid;
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
 use flexsurf::math::Vec3;
 use flexsurf::model::Model;
@@ -65,22 +64,10 @@ pub struct PySimulation {
     history: History,
 }
 
-/// The grid of a model of one sheet (`Scene.grid`, `Simulation.grid`, a node named `(i, j)`).
-pub(crate) fn one_sheet(model: &Model) -> PyResult<Grid> {
-    model.sheet_grid().copied().ok_or_else(|| {
-        PyValueError::new_err(format!(
-            "the scene has {} sheets (or panels joined at seams), not one grid: its arrays are (n, 3) over its \
-             {} nodes (Scene.shape), and a node is named by its number k",
-            model.panels.len(),
-            model.nodes()
-        ))
-    })
-}
-
 impl PySimulation {
     /// Node `(i, j)` of a one-sheet scene's grid.
     fn node(&self, i: usize, j: usize) -> PyResult<usize> {
-        let g = one_sheet(&self.model)?;
+        let g = self.layout.grid()?;
         if i >= g.m || j >= g.n {
             return Err(PyIndexError::new_err(format!("node ({i}, {j}) is outside the {}x{} grid", g.m, g.n)));
         }
@@ -202,7 +189,7 @@ impl PySimulation {
     /// Nodes `(M, N)` of a one-sheet scene.
     #[getter]
     fn grid(&self) -> PyResult<(usize, usize)> {
-        let g = one_sheet(&self.model)?;
+        let g = self.layout.grid()?;
         Ok((g.m, g.n))
     }
 

@@ -22,8 +22,10 @@ pub struct CheckArgs {
 
 /// `flexsurf check`: every value, file and size checked (warnings on stderr), without building the model.
 pub fn execute(args: &CheckArgs) -> Result<()> {
-    let scene_path = &args.scene;
-    let r = flexsurf::scene::check_with(scene_path, &args.limits.limits())?;
+    let (scene_path, limits) = (&args.scene, args.limits.limits());
+    // Read once: `--build` builds from the same checked spec.
+    let spec = flexsurf::scene::SceneSpec::load(scene_path)?;
+    let r = spec.check_with(scene_path, &limits)?;
     print_warnings(&r.warnings);
     let [m, n] = r.nodes;
     let sheets = if r.sheets > 1 { format!("{} sheets, the first of ", r.sheets) } else { String::new() };
@@ -42,7 +44,7 @@ pub fn execute(args: &CheckArgs) -> Result<()> {
         human(r.estimate.total()),
     );
     if args.build {
-        let scene = flexsurf::scene::SceneSpec::load(scene_path)?.build_with(scene_path, &args.limits.limits())?;
+        let scene = spec.build_with(scene_path, &limits)?;
         let sewn = scene.sewing.as_ref().map_or_else(String::new, |s| {
             let r = &s.report;
             format!(
