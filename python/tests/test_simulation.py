@@ -215,3 +215,17 @@ def test_a_garment_s_panels_name_their_nodes(root):
     nodes = np.concatenate([p["nodes"].ravel() for p in panels])
     # The seams join nodes of two panels: every node appears, some in two panels.
     assert set(nodes.tolist()) == set(range(scene.shape[0])) and len(nodes) > scene.shape[0]
+
+
+def test_regression_a_bool_stood_in_for_a_step_count_or_a_coordinate(pinned_drop):
+    sim = flexsurf.Simulation(pinned_drop)
+    with pytest.raises(TypeError, match=r"argument 'n'.*got the bool True"):
+        sim.step(True)
+    with pytest.raises(TypeError, match=r"argument 'first'.*got the bool"):
+        sim.move_pin(False, 0, [0.0, 0.0, 0.0])
+    with pytest.raises(TypeError, match=r"position: expected a sequence of 3 numbers"):
+        sim.move_pin(0, 0, [True, 0.0, 0.0])
+    with pytest.raises(TypeError, match=r"argument 'index'.*got the bool"):
+        sim.set_spring_target(False, [0.0, 0.0, 0.0])
+    assert sim.step_count == 0
+    assert sim.step(np.int64(1)) == 1  # numpy integers stay counts

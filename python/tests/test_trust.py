@@ -229,3 +229,22 @@ def test_a_unit_slip_warns_from_python_as_on_the_command_line(small_drop, tmp_pa
     lagged = {**small_drop, "integrator": {"kind": "lagged"}}
     with pytest.warns(flexsurf.FlexsurfWarning, match=r"`time\.dt`.*stability limit"):
         flexsurf.Scene.from_dict(lagged)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: flexsurf.cantilever(width=True),
+        lambda: flexsurf.cantilever(overhang=True),
+        lambda: flexsurf.cusick(specimen=True),
+        lambda: flexsurf.cusick(level=True),
+        lambda: flexsurf.cusick(index=False),
+    ],
+    ids=["cantilever width", "cantilever overhang", "cusick specimen", "cusick level", "cusick index"],
+)
+def test_regression_a_bool_stood_in_for_a_number(call):
+    # To Python True is the integer 1: cantilever(width=True) ran a 1 m wide strip and cusick(level=True) the
+    # default grid, without a word. Number and count arguments refuse bools, naming the argument.
+    with pytest.raises(TypeError, match=r"expected a (number|non-negative integer), got the bool"):
+        call()
+

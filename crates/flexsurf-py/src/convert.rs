@@ -175,11 +175,44 @@ pub fn to_py<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<B
     json_to_py(py, &json)
 }
 
-/// Three finite-or-not floats from any sequence of length 3 (the caller checks finiteness where it matters).
+/// A number argument (`f64`) that is not a bool: to Python `True` is the integer 1, so `width=True` would
+/// otherwise run a 1 m strip instead of saying the argument is wrong.
+pub struct Real(pub f64);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Real {
+    type Error = PyErr;
+
+    fn extract(value: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        not_bool(&value, "a number")?;
+        value.extract().map(Real)
+    }
+}
+
+/// A count or index argument (`usize`) that is not a bool (`level=True` is not grid level 1).
+pub struct Count(pub usize);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Count {
+    type Error = PyErr;
+
+    fn extract(value: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        not_bool(&value, "a non-negative integer")?;
+        value.extract().map(Count)
+    }
+}
+
+fn not_bool(value: &Bound<'_, PyAny>, expected: &str) -> PyResult<()> {
+    if value.is_instance_of::<PyBool>() {
+        return Err(PyTypeError::new_err(format!("expected {expected}, got the bool {value}")));
+    }
+    Ok(())
+}
+
+/// Three finite-or-not floats from any sequence of length 3 (the caller checks finiteness where it matters);
+/// bools are refused, as [`Real`] refuses them.
 pub fn vec3(value: &Bound<'_, PyAny>, what: &str) -> PyResult<flexsurf::math::Vec3> {
     let v: Vec<f64> = value
         .try_iter()
-        .and_then(|it| it.map(|x| x.and_then(|x| x.extract::<f64>())).collect())
+        .and_then(|it| it.map(|x| x.and_then(|x| x.extract::<Real>().map(|r| r.0))).collect())
         .map_err(|_| PyTypeError::new_err(format!("{what}: expected a sequence of 3 numbers, got {value}")))?;
     match v.as_slice() {
         [x, y, z] => Ok(flexsurf::math::Vec3::new(*x, *y, *z)),

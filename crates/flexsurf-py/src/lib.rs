@@ -7,7 +7,7 @@ mod convert;
 mod layout;
 mod simulation;
 
-use convert::{dict_to_table, to_py, toml_to_py};
+use convert::{dict_to_table, to_py, toml_to_py, Count, Real};
 use flexsurf::integrate::Method;
 use flexsurf::lab::cantilever::{cantilever as run_cantilever, length_problem, Direction, Strip};
 use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
@@ -415,13 +415,13 @@ fn kes<'py>(py: Python<'py>, material: Option<&Bound<'py, PyAny>>, calibration: 
 /// The cantilever (Peirce / ASTM D1388) test as a dict. `direction` is `"warp"`, `"weft"` or `"bias"`,
 /// `width` the strip width (m), `overhang` (m) default the Peirce length of the input.
 #[pyfunction]
-#[pyo3(signature = (material = None, direction = "warp", width = Strip::WIDTH, overhang = None, calibration = "kes"))]
+#[pyo3(signature = (material = None, direction = "warp", width = Real(Strip::WIDTH), overhang = None, calibration = "kes"))]
 fn cantilever<'py>(
     py: Python<'py>,
     material: Option<&Bound<'py, PyAny>>,
     direction: &str,
-    width: f64,
-    overhang: Option<f64>,
+    width: Real,
+    overhang: Option<Real>,
     calibration: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let fabric = fabric_of(py, material)?;
@@ -432,6 +432,7 @@ fn cantilever<'py>(
         "bias" => Direction::Bias,
         _ => return Err(PyValueError::new_err(format!("direction: {direction:?} must be warp, weft or bias"))),
     };
+    let (width, overhang) = (width.0, overhang.map(|o| o.0));
     if let Some(p) = overhang.and_then(length_problem) {
         return Err(PyValueError::new_err(format!("overhang: {p}")));
     }
@@ -444,15 +445,16 @@ fn cantilever<'py>(
 /// `specimen` is the diameter (m), `level` the grid (0 coarse, 1 default, 2 fine), `index` which specimen
 /// (each starts from a different small wobble of the hem; 0 is the CLI's first).
 #[pyfunction]
-#[pyo3(signature = (material = None, specimen = 0.30, level = 1, index = 0, calibration = "kes"))]
+#[pyo3(signature = (material = None, specimen = Real(0.30), level = Count(1), index = Count(0), calibration = "kes"))]
 fn cusick<'py>(
     py: Python<'py>,
     material: Option<&Bound<'py, PyAny>>,
-    specimen: f64,
-    level: usize,
-    index: usize,
+    specimen: Real,
+    level: Count,
+    index: Count,
     calibration: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (specimen, level, index) = (specimen.0, level.0, index.0);
     let fabric = fabric_of(py, material)?;
     let cal = calibration_of(calibration)?;
     if !(specimen.is_finite() && specimen > DISC) {

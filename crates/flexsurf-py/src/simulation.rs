@@ -3,7 +3,7 @@
 //! nodes: [`Layout`]), pinned nodes and spring targets moved between steps, energies, contacts and per-step
 //! timings.
 
-use crate::convert::vec3;
+use crate::convert::{vec3, Count};
 use crate::layout::Layout;
 use crate::{sim_err, PyScene, SimulationError};
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
@@ -116,8 +116,9 @@ impl PySimulation {
     /// Takes `n` steps (default 1) with the GIL released; returns the step count reached. A failed step raises
     /// `SimulationError` and leaves the state at the last good step. Signals are checked between steps (at
     /// least every [`SIGNAL_CHECK`]): Ctrl-C raises `KeyboardInterrupt`, the state at the last step taken.
-    #[pyo3(signature = (n = 1))]
-    fn step(&mut self, py: Python<'_>, n: usize) -> PyResult<usize> {
+    #[pyo3(signature = (n = Count(1)))]
+    fn step(&mut self, py: Python<'_>, n: Count) -> PyResult<usize> {
+        let n = n.0;
         let Self { model, state, stepper, last, history, motions, dt, .. } = self;
         let stepper = stepper.get_mut().unwrap_or_else(PoisonError::into_inner);
         let mut done = 0;
@@ -223,9 +224,10 @@ impl PySimulation {
     /// it moving at `(position − previous)/Δt`. `move_pin(i, j, position)` names node `(i, j)` of a one-sheet
     /// scene's grid, `move_pin(k, position)` node `k` of any scene (the `(n, 3)` arrays' numbering).
     #[pyo3(signature = (first, second, third = None))]
-    fn move_pin(&mut self, first: usize, second: &Bound<'_, PyAny>, third: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    fn move_pin(&mut self, first: Count, second: &Bound<'_, PyAny>, third: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let first = first.0;
         let (k, position) = match third {
-            Some(position) => (self.node(first, second.extract()?)?, position),
+            Some(position) => (self.node(first, second.extract::<Count>()?.0)?, position),
             None => (self.numbered(first)?, second),
         };
         let p = scripted(position, "position")?;
@@ -248,9 +250,9 @@ impl PySimulation {
     }
 
     /// Moves the target of spring `index` to `target` (m) before the next step.
-    fn set_spring_target(&mut self, index: usize, target: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_spring_target(&mut self, index: Count, target: &Bound<'_, PyAny>) -> PyResult<()> {
         let t = scripted(target, "target")?;
-        self.model.set_spring_target(index, t).map_err(|e| PyValueError::new_err(e.to_string()))
+        self.model.set_spring_target(index.0, t).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
     /// Energies of the current state (J): `kinetic`, `membrane`, `bending`, `potential` (gravity and loads),

@@ -608,7 +608,8 @@ impl Model {
 
     /// Moves pinned node `node` to `position` in `state`, between steps (scripted manipulation, a gripper).
     /// The node's previous position is kept, so the next step sees the pin moving at
-    /// `(position − x_prev)/Δt`; the step holds the node exactly where it was put.
+    /// `(position − x_prev)/Δt`; the step holds the node exactly where it was put. A position outside the
+    /// scenes' coordinate bound (±1e6 m, `ranges::position_problem`) is refused.
     pub fn move_pin(&self, state: &mut State, node: usize, position: Vec3) -> Result<(), ModelError> {
         if node >= self.nodes() || node >= state.x.len() {
             return Err(model_error("pinned", format!("node {node} is outside the model of {} nodes", self.nodes())));
@@ -616,17 +617,18 @@ impl Model {
         if !self.pinned()[node] {
             return Err(model_error("pinned", format!("node {node} is not pinned")));
         }
-        if !finite(position) {
-            return Err(model_error("pinned", format!("position {position} of node {node} is not finite")));
+        if let Some(problem) = crate::ranges::position_problem(position) {
+            return Err(model_error("pinned", format!("position of node {node}: {problem}")));
         }
         state.x[node] = position;
         Ok(())
     }
 
-    /// Moves the target of spring `index` (in the order of [`Model::springs`]) to `target`, between steps.
+    /// Moves the target of spring `index` (in the order of [`Model::springs`]) to `target`, between steps
+    /// (within ±1e6 m, as [`Model::move_pin`]).
     pub fn set_spring_target(&mut self, index: usize, target: Vec3) -> Result<(), ModelError> {
-        if !finite(target) {
-            return Err(model_error("springs", format!("target {target} of spring {index} is not finite")));
+        if let Some(problem) = crate::ranges::position_problem(target) {
+            return Err(model_error("springs", format!("target of spring {index}: {problem}")));
         }
         if self.potential.find_mut::<Springs>().is_some_and(|s| s.set_target(index, target)) {
             Ok(())

@@ -589,4 +589,13 @@ fn pins_and_spring_targets_move_between_steps() {
     assert!(model.move_pin(&mut state, pin, Vec3::new(f64::NAN, 0.0, 0.0)).is_err(), "not finite");
     assert!(model.set_spring_target(1, Vec3::ZERO).is_err(), "no such spring");
     assert!(model.set_spring_target(0, Vec3::splat(f64::INFINITY)).is_err(), "not finite");
+    // Beyond the scenes' coordinate bound (±1e6 m) the energies' squared lengths overflow to a NaN at the next
+    // step: refused where the position is given, as a scene file's are, with the state untouched.
+    let far = Vec3::new(0.0, 2e6, 0.0);
+    let e = model.move_pin(&mut state, pin, far).unwrap_err().to_string();
+    assert!(e.contains("outside the accepted range ±1e6 m"), "{e}");
+    assert_eq!(state.x[pin], rest[pin] + up * 5.0);
+    let e = model.set_spring_target(0, far).unwrap_err().to_string();
+    assert!(e.contains("outside the accepted range ±1e6 m"), "{e}");
+    assert_eq!(model.springs()[0].target, rest[held] + up);
 }
