@@ -433,8 +433,10 @@ fn cantilever<'py>(
         _ => return Err(PyValueError::new_err(format!("direction: {direction:?} must be warp, weft or bias"))),
     };
     let (width, overhang) = (width.0, overhang.map(|o| o.0));
-    if let Some(p) = overhang.and_then(length_problem) {
-        return Err(PyValueError::new_err(format!("overhang: {p}")));
+    for (name, value) in [("width", Some(width)), ("overhang", overhang)] {
+        if let Some(p) = value.and_then(length_problem) {
+            return Err(PyValueError::new_err(format!("{name}: {p}")));
+        }
     }
     let strip = Strip { direction, width };
     let report = py.detach(|| run_cantilever(&fabric, cal, strip, overhang)).map_err(sim_err)?;
