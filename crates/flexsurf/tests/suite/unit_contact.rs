@@ -95,6 +95,59 @@ mod contact {
         assert!((found[0].distance + 0.01).abs() < 1e-6, "{:?}", found[0]);
     }
 
+    /// Detection with a node's cache kept from step to step finds what a cold detection finds: the same
+    /// contacts, at the same distances to the projection's tolerance, on nodes swinging in and out of the
+    /// mannequin's layer, beside a ball and a floor and alone (planes and balls answer every query: alone, the
+    /// queries that find nothing leave the bounds). The queries look past the step's reach and leave bounds
+    /// that skip the next detections ("Contact queries that look ahead", docs/performance.md).
+    #[test]
+    fn a_warm_detection_finds_what_a_cold_one_finds() {
+        let body = std::sync::Arc::new(flexsurf::contact::mannequin::generate());
+        let hip = body.closest(Vec3::new(0.0, 0.3, 0.95), None);
+        let ball = Obstacle::Sphere { center: hip.point + Vec3::new(0.0, 0.3, 0.0), radius: 0.1 };
+        let floor = Obstacle::Plane { point: Vec3::new(0.0, 0.0, hip.point.z - 0.1), normal: Vec3::Z };
+        let obstacles = [Obstacle::Nurbs(body), ball, floor];
+        for obstacles in [&obstacles[..], &obstacles[..1]] {
+            let touched = warm_and_cold(obstacles, hip.point, hip.normal);
+            assert!(touched > 200, "{} obstacles: the nodes met the layers {touched} times", obstacles.len());
+        }
+    }
+
+    /// Sixty nodes swung along `normal` from `point` for 200 steps, detected with a kept cache and a fresh
+    /// one: asserts they find the same contacts; returns how many.
+    fn warm_and_cold(obstacles: &[Obstacle], point: Vec3, normal: Vec3) -> usize {
+        use flexsurf::potential::contact::{detect_predicted, Contact, ContactParams};
+        use rand::{Rng, SeedableRng};
+        let params = ContactParams { stiffness: 1e4, offset: 0.005, ..ContactParams::default() };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // Node k swings about 1.5 cm out, 3 cm either way, with its own phase, and jitters by up to 2 mm; the
+        // row spreads 30 cm sideways, to the ball.
+        let at = |k: usize, t: f64, jitter: Vec3| {
+            let swing = 0.015 + 0.03 * (0.08 * t + 0.37 * k as f64).sin();
+            point + normal * swing + Vec3::new(0.0, 0.005 * k as f64, 0.0) + jitter
+        };
+        let mut jitter = || Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0) * 0.002;
+        let mut x: Vec<Vec3> = (0..60).map(|k| at(k, 0.0, Vec3::ZERO)).collect();
+        let area = vec![1e-4; x.len()];
+        let mut cache = ContactCache::new(obstacles.len(), x.len());
+        let (mut warm, mut cold, mut touched) = (Vec::new(), Vec::new(), 0);
+        for step in 1..=200 {
+            let y: Vec<Vec3> = (0..x.len()).map(|k| at(k, step as f64, jitter())).collect();
+            detect_predicted(obstacles, &params, &area, &x, &y, &mut cache, &mut warm);
+            let mut fresh = ContactCache::new(obstacles.len(), x.len());
+            detect_predicted(obstacles, &params, &area, &x, &y, &mut fresh, &mut cold);
+            let key = |c: &Contact| (c.node(), c.distance);
+            let (w, c): (Vec<_>, Vec<_>) = (warm.iter().map(key).collect(), cold.iter().map(key).collect());
+            assert_eq!(w.len(), c.len(), "step {step}: {w:?} against {c:?}");
+            for ((kw, dw), (kc, dc)) in w.iter().zip(&c) {
+                assert!(kw == kc && (dw - dc).abs() < 1e-9, "step {step}: {w:?} against {c:?}");
+            }
+            touched += w.len();
+            x = y;
+        }
+        touched
+    }
+
     #[test]
     fn sphere_and_plane_distances() {
         let s = Obstacle::Sphere { center: Vec3::ZERO, radius: 0.3 };
