@@ -274,7 +274,7 @@ pub fn detect(obstacles: &[Obstacle], params: &ContactParams, area: &[f64], x: &
 }
 
 /// How many times a step's reach [`detect_predicted`]'s queries look (docs/performance.md, "Contact queries
-/// that look ahead": on `scenes/skirt.toml` the contact stage 0.65 → 0.31 s, alike from 1.5 to 5).
+/// that look ahead": on `scenes/skirt.toml` the contact stage 0.62 → 0.28 s, alike from 1.5 to 5).
 const LOOK_AHEAD: f64 = 2.0;
 
 /// Contact candidates for a step from `x` whose motion is predicted to reach `predicted`: nodes already inside
