@@ -175,36 +175,24 @@ pub fn to_py<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<B
     json_to_py(py, &json)
 }
 
-/// A number argument (`f64`) that is not a bool: to Python `True` is the integer 1, so `width=True` would
-/// otherwise run a 1 m strip instead of saying the argument is wrong.
-pub struct Real(pub f64);
+/// A number argument that is not a bool: to Python `True` is the integer 1, so `width=True` would otherwise run
+/// a 1 m strip and `level=True` grid level 1 instead of saying the argument is wrong.
+pub struct NotBool<T>(pub T);
 
-impl<'a, 'py> FromPyObject<'a, 'py> for Real {
+/// A length, a diameter, any `f64` argument.
+pub type Real = NotBool<f64>;
+/// A count or an index.
+pub type Count = NotBool<usize>;
+
+impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for NotBool<T> {
     type Error = PyErr;
 
     fn extract(value: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
-        not_bool(&value, "a number")?;
-        value.extract().map(Real)
+        if value.is_instance_of::<PyBool>() {
+            return Err(PyTypeError::new_err(format!("expected a number, got the bool {}", &*value)));
+        }
+        value.extract().map(NotBool).map_err(Into::into)
     }
-}
-
-/// A count or index argument (`usize`) that is not a bool (`level=True` is not grid level 1).
-pub struct Count(pub usize);
-
-impl<'a, 'py> FromPyObject<'a, 'py> for Count {
-    type Error = PyErr;
-
-    fn extract(value: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
-        not_bool(&value, "a non-negative integer")?;
-        value.extract().map(Count)
-    }
-}
-
-fn not_bool(value: &Bound<'_, PyAny>, expected: &str) -> PyResult<()> {
-    if value.is_instance_of::<PyBool>() {
-        return Err(PyTypeError::new_err(format!("expected {expected}, got the bool {value}")));
-    }
-    Ok(())
 }
 
 /// Three finite-or-not floats from any sequence of length 3 (the caller checks finiteness where it matters);

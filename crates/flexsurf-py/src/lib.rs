@@ -7,7 +7,7 @@ mod convert;
 mod layout;
 mod simulation;
 
-use convert::{dict_to_table, to_py, toml_to_py, Count, Real};
+use convert::{dict_to_table, to_py, toml_to_py, Count, NotBool, Real};
 use flexsurf::integrate::Method;
 use flexsurf::lab::cantilever::{cantilever as run_cantilever, length_problem, Direction, Strip};
 use flexsurf::lab::cusick::{cusick_specimen, default_grid, DISC};
@@ -415,7 +415,7 @@ fn kes<'py>(py: Python<'py>, material: Option<&Bound<'py, PyAny>>, calibration: 
 /// The cantilever (Peirce / ASTM D1388) test as a dict. `direction` is `"warp"`, `"weft"` or `"bias"`,
 /// `width` the strip width (m), `overhang` (m) default the Peirce length of the input.
 #[pyfunction]
-#[pyo3(signature = (material = None, direction = "warp", width = Real(Strip::WIDTH), overhang = None, calibration = "kes"))]
+#[pyo3(signature = (material = None, direction = "warp", width = NotBool(Strip::WIDTH), overhang = None, calibration = "kes"))]
 fn cantilever<'py>(
     py: Python<'py>,
     material: Option<&Bound<'py, PyAny>>,
@@ -447,7 +447,7 @@ fn cantilever<'py>(
 /// `specimen` is the diameter (m), `level` the grid (0 coarse, 1 default, 2 fine), `index` which specimen
 /// (each starts from a different small wobble of the hem; 0 is the CLI's first).
 #[pyfunction]
-#[pyo3(signature = (material = None, specimen = Real(0.30), level = Count(1), index = Count(0), calibration = "kes"))]
+#[pyo3(signature = (material = None, specimen = NotBool(0.30), level = NotBool(1), index = NotBool(0), calibration = "kes"))]
 fn cusick<'py>(
     py: Python<'py>,
     material: Option<&Bound<'py, PyAny>>,

@@ -3,7 +3,7 @@
 //! nodes: [`Layout`]), pinned nodes and spring targets moved between steps, energies, contacts and per-step
 //! timings.
 
-use crate::convert::{vec3, Count};
+use crate::convert::{vec3, Count, NotBool};
 use crate::layout::Layout;
 use crate::{sim_err, PyScene, SimulationError};
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
@@ -116,7 +116,7 @@ impl PySimulation {
     /// Takes `n` steps (default 1) with the GIL released; returns the step count reached. A failed step raises
     /// `SimulationError` and leaves the state at the last good step. Signals are checked between steps (at
     /// least every [`SIGNAL_CHECK`]): Ctrl-C raises `KeyboardInterrupt`, the state at the last step taken.
-    #[pyo3(signature = (n = Count(1)))]
+    #[pyo3(signature = (n = NotBool(1)))]
     fn step(&mut self, py: Python<'_>, n: Count) -> PyResult<usize> {
         let n = n.0;
         let Self { model, state, stepper, last, history, motions, dt, .. } = self;
