@@ -371,8 +371,13 @@ impl Faces {
     /// Every edge that passes through a triangle it shares no node with at `x`, as [`Faces::crossing`]
     /// finds the first: `(edge, triangle)`, sorted.
     pub fn crossings(&self, x: &[Vec3]) -> Vec<(usize, usize)> {
+        self.crossings_in(&mut Tree::default(), x)
+    }
+
+    /// [`Faces::crossings`] through `tree`, refit to the triangles' boxes at `x` (or built: [`Tree::update`]);
+    /// the answer does not depend on the tree.
+    pub fn crossings_in(&self, tree: &mut Tree, x: &[Vec3]) -> Vec<(usize, usize)> {
         let Near { edges, triangles: tris, .. } = Near::new(self, Self::node_boxes(x, None), 0.0);
-        let mut tree = Tree::default();
         tree.update(&tris);
         let r = |k: usize| self.representative(k);
         let apart = |e: usize, t: usize| {

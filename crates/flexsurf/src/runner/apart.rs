@@ -24,7 +24,7 @@
 //! with an exact intersection test written apart from it.
 
 use super::fields::{coons_mesh, display_counts, display_stencils, seam_vertex_pairs};
-use crate::contact::proximity::Faces;
+use crate::contact::proximity::{Broad, Faces, Tree};
 use crate::math::Vec3;
 use crate::model::Model;
 use crate::potential::self_contact::SelfContact;
@@ -80,12 +80,13 @@ impl Bulges {
 }
 
 /// The display vertices of the pairs that are too close at `x` or cross, sorted and each once.
-fn offending(faces: &Faces, x: &[Vec3], tolerance: f64) -> Vec<usize> {
+fn offending(faces: &Faces, (broad, crossing): (&mut Broad, &mut Tree), x: &[Vec3], tolerance: f64) -> Vec<usize> {
+    let candidates = faces.candidates_in(broad, x, None, tolerance);
     let mut vertices: Vec<usize> = faces
-        .close(x, tolerance)
+        .close_among(&candidates, x, tolerance, false)
         .into_iter()
         .flat_map(|c| c.nodes)
-        .chain(faces.crossings(x).into_iter().flat_map(|(e, t)| {
+        .chain(faces.crossings_in(crossing, x).into_iter().flat_map(|(e, t)| {
             let ([a, b], [c, d, f]) = (faces.edges[e], faces.triangles[t]);
             [a, b, c, d, f]
         }))
@@ -104,13 +105,28 @@ pub struct Apart {
     pub flattened: usize,
 }
 
+/// What the searches of [`keep_apart`] keep from one display mesh of a run to the next: the display's faces
+/// (the same for every frame of a model and subdivision) and the trees of their proximity and crossing searches,
+/// refit to each frame's boxes instead of built anew ([`Tree::update`]; the answers do not depend on the trees).
+#[derive(Default)]
+pub struct ApartCache {
+    faces: Option<(usize, Faces)>,
+    broad: Broad,
+    crossing: Tree,
+}
+
 /// The display mesh of the node positions `x` with `k` subdivisions, the Coons surface of every panel
 /// ([`coons_mesh`]), with the bulges cut where it would meet itself (module docs). Models without self-contact
 /// promise nothing about their surface meeting itself and get the Coons surface as it is.
 pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
+    display_mesh_with(model, x, k, &mut ApartCache::default())
+}
+
+/// [`display_mesh`] with the searches' `cache` of the run's earlier frames (the same model and `k`).
+pub fn display_mesh_with(model: &Model, x: &[Vec3], k: usize, cache: &mut ApartCache) -> TriMesh {
     let mut mesh = coons_mesh(&model.panels, x, k);
     if model.potential.find::<SelfContact>().is_some() {
-        keep_apart(model, x, k, &mut mesh);
+        keep_apart_with(model, x, k, &mut mesh, cache);
     }
     mesh
 }
@@ -120,6 +136,11 @@ pub fn display_mesh(model: &Model, x: &[Vec3], k: usize) -> TriMesh {
 /// moved mesh's face-averaged ones. A mesh or positions of another size than the model's (not its display
 /// mesh) are left as they are.
 pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Apart {
+    keep_apart_with(model, x, k, mesh, &mut ApartCache::default())
+}
+
+/// [`keep_apart`] with the searches' `cache` of the run's earlier frames.
+fn keep_apart_with(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh, cache: &mut ApartCache) -> Apart {
     let k = k.max(1);
     let fits = x.len() == model.nodes()
         && mesh.positions.len()
@@ -131,15 +152,19 @@ pub fn keep_apart(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh) -> Ap
     }
     let spacing = model.panels.iter().map(|p| p.grid.h1.min(p.grid.h2)).fold(f64::INFINITY, f64::min);
     let tolerance = 1e-6 * spacing / k as f64;
-    let triangles: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
-    let faces = Faces::of_triangles(mesh.positions.len(), &triangles).with_joined(&seam_vertex_pairs(model, k));
+    if cache.faces.as_ref().is_none_or(|(ck, f)| *ck != k || f.nodes() != mesh.positions.len()) {
+        let triangles: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
+        let faces = Faces::of_triangles(mesh.positions.len(), &triangles).with_joined(&seam_vertex_pairs(model, k));
+        *cache = ApartCache { faces: Some((k, faces)), ..ApartCache::default() };
+    }
+    let ApartCache { faces: Some((_, faces)), broad, crossing } = cache else { unreachable!("set above") };
     let bulges = Bulges::new(model, x, k, mesh);
     let mut share = vec![1.0_f64; x.len()];
     let mut report = Apart::default();
     let mut positions = mesh.positions.clone();
     loop {
         report.passes += 1;
-        let mut nodes: Vec<usize> = offending(&faces, &positions, tolerance)
+        let mut nodes: Vec<usize> = offending(faces, (broad, crossing), &positions, tolerance)
             .into_iter()
             .flat_map(|v| bulges.corners[v])
             .filter(|&n| share[n] > 0.0)

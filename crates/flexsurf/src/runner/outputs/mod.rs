@@ -28,7 +28,8 @@ pub use snapshots::{
     obstacle_drawables, render_frame, view_for, Snapshot, CLOTH_COLOR, MAX_SNAPSHOTS, OBSTACLE_COLOR, PLANE_COLOR,
 };
 
-use super::fields::{display_mesh, frame_fields, FrameFields};
+use super::apart::{display_mesh_with, ApartCache};
+use super::fields::{frame_fields, FrameFields};
 use super::{RunError, RunOutput, Summary};
 use crate::scene::Scene;
 use crate::state::State;
@@ -147,12 +148,14 @@ pub fn standard<'a>(cx: &Context<'a>) -> Vec<Box<dyn Output + 'a>> {
 pub(crate) struct Outputs<'a> {
     cx: Context<'a>,
     list: Vec<Box<dyn Output + 'a>>,
+    /// The display meshes' searches kept from frame to frame.
+    apart: ApartCache,
 }
 
 impl<'a> Outputs<'a> {
     /// The outputs `list` of the run `cx`.
     pub fn new(cx: Context<'a>, list: Vec<Box<dyn Output + 'a>>) -> Self {
-        Self { cx, list }
+        Self { cx, list, apart: ApartCache::default() }
     }
 
     /// Every file of every output, in their order.
@@ -179,8 +182,8 @@ impl<'a> Outputs<'a> {
     pub fn record(&mut self, state: &State) -> Result<(), RunError> {
         let scene = self.cx.scene;
         let k = scene.output.coons_subdivisions;
-        let display =
-            self.cx.animation.binary_search(&state.step).is_ok().then(|| display_mesh(&scene.model, &state.x, k));
+        let display = (self.cx.animation.binary_search(&state.step).is_ok())
+            .then(|| display_mesh_with(&scene.model, &state.x, k, &mut self.apart));
         let mesh = display.as_ref().filter(|_| self.cx.steps.binary_search(&state.step).is_ok());
         let frame = Frame { state, mesh, display: display.as_ref(), scene, fields: OnceCell::new() };
         self.list.iter_mut().try_for_each(|o| o.record(&frame))
