@@ -7,9 +7,7 @@ use crate::convert::{vec3, Count, NotBool};
 use crate::layout::Layout;
 use crate::{sim_err, PyScene, SimulationError};
 use flexsurf::integrate::{max_penetration, Method, StepInfo, Stepper};
-use flexsurf::math::Vec3;
 use flexsurf::model::Model;
-use flexsurf::ranges;
 use flexsurf::state::State;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
@@ -230,7 +228,7 @@ impl PySimulation {
             Some(position) => (self.node(first, second.extract::<Count>()?.0)?, position),
             None => (self.numbered(first)?, second),
         };
-        let p = scripted(position, "position")?;
+        let p = vec3(position, "position")?;
         self.model.move_pin(&mut self.state, k, p).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -251,7 +249,7 @@ impl PySimulation {
 
     /// Moves the target of spring `index` to `target` (m) before the next step.
     fn set_spring_target(&mut self, index: Count, target: &Bound<'_, PyAny>) -> PyResult<()> {
-        let t = scripted(target, "target")?;
+        let t = vec3(target, "target")?;
         self.model.set_spring_target(index.0, t).map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -344,14 +342,4 @@ fn lower_first(e: &impl std::fmt::Display) -> String {
     let text = e.to_string();
     let mut chars = text.chars();
     chars.next().map_or_else(String::new, |c| c.to_lowercase().chain(chars).collect())
-}
-
-/// A position a script gives between steps, within the scene's coordinate bound (`move_pin(…, 1e300)` left the
-/// energies NaN).
-fn scripted(value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec3> {
-    let p = vec3(value, what)?;
-    match ranges::position_problem(p) {
-        Some(problem) => Err(PyValueError::new_err(format!("{what}: {problem}"))),
-        None => Ok(p),
-    }
 }

@@ -618,7 +618,7 @@ impl Model {
             return Err(model_error("pinned", format!("node {node} is not pinned")));
         }
         if let Some(problem) = crate::ranges::position_problem(position) {
-            return Err(model_error("pinned", format!("position of node {node}: {problem}")));
+            return Err(model_error("pinned", format!("node {node}'s position: {problem}")));
         }
         state.x[node] = position;
         Ok(())
@@ -628,7 +628,7 @@ impl Model {
     /// (within ±1e6 m, as [`Model::move_pin`]).
     pub fn set_spring_target(&mut self, index: usize, target: Vec3) -> Result<(), ModelError> {
         if let Some(problem) = crate::ranges::position_problem(target) {
-            return Err(model_error("springs", format!("target of spring {index}: {problem}")));
+            return Err(model_error("springs", format!("spring {index}'s target: {problem}")));
         }
         if self.potential.find_mut::<Springs>().is_some_and(|s| s.set_target(index, target)) {
             Ok(())

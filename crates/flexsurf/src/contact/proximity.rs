@@ -273,7 +273,13 @@ impl Faces {
 
     /// The pairs closer than `radius` at `x`, with their closest points, in the candidates' order.
     pub fn close(&self, x: &[Vec3], radius: f64) -> Vec<Closest> {
-        let candidates = self.candidates(x, None, radius);
+        self.close_in(&mut Broad::default(), x, radius)
+    }
+
+    /// [`Faces::close`] through the trees of `broad` ([`Faces::candidates_in`]); the answer does not depend on
+    /// the trees.
+    pub fn close_in(&self, broad: &mut Broad, x: &[Vec3], radius: f64) -> Vec<Closest> {
+        let candidates = self.candidates_in(broad, x, None, radius);
         self.close_among(&candidates, x, radius, false)
     }
 

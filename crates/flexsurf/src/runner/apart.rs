@@ -81,9 +81,8 @@ impl Bulges {
 
 /// The display vertices of the pairs that are too close at `x` or cross, sorted and each once.
 fn offending(faces: &Faces, (broad, crossing): (&mut Broad, &mut Tree), x: &[Vec3], tolerance: f64) -> Vec<usize> {
-    let candidates = faces.candidates_in(broad, x, None, tolerance);
     let mut vertices: Vec<usize> = faces
-        .close_among(&candidates, x, tolerance, false)
+        .close_in(broad, x, tolerance)
         .into_iter()
         .flat_map(|c| c.nodes)
         .chain(faces.crossings_in(crossing, x).into_iter().flat_map(|(e, t)| {
