@@ -74,21 +74,23 @@ def test_regression_a_numpy_array_could_not_stand_in_a_scene(small_drop):
 def test_sigint_during_a_long_step_raises_keyboard_interrupt(small_drop):
     sim = flexsurf.Simulation(flexsurf.Scene.from_dict(small_drop))
     # Python turns SIGINT into KeyboardInterrupt only where it started with SIGINT's default disposition: a
-    # test run launched in the background by a non-interactive shell (`cmd &`, `nohup`) inherits SIGINT
-    # ignored, and the signal below would be lost (the step then ran its 10**7 steps; seen on 2026-12-07).
-    # What a Ctrl-C does is Python's handler, so the test installs it.
+    # test run launched in the background by a non-interactive shell (`cmd &`) inherits SIGINT ignored, and the
+    # signal below was lost (the step then ran on, seen on 2026-12-07). What a Ctrl-C does is Python's handler,
+    # so the test installs it; and the step is long (about 20 s at 0.5 ms a step) but bounded, so that a lost
+    # signal fails the test instead of running past CI's limit.
+    steps = 40_000
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            sim.step(10**7)
+            sim.step(steps)
     finally:
         timer.cancel()
         signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - start < 10
-    assert 0 < sim.step_count < 10**7
+    assert 0 < sim.step_count < steps
     sim.step(1)  # the state is the last step's, and stepping goes on
 
 
