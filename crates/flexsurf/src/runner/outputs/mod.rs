@@ -182,8 +182,8 @@ impl<'a> Outputs<'a> {
     pub fn record(&mut self, state: &State) -> Result<(), RunError> {
         let scene = self.cx.scene;
         let k = scene.output.coons_subdivisions;
-        let display = (self.cx.animation.binary_search(&state.step).is_ok())
-            .then(|| display_mesh_with(&scene.model, &state.x, k, &mut self.apart));
+        let animated = self.cx.animation.binary_search(&state.step).is_ok();
+        let display = animated.then(|| display_mesh_with(&scene.model, &state.x, k, &mut self.apart));
         let mesh = display.as_ref().filter(|_| self.cx.steps.binary_search(&state.step).is_ok());
         let frame = Frame { state, mesh, display: display.as_ref(), scene, fields: OnceCell::new() };
         self.list.iter_mut().try_for_each(|o| o.record(&frame))
