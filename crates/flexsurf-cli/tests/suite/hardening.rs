@@ -210,6 +210,50 @@ fn kill(signal: &str, pid: u32) {
     let _ = Command::new("kill").args([&format!("-{signal}"), &pid.to_string()]).status();
 }
 
+/// `flexsurf run` started the way a shell script starts a background job (`flexsurf run … &`: SIGINT
+/// ignored, here by `trap '' INT` before `exec`) keeps ignoring SIGINT, as the shell's own commands do: a
+/// SIGINT sent while it steps leaves it running to its normal end; SIGTERM still stops it.
+#[cfg(unix)]
+#[test]
+fn a_run_started_with_sigint_ignored_keeps_ignoring_it() {
+    let d = scratch("ignored");
+    let text = std::fs::read_to_string(small_drop(&d)).unwrap();
+    // Long enough (about a second here) for the signal to arrive while it steps; one frame at the end.
+    let text = text.replace("steps = 150", "steps = 2000").replace("output_every = 25", "output_every = 2000");
+    let scene = d.join("long.toml");
+    std::fs::write(&scene, text).unwrap();
+    let run = |tag: &str, signal: &str| {
+        let out = d.join(tag);
+        let mut child = Command::new("sh")
+            .args(["-c", "trap '' INT; exec \"$0\" \"$@\"", BIN, "run", scene.to_str().unwrap()])
+            .args(["--out", out.to_str().unwrap()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = Instant::now();
+        while !out.join("energy.csv").exists() && started.elapsed() < Duration::from_secs(30) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+        let running = child.try_wait().unwrap().is_none();
+        kill(signal, child.id());
+        let status = child.wait().unwrap();
+        let mut err = String::new();
+        child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        (running, status.code(), summary["interrupted"].clone(), err)
+    };
+    let (running, code, interrupted, err) = run("int", "INT");
+    assert!(running, "the run ended before the signal: the test proves nothing ({err})");
+    assert_eq!((code, interrupted), (Some(0), serde_json::Value::Bool(false)), "{err}");
+    let (running, code, interrupted, err) = run("term", "TERM");
+    assert!(running, "the run ended before the signal: the test proves nothing ({err})");
+    assert_eq!((code, interrupted), (Some(143), serde_json::Value::Bool(true)), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
 #[cfg(unix)]
 #[test]
 fn killed_at_random_moments_the_run_resumes_byte_identically() {
