@@ -6,7 +6,7 @@
 use flexsurf::testing::{assert_same_outputs, files};
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_flexsurf");
@@ -210,6 +210,24 @@ fn kill(signal: &str, pid: u32) {
     let _ = Command::new("kill").args([&format!("-{signal}"), &pid.to_string()]).status();
 }
 
+/// Starts `command` (a `flexsurf run` writing to `out`), waits until it steps (its `energy.csv` appears), then
+/// `after`, and sends it `signal`. Returns whether it was still running when signalled, its exit status and its
+/// standard error.
+fn signalled(mut command: Command, out: &Path, after: Duration, signal: &str) -> (bool, ExitStatus, String) {
+    let mut child = command.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let started = Instant::now();
+    while !out.join("energy.csv").exists() && started.elapsed() < Duration::from_secs(30) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    std::thread::sleep(after);
+    let running = child.try_wait().unwrap().is_none();
+    kill(signal, child.id());
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (running, status, err)
+}
+
 /// `flexsurf run` started the way a shell script starts a background job (`flexsurf run … &`: SIGINT
 /// ignored, here by `trap '' INT` before `exec`) keeps ignoring SIGINT, as the shell's own commands do: a
 /// SIGINT sent while it steps leaves it running to its normal end; SIGTERM still stops it.
@@ -224,23 +242,10 @@ fn a_run_started_with_sigint_ignored_keeps_ignoring_it() {
     std::fs::write(&scene, text).unwrap();
     let run = |tag: &str, signal: &str| {
         let out = d.join(tag);
-        let mut child = Command::new("sh")
-            .args(["-c", "trap '' INT; exec \"$0\" \"$@\"", BIN, "run", scene.to_str().unwrap()])
-            .args(["--out", out.to_str().unwrap()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let started = Instant::now();
-        while !out.join("energy.csv").exists() && started.elapsed() < Duration::from_secs(30) {
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        std::thread::sleep(Duration::from_millis(100));
-        let running = child.try_wait().unwrap().is_none();
-        kill(signal, child.id());
-        let status = child.wait().unwrap();
-        let mut err = String::new();
-        child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        let mut sh = Command::new("sh");
+        sh.args(["-c", "trap '' INT; exec \"$0\" \"$@\"", BIN, "run", scene.to_str().unwrap()]);
+        sh.args(["--out", out.to_str().unwrap()]);
+        let (running, status, err) = signalled(sh, &out, Duration::from_millis(100), signal);
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
         (running, status.code(), summary["interrupted"].clone(), err)
@@ -274,22 +279,10 @@ fn killed_at_random_moments_the_run_resumes_byte_identically() {
     let mut interrupted = 0;
     for (round, signal) in ["TERM", "INT", "KILL", "TERM", "KILL", "INT"].iter().enumerate() {
         let out = d.join(format!("run-{round}"));
-        let mut child = Command::new(BIN)
-            .args(["run", scene, "--out", out.to_str().unwrap(), "--checkpoint-every", "10"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        // Wait for the run to start stepping (the manifest appears), then a random part of its duration.
-        let started = Instant::now();
-        while !out.join("energy.csv").exists() && started.elapsed() < Duration::from_secs(30) {
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        std::thread::sleep(full.mul_f64(0.1 + 0.6 * next()));
-        kill(signal, child.id());
-        let status = child.wait().unwrap();
-        let mut err = String::new();
-        child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        let mut run = Command::new(BIN);
+        run.args(["run", scene, "--out", out.to_str().unwrap(), "--checkpoint-every", "10"]);
+        // A random part of its duration after it starts stepping.
+        let (_, status, err) = signalled(run, &out, full.mul_f64(0.1 + 0.6 * next()), signal);
         let finished_first = status.code() == Some(0);
         match (*signal, finished_first) {
             (_, true) => {} // the run ended before the signal; nothing to resume
