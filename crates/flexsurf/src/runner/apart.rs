@@ -151,12 +151,17 @@ fn keep_apart_with(model: &Model, x: &[Vec3], k: usize, mesh: &mut TriMesh, cach
     }
     let spacing = model.panels.iter().map(|p| p.grid.h1.min(p.grid.h2)).fold(f64::INFINITY, f64::min);
     let tolerance = 1e-6 * spacing / k as f64;
-    if cache.faces.as_ref().is_none_or(|(ck, f)| *ck != k || f.nodes() != mesh.positions.len()) {
-        let triangles: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
-        let faces = Faces::of_triangles(mesh.positions.len(), &triangles).with_joined(&seam_vertex_pairs(model, k));
-        *cache = ApartCache { faces: Some((k, faces)), ..ApartCache::default() };
-    }
-    let ApartCache { faces: Some((_, faces)), broad, crossing } = cache else { unreachable!("set above") };
+    let ApartCache { faces, broad, crossing } = cache;
+    let faces = match faces {
+        Some((ck, f)) if *ck == k && f.nodes() == mesh.positions.len() => f,
+        slot => {
+            // Another mesh: its faces anew, and trees built for them.
+            let triangles: Vec<[usize; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as usize)).collect();
+            let made = Faces::of_triangles(mesh.positions.len(), &triangles).with_joined(&seam_vertex_pairs(model, k));
+            (*broad, *crossing) = (Broad::default(), Tree::default());
+            &mut slot.insert((k, made)).1
+        }
+    };
     let bulges = Bulges::new(model, x, k, mesh);
     let mut share = vec![1.0_f64; x.len()];
     let mut report = Apart::default();
