@@ -2,7 +2,8 @@
 //! issue 23, item 2): per step the largest distance between their nodes and, for each run, its contacts, solves,
 //! re-solves, corrections, iterations, relative Newton residual and Newton iterations. `SCENE=path.toml cargo run
 //! --release -p flexsurf --example tolerance_trace -- N STEPS auto|cholesky|multigrid TOL_A TOL_B` (the scene's
-//! sheet at N × N).
+//! sheet at N × N). `SCENE_B=other.toml`: the second run is of that scene instead (two inputs a relative 1e-12
+//! apart in one number, at one tolerance given twice, show whether a result is continuous in its input).
 use flexsurf::integrate::{linsolve::SolverKind, Stepper};
 
 fn main() {
@@ -16,17 +17,19 @@ fn main() {
     };
     let tols: Vec<f64> = vec![args[4].parse().unwrap(), args[5].parse().unwrap()];
     let path = std::env::var("SCENE").unwrap();
-    let scene = flexsurf::bench::scene_file(std::path::Path::new(&path), n).unwrap();
+    let paths = [path.clone(), std::env::var("SCENE_B").unwrap_or(path)];
     let mut runs: Vec<_> = tols
         .iter()
-        .map(|&t| {
+        .zip(&paths)
+        .map(|(&t, path)| {
+            let scene = flexsurf::bench::scene_file(std::path::Path::new(path), n).unwrap();
             let p = flexsurf::integrate::StepParams { solver, contact_solve_tolerance: t, ..scene.step_params() };
-            (scene.state.clone(), Stepper::new(&scene.model, &p).unwrap())
+            (scene.state.clone(), Stepper::new(&scene.model, &p).unwrap(), scene)
         })
         .collect();
     for s in 0..steps {
         let mut line = String::new();
-        for (state, stepper) in runs.iter_mut() {
+        for (state, stepper, scene) in runs.iter_mut() {
             let info = stepper.step(&scene.model, state).unwrap();
             let c = info.timings;
             line += &format!(
